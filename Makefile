@@ -1,0 +1,30 @@
+# `make test` and `make demo` each work alone on a fresh machine: they create .venv
+# when it is missing and install the package with every extra into it first.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.svrqp-installed
+
+.PHONY: install test demo docs bench clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[all]"
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(PY) -m pytest -n 2 --dist loadfile -q tests
+	if ls notebooks/*.ipynb >/dev/null 2>&1; then $(PY) -m pytest -q -n 2 --nbmake notebooks; fi
+	if [ -f mkdocs.yml ]; then $(VENV)/bin/mkdocs build --strict --quiet --site-dir $(VENV)/site; fi
+
+demo: $(STAMP)
+	$(VENV)/bin/svrqp demo
+
+bench: $(STAMP)
+	$(PY) benchmarks/epsilon_svr_vs_libsvm.py
+
+clean:
+	rm -rf $(VENV) demo-output site

@@ -1,0 +1,36 @@
+"""The library's own exceptions.
+
+Every error svrqp raises on purpose derives from :class:`SvrqpError`, so callers can catch
+the library's errors without catching programming mistakes. Input errors are also
+``ValueError`` (scikit-learn's convention), singular systems are also
+``numpy.linalg.LinAlgError``, and a missing optional backend is also ``ImportError``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class SvrqpError(Exception):
+    """Base class of every error svrqp raises on purpose."""
+
+
+class ProblemError(SvrqpError, ValueError):
+    """A problem, dataset or parameter is invalid (shape, finiteness, sign, PSD, ...)."""
+
+
+class SolverError(SvrqpError, RuntimeError):
+    """A backend failed, or returned a solution that misses the requested tolerance."""
+
+    def __init__(self, message: str, backend: str | None = None, status: str | None = None):
+        super().__init__(message)
+        self.backend = backend
+        self.status = status
+
+
+class BackendNotAvailableError(SvrqpError, ImportError):
+    """An optional backend is not installed; the message names the extra to install."""
+
+
+class SingularSystemError(SvrqpError, np.linalg.LinAlgError):
+    """A linear system or normal-equation matrix is singular or numerically rank deficient."""
