@@ -1,0 +1,249 @@
+r"""Recursive least squares with an optional forgetting factor, and the batch merge (S3).
+
+The model is linear in its regressors, :math:`y_i = x_i^\top a + e_i` (S3 eq. (4); for a
+thermal model :math:`x_i = (1, \theta_1, \dots, \theta_n)` as in S3 eq. (1)). After :math:`k`
+samples the least-squares estimate is (S3 eqs. (7)–(9))
+
+.. math::
+
+    a_k = P_k b_k,\qquad P_k = \Bigl(\sum_{i=1}^{k} \lambda^{k-i} x_i x_i^\top\Bigr)^{-1},\qquad
+    b_k = \sum_{i=1}^{k} \lambda^{k-i} x_i y_i ,
+
+with the forgetting factor :math:`0 < \lambda \le 1` (:math:`\lambda = 1` is S3's method; a
+smaller :math:`\lambda` discounts old samples so the model follows a drifting machine).
+
+Recursion (S3 eqs. (13)–(17)), for a new sample :math:`(x_k, y_k)`:
+
+.. math::
+
+    K_k &= P_{k-1} x_k \bigl(\lambda + x_k^\top P_{k-1} x_k\bigr)^{-1}
+        &\text{(eq. 14)}\\
+    P_k &= \tfrac{1}{\lambda}\bigl(P_{k-1} - K_k x_k^\top P_{k-1}\bigr)
+        &\text{(eq. 13)}\\
+    a_k &= a_{k-1} - K_k\bigl(x_k^\top a_{k-1} - y_k\bigr)
+        &\text{(eq. 17)}\\
+    b_k &= \lambda b_{k-1} + x_k y_k
+        &\text{(eq. 11)}\\
+    P_k^{-1} &= \lambda P_{k-1}^{-1} + x_k x_k^\top
+        &\text{(eq. 10)}
+
+The recursion needs a starting :math:`P`; :func:`batch_state` computes it exactly from the
+first samples (eqs. (20)–(21)), so no large-:math:`P_0` approximation is involved and, with
+:math:`\lambda = 1`, :math:`a_k` equals the batch least-squares solution to round-off.
+
+Residual variance (S3 eq. (19)), with :math:`S_k = \sum_i \lambda^{k-i} (y_i - x_i^\top a_k)^2`
+updated exactly by :math:`S_k = \lambda S_{k-1} + \xi_k^2 \lambda/(\lambda + x_k^\top P_{k-1}
+x_k)`, :math:`\xi_k = y_k - x_k^\top a_{k-1}`, and :math:`w_k = \sum_i \lambda^{k-i}` (the
+sample count :math:`k` when :math:`\lambda = 1`):
+
+.. math::
+
+    \sigma^2 \approx \frac{S_k}{w_k - n}.
+
+Batch merge (S3 eqs. (20)–(24)): two models fitted on separate batches keep
+:math:`P(0) = (\sum x x^\top)^{-1}` and :math:`b(0) = \sum x y`; the merged model is
+
+.. math::
+
+    P^{-1} = P_1^{-1} + P_0^{-1},\qquad b = b_1 + b_0,\qquad a = P b ,
+
+identical to refitting on the union (S3's eq. (24) prints ``+`` for the product). The state
+carries :math:`P^{-1}` as well, accumulated by eq. (10), so the merge adds information matrices
+without inverting the recursed :math:`P` back (which would cost another factor
+:math:`\kappa` of round-off). The residual
+sums merge exactly as :math:`S = S_0 + S_1 + \sum_{j\in\{0,1\}} (a_j - a)^\top P_j^{-1}(a_j - a)`.
+
+Round-off: the covariance-form recursion loses about :math:`\kappa(P^{-1})\,\epsilon` relative
+accuracy; regressors with a large common offset (temperatures near 30 °C next to the constant
+1) raise :math:`\kappa`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from svrqp.exceptions import ProblemError, SingularSystemError
+from svrqp.formulations.least_squares import check_finite_matrix, solve_normal_equations
+
+
+@dataclass(frozen=True)
+class RecursiveLSState:
+    """Everything the recursion carries from one sample to the next.
+
+    Attributes
+    ----------
+    a : ndarray of shape (p,)
+        Current coefficients :math:`a_k` (eq. 7).
+    P : ndarray of shape (p, p)
+        :math:`P_k`, the inverse of the (discounted) information matrix (eq. 8).
+    b : ndarray of shape (p,)
+        :math:`b_k = \\sum \\lambda^{k-i} x_i y_i` (eq. 9).
+    information : ndarray of shape (p, p)
+        :math:`P_k^{-1} = \\sum \\lambda^{k-i} x_i x_i^\\top` (eq. 10), used by :func:`merge`.
+    n_samples : int
+        Samples absorbed, :math:`k`.
+    weight : float
+        :math:`w_k = \\sum_i \\lambda^{k-i}` (equal to ``n_samples`` when :math:`\\lambda = 1`).
+    sse : float
+        Discounted residual sum of squares :math:`S_k` at :math:`a_k`.
+    forgetting : float
+        The forgetting factor :math:`\\lambda`.
+    """
+
+    a: np.ndarray
+    P: np.ndarray
+    b: np.ndarray
+    information: np.ndarray
+    n_samples: int
+    weight: float
+    sse: float
+    forgetting: float
+
+    @property
+    def sigma2(self) -> float:
+        """Residual variance estimate :math:`S_k / (w_k - n)` (S3 eq. (19))."""
+        dof = self.weight - self.a.size
+        if dof <= 0:
+            raise ProblemError(
+                f"sigma² needs more samples than parameters: weight {self.weight:g} "
+                f"<= {self.a.size} parameters"
+            )
+        return self.sse / dof
+
+
+def check_forgetting(forgetting: float) -> float:
+    """Return ``forgetting`` as a float in (0, 1], or raise :class:`ProblemError`."""
+    value = float(forgetting)
+    if not 0.0 < value <= 1.0:
+        raise ProblemError(f"forgetting factor must lie in (0, 1], got {forgetting!r}")
+    return value
+
+
+def _spd_solve(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve :math:`M z = rhs` for symmetric positive definite ``M`` by an equilibrated Cholesky."""
+    d = 1.0 / np.sqrt(np.diag(M))
+    try:
+        factor = scipy.linalg.cho_factor(M * np.outer(d, d))
+    except np.linalg.LinAlgError as err:
+        raise SingularSystemError(f"information matrix is not positive definite: {err}") from err
+    scale = d[:, None] if rhs.ndim == 2 else d
+    return scale * scipy.linalg.cho_solve(factor, scale * rhs)
+
+
+def _symmetric_inverse(M: np.ndarray) -> np.ndarray:
+    inverse = _spd_solve(M, np.eye(M.shape[0]))
+    return 0.5 * (inverse + inverse.T)
+
+
+def batch_state(
+    X: np.ndarray,
+    y: np.ndarray,
+    *,
+    forgetting: float = 1.0,
+    column_names: list[str] | None = None,
+) -> RecursiveLSState:
+    """Batch least squares as a recursion state: :math:`P(0)`, :math:`b(0)` (S3 eqs. (20)–(21)).
+
+    With :math:`\\lambda < 1` sample :math:`i` of :math:`m` is weighted :math:`\\lambda^{m-i}`,
+    exactly as if the samples had been absorbed one by one.
+
+    Raises
+    ------
+    ProblemError
+        NaN/inf, shape mismatch, fewer samples than parameters, bad forgetting factor.
+    SingularSystemError
+        The regressors are linearly dependent (e.g. a constant sensor next to the constant 1).
+    """
+    forgetting = check_forgetting(forgetting)
+    X = check_finite_matrix(X, "X", 2)
+    y = check_finite_matrix(y, "y", 1)
+    m = X.shape[0]
+    weights = forgetting ** np.arange(m - 1, -1, -1, dtype=float)
+    root = np.sqrt(weights)
+    solution = solve_normal_equations(X * root[:, None], y * root, column_names=column_names)
+    a = solution.coef
+    residual = y - X @ a
+    information = (X * weights[:, None]).T @ X
+    return RecursiveLSState(
+        a=a,
+        P=_symmetric_inverse(information),
+        b=X.T @ (weights * y),
+        information=information,
+        n_samples=m,
+        weight=float(weights.sum()),
+        sse=float(weights @ residual**2),
+        forgetting=forgetting,
+    )
+
+
+def update(state: RecursiveLSState, x: np.ndarray, y: float) -> RecursiveLSState:
+    """Absorb one sample :math:`(x_k, y_k)` by S3 eqs. (13), (14), (17) and (11)."""
+    x = check_finite_matrix(x, "x", 1)
+    y = float(y)
+    if not np.isfinite(y):
+        raise ProblemError(f"y is not finite: {y}")
+    if x.size != state.a.size:
+        raise ProblemError(f"x has {x.size} regressors, the model has {state.a.size}")
+    lam = state.forgetting
+    Px = state.P @ x
+    denominator = lam + float(x @ Px)
+    K = Px / denominator  # eq. (14)
+    P = (state.P - np.outer(K, Px)) / lam  # eq. (13); P symmetric, so K xᵀP = K (Px)ᵀ
+    prior_error = y - float(x @ state.a)
+    return RecursiveLSState(
+        a=state.a + K * prior_error,  # eq. (17)
+        P=0.5 * (P + P.T),  # keep P symmetric against round-off drift
+        b=lam * state.b + x * y,  # eq. (11)
+        information=lam * state.information + np.outer(x, x),  # eq. (10)
+        n_samples=state.n_samples + 1,
+        weight=lam * state.weight + 1.0,
+        sse=lam * state.sse + prior_error**2 * lam / denominator,
+        forgetting=lam,
+    )
+
+
+def update_batch(state: RecursiveLSState, X: np.ndarray, y: np.ndarray) -> RecursiveLSState:
+    """Absorb the rows of ``X`` one after the other (the recursion, not a refit)."""
+    X = check_finite_matrix(X, "X", 2)
+    y = check_finite_matrix(y, "y", 1)
+    if X.shape[0] != y.shape[0]:
+        raise ProblemError(f"X has {X.shape[0]} rows but y has {y.shape[0]} values")
+    for x_k, y_k in zip(X, y, strict=True):
+        state = update(state, x_k, y_k)
+    return state
+
+
+def merge(first: RecursiveLSState, second: RecursiveLSState) -> RecursiveLSState:
+    """Merge two batch models into the model of their union (S3 eqs. (22)–(24)).
+
+    Both states must share the regressors and the forgetting factor; with :math:`\\lambda < 1`
+    the two batches are treated as equally recent.
+    """
+    if first.a.size != second.a.size:
+        raise ProblemError(
+            f"cannot merge models with {first.a.size} and {second.a.size} regressors"
+        )
+    if first.forgetting != second.forgetting:
+        raise ProblemError(
+            f"cannot merge models with forgetting factors {first.forgetting} and "
+            f"{second.forgetting}"
+        )
+    M = first.information + second.information  # eq. (22)
+    b = first.b + second.b  # eq. (23)
+    a = _spd_solve(M, b)  # eq. (24)
+    sse = first.sse + second.sse + sum(
+        float((part.a - a) @ part.information @ (part.a - a)) for part in (first, second)
+    )
+    return RecursiveLSState(
+        a=a,
+        P=_symmetric_inverse(M),
+        b=b,
+        information=M,
+        n_samples=first.n_samples + second.n_samples,
+        weight=first.weight + second.weight,
+        sse=sse,
+        forgetting=first.forgetting,
+    )
