@@ -29,3 +29,7 @@ __all__ = [
     "SvrqpError",
     "__version__",
 ]
+
+from svrqp.estimators import LSSVR, EpsilonSVR  # noqa: E402  (after __version__ on purpose)
+
+__all__ += ["EpsilonSVR", "LSSVR"]

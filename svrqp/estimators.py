@@ -1,0 +1,270 @@
+"""scikit-learn regressors over the explicit formulations: :class:`EpsilonSVR` and :class:`LSSVR`.
+
+The estimators are thin: ``fit`` builds the formulation object (kept as ``problem_``), hands it to
+:func:`svrqp.solve.solve` (the certificate-checked result is kept as ``solution_``) and reads the
+model off the solution. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
+:math:`\\beta_i = \\alpha_i^* - \\alpha_i` of the support vectors and the prediction is
+``gram(X, support_vectors_) @ dual_coef_[0] + intercept_[0]``.
+"""
+
+from __future__ import annotations
+
+import time
+from importlib.metadata import version
+from numbers import Integral, Real
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from svrqp.exceptions import ProblemError, SolverError
+from svrqp.formulations import epsilon_svr, ls_svr
+from svrqp.kernels import gram
+from svrqp.problems import check_psd
+from svrqp.solve import BACKENDS, Solution, solve_linear_system, solve_qp
+
+_KERNEL_CONSTRAINTS = {
+    "kernel": [StrOptions({"linear", "poly", "rbf", "precomputed"})],
+    "gamma": [StrOptions({"scale", "auto"}), Interval(Real, 0.0, None, closed="neither")],
+    "degree": [Interval(Integral, 1, None, closed="left")],
+    "coef0": [Interval(Real, None, None, closed="neither")],
+}
+
+
+class _KernelModel(RegressorMixin, BaseEstimator):
+    """Shared kernel handling: input validation, ``gamma`` resolution, Gram matrices, predict."""
+
+    def _validated_training_data(self, X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
+        X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        if X.shape[0] < 2:
+            raise ProblemError(f"n_samples = {X.shape[0]}: at least 2 samples are needed to fit, got 1 sample")
+        if self.kernel == "precomputed" and X.shape[0] != X.shape[1]:
+            raise ProblemError(f"a precomputed kernel must be square (n_samples, n_samples), got {X.shape}")
+        return X, y
+
+    def _resolve_gamma(self, X: NDArray[np.float64]) -> float:
+        # Same rule as scikit-learn's SVR so that the cross-checks compare like with like.
+        if self.gamma == "scale":
+            variance = X.var()
+            return 1.0 / (X.shape[1] * variance) if variance != 0 else 1.0
+        if self.gamma == "auto":
+            return 1.0 / X.shape[1]
+        return float(self.gamma)
+
+    def _training_gram(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
+        if self.kernel == "precomputed":
+            check_psd(X, name="precomputed kernel X")
+            return X
+        K = gram(X, kernel=self.kernel, gamma=self.gamma_, degree=self.degree, coef0=self.coef0)
+        if self.kernel == "poly" and self.coef0 < 0:
+            check_psd(K, name="polynomial kernel with negative coef0")  # not PSD in general
+        return K
+
+    def _decision(self, X: ArrayLike) -> NDArray[np.float64]:
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        if self.kernel == "precomputed":
+            K = X[:, self.support_]
+        else:
+            K = gram(X, self.support_vectors_, kernel=self.kernel, gamma=self.gamma_,
+                     degree=self.degree, coef0=self.coef0)
+        return K @ self.dual_coef_[0] + self.intercept_[0]
+
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]:
+        """Predict :math:`f(x) = \\sum_i \\beta_i k(x_i, x) + b`.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Inputs (for ``kernel="precomputed"``: the kernel between them and the training set).
+        """
+        return self._decision(X)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.pairwise = self.kernel == "precomputed"
+        return tags
+
+
+class EpsilonSVR(_KernelModel):
+    """ε-support vector regression solved as an explicit QP.
+
+    Parameters
+    ----------
+    C : float, default=1.0
+        Box bound on the dual variables (weight of the ε-insensitive loss).
+    epsilon : float, default=0.1
+        Half-width of the insensitive tube, in the units of ``y``.
+    kernel : {"linear", "poly", "rbf", "precomputed"}, default="rbf"
+    gamma : {"scale", "auto"} or float, default="scale"
+        RBF/polynomial scale in scikit-learn's convention (see :mod:`svrqp.kernels`).
+    degree : int, default=3
+    coef0 : float, default=0.0
+    solver : str, default="clarabel"
+        Any backend of :data:`svrqp.solve.BACKENDS`.
+    formulation : {"split", "stacked", "primal"}, default="split"
+        Which equivalent QP to solve (``"primal"`` needs ``kernel="linear"``).
+    tol : float, default=1e-8
+        Requested solver accuracy; the solution's relative certificates must be below 100·tol.
+
+    Attributes
+    ----------
+    support_ : ndarray of int
+        Indices of the support vectors.
+    support_vectors_ : ndarray of shape (n_SV, n_features)
+    dual_coef_ : ndarray of shape (1, n_SV)
+        :math:`\\beta_i = \\alpha_i^* - \\alpha_i` (scikit-learn's ``dual_coef_``).
+    intercept_ : ndarray of shape (1,)
+        Bias ``b`` recovered from the KKT conditions.
+    gamma_ : float
+        The ``gamma`` actually used.
+    problem_ : QuadraticProgram
+        The QP that was solved.
+    solution_ : Solution
+        The certificate-checked solution.
+    polished_ : bool
+        Whether the active-set polish of :func:`svrqp.formulations.epsilon_svr.polish` replaced
+        the solver's dual coefficients (dual formulations only).
+    """
+
+    _parameter_constraints = {
+        "C": [Interval(Real, 0.0, None, closed="neither")],
+        "epsilon": [Interval(Real, 0.0, None, closed="left")],
+        **_KERNEL_CONSTRAINTS,
+        "solver": [StrOptions(set(BACKENDS))],
+        "formulation": [StrOptions(set(epsilon_svr.FORMULATIONS))],
+        "tol": [Interval(Real, 0.0, None, closed="neither")],
+    }
+
+    def __init__(self, C=1.0, epsilon=0.1, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
+                 solver="clarabel", formulation="split", tol=1e-8):
+        self.C = C
+        self.epsilon = epsilon
+        self.kernel = kernel
+        self.gamma = gamma
+        self.degree = degree
+        self.coef0 = coef0
+        self.solver = solver
+        self.formulation = formulation
+        self.tol = tol
+
+    def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
+        """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+        y : array-like of shape (n_samples,)
+        """
+        self._validate_params()
+        X, y = self._validated_training_data(X, y)
+        if self.formulation == "primal" and self.kernel != "linear":
+            raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
+        self.gamma_ = self._resolve_gamma(X)
+        n = X.shape[0]
+        if self.formulation == "primal":
+            self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
+        else:
+            K = self._training_gram(X)
+            self.problem_ = epsilon_svr.build(self.formulation, y, self.C, self.epsilon, K=K)
+        self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol)
+        beta = epsilon_svr.beta_from_solution(self.formulation, n, self.solution_.x, self.solution_.z)
+        if self.formulation == "primal":
+            d = X.shape[1]
+            self.coef_ = self.solution_.x[:d].copy()
+            b = float(self.solution_.x[d])
+        else:
+            polished = epsilon_svr.polish(K, y, beta, self.C, self.epsilon)
+            self.polished_ = polished is not None
+            beta = beta if polished is None else polished
+            b = epsilon_svr.intercept_from_kkt(K, y, beta, self.C, self.epsilon)
+        if not (np.all(np.isfinite(beta)) and np.isfinite(b)):
+            raise SolverError(f"backend {self.solver!r} returned non-finite coefficients", self.solver, "failed")
+        support = epsilon_svr.support_mask(beta, self.C)
+        self.support_ = np.flatnonzero(support)
+        self.support_vectors_ = X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
+        self.dual_coef_ = beta[support][None, :]
+        self.intercept_ = np.array([b])
+        return self
+
+
+class LSSVR(_KernelModel):
+    """Least-squares SVR (S4): the KKT linear system, solved by Cholesky and a Schur complement.
+
+    Parameters
+    ----------
+    C : float, default=1.0
+        Weight of the squared errors (the system has :math:`I/C` on its diagonal).
+    kernel, gamma, degree, coef0
+        As for :class:`EpsilonSVR`.
+    fit_intercept : bool, default=True
+        Keep the bias row of the KKT system; without it the model is ``KernelRidge(alpha=1/C)``.
+    solver : {"cholesky", "lu"}, default="cholesky"
+        ``"cholesky"``: one Cholesky of :math:`\\Omega + I/C` and the Schur complement for b;
+        ``"lu"``: LU of the full bordered system (the reference).
+
+    Attributes
+    ----------
+    dual_coef_ : ndarray of shape (1, n_samples)
+        :math:`\\alpha` (every training point is a support vector in LS-SVR).
+    intercept_ : ndarray of shape (1,)
+    support_, support_vectors_, gamma_, solution_
+        As for :class:`EpsilonSVR`.
+    problem_ : LinearSystem
+        The full KKT system of S4 eq. (5) (solved by Cholesky + Schur, or by LU).
+    """
+
+    _parameter_constraints = {
+        "C": [Interval(Real, 0.0, None, closed="neither")],
+        **_KERNEL_CONSTRAINTS,
+        "fit_intercept": ["boolean"],
+        "solver": [StrOptions({"cholesky", "lu"})],
+    }
+
+    def __init__(self, C=1.0, kernel="rbf", gamma="scale", degree=3, coef0=0.0, fit_intercept=True,
+                 solver="cholesky"):
+        self.C = C
+        self.kernel = kernel
+        self.gamma = gamma
+        self.degree = degree
+        self.coef0 = coef0
+        self.fit_intercept = fit_intercept
+        self.solver = solver
+
+    def fit(self, X: ArrayLike, y: ArrayLike) -> LSSVR:
+        """Solve the LS-SVR KKT system for (X, y).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+        y : array-like of shape (n_samples,)
+        """
+        self._validate_params()
+        X, y = self._validated_training_data(X, y)
+        self.gamma_ = self._resolve_gamma(X)
+        K = self._training_gram(X)
+        self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept)
+        if self.solver == "lu":
+            self.solution_ = solve_linear_system(self.problem_)
+            x = self.solution_.x
+            alpha, b = (x[1:], float(x[0])) if self.fit_intercept else (x, 0.0)
+        else:
+            start = time.perf_counter()
+            alpha, b, info = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept)
+            self.solution_ = Solution(
+                x=np.concatenate([[b], alpha]), y=None, z=None, z_box=None, objective=0.0,
+                status="optimal",
+                residuals={"primal": info["residual"], "primal_rel": info["residual_rel"]},
+                backend="cholesky", backend_version=f"scipy {version('scipy')}",
+                settings={"fit_intercept": self.fit_intercept},
+                solve_time=info["solve_time"], build_time=time.perf_counter() - start - info["solve_time"],
+            )
+        if not (np.all(np.isfinite(alpha)) and np.isfinite(b)):
+            raise SolverError("LS-SVR system gave non-finite coefficients", self.solver, "failed")
+        self.support_ = np.arange(X.shape[0])
+        self.support_vectors_ = X if self.kernel != "precomputed" else np.empty((X.shape[0], 0))
+        self.dual_coef_ = alpha[None, :]
+        self.intercept_ = np.array([b])
+        return self

@@ -1,0 +1,88 @@
+r"""LS-SVR as a linear KKT system (S4, Lin et al. 2011, eqs. 4–7).
+
+Primal (S4 eq. 4): :math:`\min_{w,b,\xi} \tfrac12 w^\top w + \tfrac{C}{2}\sum_i \xi_i^2` s.t.
+:math:`y_i = w^\top\varphi(x_i) + b + \xi_i`. Eliminating :math:`w, \xi` gives the KKT system
+(S4 eq. 5), with :math:`\Omega_{ij} = k(x_i, x_j)`:
+
+.. math::
+
+    \begin{bmatrix} 0 & \mathbf 1^\top \\ \mathbf 1 & \Omega + C^{-1} I \end{bmatrix}
+    \begin{bmatrix} b \\ \alpha \end{bmatrix}
+    = \begin{bmatrix} 0 \\ y \end{bmatrix},
+    \qquad y(x) = \sum_i \alpha_i k(x, x_i) + b \quad\text{(S4 eq. 7)} .
+
+Solved by one Cholesky factorisation of :math:`H = \Omega + C^{-1} I` (positive definite) and
+the Schur complement of the bordered system: with :math:`H\nu = \mathbf 1` and :math:`H\mu = y`,
+
+.. math::
+
+    b = \frac{\mathbf 1^\top \mu}{\mathbf 1^\top \nu}, \qquad \alpha = \mu - b\,\nu .
+
+Without the bias row the system is :math:`H\alpha = y`, which is kernel ridge regression with
+regularisation :math:`1/C` (scikit-learn's ``KernelRidge(alpha=1/C)``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from svrqp.exceptions import ProblemError, SingularSystemError
+from svrqp.problems import LinearSystem
+
+
+def kkt_system(K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_intercept: bool = True) -> LinearSystem:
+    """The full KKT system of S4 eq. (5) (or :math:`H\\alpha = y` without the bias)."""
+    if not np.isfinite(C) or C <= 0:
+        raise ProblemError(f"C must be a finite positive number, got {C!r}")
+    n = y.shape[0]
+    H = K + np.eye(n) / C
+    statement = (
+        r"\begin{bmatrix}0 & \mathbf 1^\top\\ \mathbf 1 & \Omega + C^{-1}I\end{bmatrix}"
+        r"\begin{bmatrix}b\\ \alpha\end{bmatrix} = \begin{bmatrix}0\\ y\end{bmatrix}"
+    )
+    if not fit_intercept:
+        return LinearSystem(M=H, rhs=y, name="LS-SVR without bias", statement=r"(\Omega + C^{-1}I)\alpha = y")
+    M = np.zeros((n + 1, n + 1))
+    M[0, 1:] = 1.0
+    M[1:, 0] = 1.0
+    M[1:, 1:] = H
+    return LinearSystem(M=M, rhs=np.concatenate([[0.0], y]), name="LS-SVR KKT system", statement=statement)
+
+
+def solve_cholesky_schur(
+    K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_intercept: bool = True
+) -> tuple[NDArray[np.float64], float, dict[str, float]]:
+    """Solve the LS-SVR system by one Cholesky of :math:`\\Omega + I/C` and the Schur complement.
+
+    Returns
+    -------
+    alpha, b, info
+        Coefficients, bias, and ``{"residual", "residual_rel", "solve_time"}`` of the full
+        system (the certificate of this solution).
+    """
+    if not np.isfinite(C) or C <= 0:
+        raise ProblemError(f"C must be a finite positive number, got {C!r}")
+    start = time.perf_counter()
+    H = K + np.eye(y.shape[0]) / C
+    try:
+        factor = scipy.linalg.cho_factor(H, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:
+        raise SingularSystemError("Omega + I/C is not positive definite: is the kernel PSD?") from None
+    if fit_intercept:
+        nu_mu = scipy.linalg.cho_solve(factor, np.column_stack([np.ones_like(y), y]), check_finite=False)
+        nu, mu = nu_mu[:, 0], nu_mu[:, 1]
+        b = float(mu.sum() / nu.sum())
+        alpha = mu - b * nu
+    else:
+        alpha = scipy.linalg.cho_solve(factor, y, check_finite=False)
+        b = 0.0
+    solve_time = time.perf_counter() - start
+    # Certificate of the full bordered system without forming it: rows [1^T alpha; H alpha + b 1].
+    Mx = np.concatenate([[alpha.sum() if fit_intercept else 0.0], H @ alpha + b])
+    residual = float(np.max(np.abs(Mx - np.concatenate([[0.0], y]))))
+    scale = 1.0 + max(float(np.max(np.abs(Mx))), float(np.max(np.abs(y))))
+    return alpha, b, {"residual": residual, "residual_rel": residual / scale, "solve_time": solve_time}

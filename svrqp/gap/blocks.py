@@ -1,0 +1,157 @@
+"""Resampling that respects runs and autocorrelation.
+
+Rows of a thermal record are strongly autocorrelated, so nothing here splits or shuffles
+single rows:
+
+* :func:`blocked_folds` — cross-validation folds made of whole groups (runs) when there are
+  enough of them, otherwise of contiguous blocks interleaved along each group (block ``j``
+  of every group goes to fold ``j mod K``), so every fold sees every phase of a run while
+  test rows stay in blocks much longer than the correlation length;
+* :func:`circular_shifts` — surrogate row orders for significance tests: each group is
+  rotated by its own random offset, which keeps a series' autocorrelation and breaks only
+  its alignment with the other series;
+* :func:`block_bootstrap` — moving-block bootstrap resamples drawn within each group.
+
+All functions take the group code of each row, with rows sorted so that a group is one
+contiguous run (:func:`svrqp.gap.transforms.group_slices`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from svrqp.gap.transforms import group_slices
+
+N_FOLDS = 5
+"""Number of cross-validation folds."""
+
+MIN_GROUPS_FOR_GROUP_FOLDS = 4
+"""With at least this many groups, folds hold out whole groups."""
+
+BLOCKS_PER_FOLD = 4
+"""With few groups, each group is cut into ``N_FOLDS * BLOCKS_PER_FOLD`` interleaved blocks."""
+
+MIN_SHIFT_FRACTION = 0.1
+"""A surrogate rotates a group by at least this fraction of its length (and at most 1 − it)."""
+
+
+def blocked_folds(groups: np.ndarray, n_folds: int = N_FOLDS) -> list[np.ndarray]:
+    """Test-row indices of each cross-validation fold, blocked by group.
+
+    Parameters
+    ----------
+    groups : ndarray of int, shape (n,)
+        Group code per row, each group contiguous.
+    n_folds : int
+        Number of folds wanted (fewer when there are fewer groups or rows).
+
+    Returns
+    -------
+    list of ndarray of int
+        Disjoint, non-empty test index sets covering all rows.
+    """
+    slices = group_slices(groups)
+    n = len(groups)
+    fold_of = np.empty(n, dtype=int)
+    if len(slices) >= MIN_GROUPS_FOR_GROUP_FOLDS:
+        k = min(n_folds, len(slices))
+        load = np.zeros(k)
+        # Largest groups first, each to the lightest fold: balanced and deterministic.
+        for rows in sorted(slices, key=lambda s: s.start - s.stop):
+            f = int(np.argmin(load))
+            fold_of[rows] = f
+            load[f] += rows.stop - rows.start
+    else:
+        k = n_folds
+        for rows in slices:
+            m = rows.stop - rows.start
+            n_blocks = min(m, k * BLOCKS_PER_FOLD)
+            block = np.minimum((np.arange(m) * n_blocks) // m, n_blocks - 1)
+            fold_of[rows] = block % k
+    return [np.flatnonzero(fold_of == f) for f in range(k) if np.any(fold_of == f)]
+
+
+def circular_shifts(groups: np.ndarray, n_surrogates: int, rng: np.random.Generator) -> np.ndarray:
+    """Row orders that rotate every group by an independent random offset.
+
+    Parameters
+    ----------
+    groups : ndarray of int, shape (n,)
+        Group code per row, each group contiguous.
+    n_surrogates : int
+        Number of surrogate orders.
+    rng : numpy.random.Generator
+        Source of the offsets.
+
+    Returns
+    -------
+    ndarray of int, shape (n_surrogates, n)
+        ``series[index[s]]`` is surrogate ``s`` of ``series``.
+    """
+    n = len(groups)
+    index = np.empty((n_surrogates, n), dtype=np.int64)
+    for rows in group_slices(groups):
+        m = rows.stop - rows.start
+        low = max(1, int(np.ceil(MIN_SHIFT_FRACTION * m)))
+        high = max(low + 1, m - low + 1)
+        shift = rng.integers(low, high, size=n_surrogates)
+        index[:, rows] = rows.start + (np.arange(m)[None, :] + shift[:, None]) % m
+    return index
+
+
+def block_length(residual: np.ndarray, groups: np.ndarray) -> int:
+    """Block length for a block bootstrap of ``residual``.
+
+    The longer of :math:`\\lceil 1.5\\, n^{1/3}\\rceil` (the usual rate for a moving-block
+    bootstrap of a mean) and :math:`2(1+\\rho_1)/(1-\\rho_1)`, twice the number of rows over
+    which an AR(1) process with the observed lag-1 autocorrelation :math:`\\rho_1` stays
+    correlated; never more than a fifth of the shortest group.
+    """
+    rho = lag1_autocorrelation(residual, groups)
+    n = len(residual)
+    length = max(np.ceil(1.5 * n ** (1 / 3)), 2 * (1 + rho) / max(1 - rho, 1e-3))
+    shortest = min(s.stop - s.start for s in group_slices(groups))
+    return int(max(1, min(length, shortest // 5 or 1)))
+
+
+def lag1_autocorrelation(residual: np.ndarray, groups: np.ndarray) -> float:
+    """Lag-1 autocorrelation pooled over groups, clipped to [0, 0.99]."""
+    num = den = 0.0
+    for rows in group_slices(groups):
+        e = residual[rows] - residual[rows].mean()
+        num += float(e[1:] @ e[:-1])
+        den += float(e @ e)
+    if den <= 0:
+        return 0.0
+    return float(np.clip(num / den, 0.0, 0.99))
+
+
+def block_bootstrap(groups: np.ndarray, n_boot: int, length: int, rng: np.random.Generator) -> np.ndarray:
+    """Moving-block bootstrap row indices, drawn within each group.
+
+    Parameters
+    ----------
+    groups : ndarray of int, shape (n,)
+        Group code per row, each group contiguous.
+    n_boot : int
+        Number of resamples.
+    length : int
+        Block length in rows.
+    rng : numpy.random.Generator
+        Source of the block starts.
+
+    Returns
+    -------
+    ndarray of int, shape (n_boot, n)
+        Each row is one resample of the row indices (same group sizes as the original).
+    """
+    n = len(groups)
+    index = np.empty((n_boot, n), dtype=np.int64)
+    for rows in group_slices(groups):
+        m = rows.stop - rows.start
+        b = min(length, m)
+        n_blocks = -(-m // b)
+        starts = rng.integers(0, m - b + 1, size=(n_boot, n_blocks))
+        drawn = (starts[:, :, None] + np.arange(b)[None, None, :]).reshape(n_boot, -1)[:, :m]
+        index[:, rows] = rows.start + drawn
+    return index

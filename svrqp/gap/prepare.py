@@ -1,0 +1,264 @@
+"""Check and arrange the input table of a gap diagnosis.
+
+Handling of awkward input (documented contract):
+
+* unknown columns, a non-numeric target / feature / prediction / candidate / order column,
+  a candidate that is also the target or the prediction, and a ``train`` query that selects
+  no row or every row raise :class:`~svrqp.exceptions.ProblemError` naming the cause;
+* rows with a missing or non-finite value in any column the diagnosis uses are dropped and
+  counted (``n_dropped`` in the JSON);
+* a group with fewer than :data:`MIN_GROUP_ROWS` rows cannot carry a rate or a filtered
+  signal; its rows are dropped and counted (``n_dropped_short_groups``);
+* repeated ``order`` values within a group raise :class:`ProblemError` (a rate would divide
+  by zero);
+* without ``order`` the row position within the group is the order axis (``"row"``);
+  without ``group`` all rows form one group.
+
+Rows are returned sorted by group (in order of first appearance) and by order within a group.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from svrqp.exceptions import ProblemError
+
+MIN_GROUP_ROWS = 3
+"""A group needs at least this many rows (two differences) for rates and filters."""
+
+MIN_REAL_ROWS = 20
+"""Fewest real (non-train) rows on which a gap can be cross-validated."""
+
+ROW_ORDER_NAME = "row"
+"""Name of the order axis when no ``order`` column is given: position within the group."""
+
+
+@dataclass(frozen=True)
+class GapData:
+    """The rows of a diagnosis, sorted by group and order, as numeric arrays.
+
+    Attributes
+    ----------
+    target : str
+        Name of the measured column.
+    y : ndarray, shape (n,)
+        Measured target.
+    features : list of str
+        Model inputs (empty in prediction mode).
+    X : ndarray, shape (n, len(features))
+        Feature values.
+    prediction_name : str or None
+        Column holding a simulation's prediction (prediction mode), else None.
+    prediction : ndarray, shape (n,) or None
+        The prediction column's values in prediction mode.
+    candidates : list of str
+        Candidate columns.
+    C : ndarray, shape (n, len(candidates))
+        Candidate values.
+    order_name : str
+        Name of the order axis (``"row"`` when none was given).
+    t : ndarray, shape (n,)
+        Order values, strictly increasing within each group.
+    group_name : str or None
+        Name of the group column.
+    groups : ndarray of int, shape (n,)
+        Group code per row (0, 1, ... in order of first appearance).
+    group_labels : list of str
+        Label of each group code.
+    is_train : ndarray of bool, shape (n,)
+        Rows the model was built on; the others are the *real* rows.
+    row_index : ndarray, shape (n,)
+        Index labels of the rows in the caller's table.
+    n_dropped : int
+        Rows dropped for missing or non-finite values.
+    n_dropped_short_groups : int
+        Rows dropped because their group had fewer than :data:`MIN_GROUP_ROWS` rows.
+    """
+
+    target: str
+    y: np.ndarray
+    features: list[str]
+    X: np.ndarray
+    prediction_name: str | None
+    prediction: np.ndarray | None
+    candidates: list[str]
+    C: np.ndarray
+    order_name: str
+    t: np.ndarray
+    group_name: str | None
+    groups: np.ndarray
+    group_labels: list[str]
+    is_train: np.ndarray
+    row_index: np.ndarray
+    n_dropped: int
+    n_dropped_short_groups: int
+
+    @property
+    def is_real(self) -> np.ndarray:
+        """Rows where the gap is assessed (not used to build the model)."""
+        return ~self.is_train
+
+
+def _check_columns(df: pd.DataFrame, names: list[str], option: str) -> None:
+    missing = [name for name in names if name not in df.columns]
+    if missing:
+        raise ProblemError(f"{option}: unknown column(s) {missing}; available: {list(df.columns)}")
+
+
+def _check_numeric(df: pd.DataFrame, names: list[str], option: str) -> None:
+    bad = [n for n in names if not (pd.api.types.is_numeric_dtype(df[n]) or pd.api.types.is_bool_dtype(df[n]))]
+    if bad:
+        raise ProblemError(f"{option}: column(s) {bad} are not numeric")
+
+
+def _train_mask(df: pd.DataFrame, train: str | np.ndarray | pd.Series) -> np.ndarray:
+    """Boolean mask of the train rows from a pandas query (or a boolean mask)."""
+    if isinstance(train, str):
+        try:
+            selected = df.query(train)
+        except Exception as err:  # pandas raises many types for a bad expression
+            raise ProblemError(f"train: cannot evaluate query {train!r}: {err}") from err
+        return df.index.isin(selected.index)
+    mask = np.asarray(train)
+    if mask.dtype != bool or mask.shape != (len(df),):
+        raise ProblemError("train: give a pandas query string or a boolean mask with one entry per row")
+    return mask
+
+
+def _as_list(names: str | list[str] | tuple[str, ...] | None) -> list[str]:
+    if names is None:
+        return []
+    if isinstance(names, str):
+        return [n.strip() for n in names.split(",") if n.strip()]
+    return list(names)
+
+
+def prepare(
+    df: pd.DataFrame,
+    *,
+    target: str,
+    train: str | np.ndarray | pd.Series,
+    features: str | list[str] | None = None,
+    prediction: str | None = None,
+    candidates: str | list[str],
+    order: str | None = None,
+    group: str | None = None,
+) -> GapData:
+    """Validate the arguments of a diagnosis and arrange its rows.
+
+    Parameters are those of :func:`svrqp.gap.diagnose`; see the module docstring for how
+    missing values, short groups and bad input are handled.
+
+    Returns
+    -------
+    GapData
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise ProblemError("df: expected a pandas DataFrame")
+    features = _as_list(features)
+    candidates = _as_list(candidates)
+    if (len(features) > 0) == (prediction is not None):
+        raise ProblemError("give either features (a model is fitted) or prediction (a column), not both")
+    if not candidates:
+        raise ProblemError("candidates: at least one candidate column is required")
+    if len(set(candidates)) != len(candidates) or len(set(features)) != len(features):
+        raise ProblemError("candidates/features: a column is listed twice")
+    _check_columns(df, [target], "target")
+    _check_columns(df, features, "features")
+    _check_columns(df, candidates, "candidates")
+    if prediction is not None:
+        _check_columns(df, [prediction], "prediction")
+    if order is not None:
+        _check_columns(df, [order], "order")
+    if group is not None:
+        _check_columns(df, [group], "group")
+    clash = sorted({target, prediction} & set(candidates) - {None})
+    if clash:
+        raise ProblemError(f"candidates: {clash} is the target or the prediction, not a candidate")
+    if target in features:
+        raise ProblemError(f"features: the target {target!r} cannot be a feature")
+    if order is not None and order in candidates:
+        raise ProblemError(f"candidates: the order column {order!r} cannot be a candidate")
+    numeric = [target, *features, *candidates] + ([prediction] if prediction else [])
+    _check_numeric(df, [target], "target")
+    _check_numeric(df, features, "features")
+    _check_numeric(df, candidates, "candidates")
+    if prediction is not None:
+        _check_numeric(df, [prediction], "prediction")
+    if order is not None:
+        _check_numeric(df, [order], "order")
+        numeric.append(order)
+
+    is_train = _train_mask(df, train)
+    values = df[numeric].astype(float).to_numpy()
+    keep = np.isfinite(values).all(axis=1)
+    if group is not None:
+        keep &= df[group].notna().to_numpy()
+    n_dropped = int((~keep).sum())
+    table = df.loc[keep]
+    is_train = is_train[keep]
+
+    if group is not None:
+        labels = table[group].astype(str)
+        codes, uniques = pd.factorize(labels, sort=False)
+    else:
+        codes, uniques = np.zeros(len(table), dtype=int), pd.Index(["all"])
+    counts = np.bincount(codes, minlength=len(uniques))
+    long_enough = counts[codes] >= MIN_GROUP_ROWS
+    n_short = int((~long_enough).sum())
+    table, codes, is_train = table.loc[long_enough], codes[long_enough], is_train[long_enough]
+    kept_groups = np.unique(codes)
+    remap = np.full(len(uniques), -1)
+    remap[kept_groups] = np.arange(kept_groups.size)
+    codes = remap[codes]
+    group_labels = [str(uniques[g]) for g in kept_groups]
+
+    if order is not None:
+        t_raw = table[order].astype(float).to_numpy()
+    else:
+        t_raw = np.zeros(len(table))
+        for g in range(len(group_labels)):
+            rows = codes == g
+            t_raw[rows] = np.arange(rows.sum(), dtype=float)
+    sort = np.lexsort((t_raw, codes))
+    codes, t_raw, is_train = codes[sort], t_raw[sort], is_train[sort]
+    table = table.iloc[sort]
+    same_group = codes[1:] == codes[:-1]
+    repeated = same_group & (np.diff(t_raw) <= 0)
+    if repeated.any():
+        label = group_labels[codes[1:][repeated][0]]
+        raise ProblemError(f"order: repeated values of {order!r} within group {label!r}")
+
+    n_train = int(is_train.sum())
+    if n_train == 0:
+        raise ProblemError(f"train: the query {train!r} selects no row (after dropping incomplete rows)")
+    if n_train == len(table):
+        raise ProblemError(f"train: the query {train!r} selects every row; no real rows are left to assess")
+    n_real = len(table) - n_train
+    if n_real < MIN_REAL_ROWS:
+        raise ProblemError(f"train: only {n_real} real (non-train) rows; at least {MIN_REAL_ROWS} are needed")
+    if features and n_train < len(features) + 2:
+        raise ProblemError(f"train: {n_train} train rows are too few for {len(features)} features")
+
+    return GapData(
+        target=target,
+        y=table[target].astype(float).to_numpy(),
+        features=features,
+        X=table[features].astype(float).to_numpy().reshape(len(table), len(features)),
+        prediction_name=prediction,
+        prediction=table[prediction].astype(float).to_numpy() if prediction else None,
+        candidates=candidates,
+        C=table[candidates].astype(float).to_numpy(),
+        order_name=order if order is not None else ROW_ORDER_NAME,
+        t=t_raw,
+        group_name=group,
+        groups=codes,
+        group_labels=group_labels,
+        is_train=is_train,
+        row_index=table.index.to_numpy(),
+        n_dropped=n_dropped,
+        n_dropped_short_groups=n_short,
+    )

@@ -1,0 +1,167 @@
+r"""Transforms of a candidate column that an unmodelled effect may follow.
+
+A thermal error rarely follows a sensor reading one-to-one. The diagnosis therefore tests
+each candidate column :math:`x(t)` in three forms, all computed along the ``--order`` axis
+:math:`t` and restarted at the start of every ``--group`` (run):
+
+``level``
+    :math:`x(t)` itself (a static, proportional effect).
+``rate``
+    :math:`\dot x(t) = \mathrm{d}x/\mathrm{d}t`, by second-order central differences on the
+    possibly uneven grid of :math:`t` (one-sided at the ends of a group) —
+    :func:`numpy.gradient`. Thermal gradients during warm-up follow the rate.
+``lag``
+    thermal inertia: the first-order low-pass response :math:`x_\tau` of a body with time
+    constant :math:`\tau` driven by :math:`x`, minus the signal,
+
+    .. math::
+
+        \tau\,\dot x_\tau = x - x_\tau,\qquad x_\tau(t_0) = x(t_0),\qquad
+        \ell_\tau(t) = x_\tau(t) - x(t).
+
+    Discretised exactly for a signal held constant between samples (zero-order hold):
+    :math:`x_{\tau,k} = x_{\tau,k-1} + \alpha_k (x_k - x_{\tau,k-1})`,
+    :math:`\alpha_k = 1 - e^{-(t_k - t_{k-1})/\tau}`. The filter starts in equilibrium with
+    the first sample of each group. :math:`\ell_\tau \approx -\tau \dot x` for a slow signal,
+    and together with :math:`x` it spans the filtered reading :math:`x_\tau = x + \ell_\tau`,
+    which is what a structure with thermal inertia responds to.
+
+The time constant is searched on :func:`tau_grid`, a geometric grid between a few sampling
+intervals and half the typical run length.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from svrqp.exceptions import ProblemError
+
+TRANSFORMS = ("level", "rate", "lag")
+"""Names of the transforms, in the order they are reported."""
+
+N_TAU = 8
+"""Number of time constants on the grid searched for the ``lag`` transform."""
+
+
+def group_slices(group_codes: np.ndarray) -> list[slice]:
+    """Contiguous slices of rows that share a group code (rows must be sorted by group).
+
+    Parameters
+    ----------
+    group_codes : ndarray of int, shape (n,)
+        Group code of each row, sorted so that every group is one contiguous run.
+
+    Returns
+    -------
+    list of slice
+        One slice per group, in row order.
+    """
+    codes = np.asarray(group_codes)
+    if codes.size == 0:
+        return []
+    starts = np.flatnonzero(np.r_[True, codes[1:] != codes[:-1]])
+    stops = np.r_[starts[1:], codes.size]
+    if np.unique(codes).size != starts.size:
+        raise ProblemError("group_codes: rows of a group must be contiguous (sort by group first)")
+    return [slice(int(a), int(b)) for a, b in zip(starts, stops)]
+
+
+def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
+    """Derivative :math:`\\mathrm{d}x/\\mathrm{d}t` within each group.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,) or (n, c)
+        Signal(s), rows sorted by group and, within a group, by strictly increasing ``t``.
+    t : ndarray, shape (n,)
+        Order axis (time in min or position in mm).
+    group_codes : ndarray of int, shape (n,)
+        Group code of each row.
+
+    Returns
+    -------
+    ndarray, same shape as ``x``
+        The rate in units of ``x`` per unit of ``t``.
+    """
+    x = np.asarray(x, dtype=float)
+    out = np.empty_like(x)
+    for rows in group_slices(group_codes):
+        out[rows] = np.gradient(x[rows], t[rows], axis=0)
+    return out
+
+
+def lowpass(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    """First-order low-pass responses :math:`x_\\tau` for every time constant in ``taus``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Signal, rows sorted by group and by ``t`` within a group.
+    t : ndarray, shape (n,)
+        Order axis.
+    group_codes : ndarray of int, shape (n,)
+        Group code of each row; the filter restarts in equilibrium at each group start.
+    taus : ndarray, shape (m,)
+        Positive time constants, in units of ``t``.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        Column ``j`` is the response with time constant ``taus[j]``.
+    """
+    x = np.asarray(x, dtype=float)
+    taus = np.asarray(taus, dtype=float)
+    if np.any(taus <= 0):
+        raise ProblemError("taus: time constants must be positive")
+    dt = np.diff(t, prepend=t[:1])
+    # alpha_k = 1 - exp(-dt_k / tau); the first row of each group restarts the state.
+    alpha = -np.expm1(-dt[:, None] / taus[None, :])
+    for rows in group_slices(group_codes):
+        alpha[rows.start] = 1.0
+    state = np.zeros(taus.size)
+    out = np.empty((x.size, taus.size))
+    # One pass over the rows, all time constants at once (the recursion is sequential in t).
+    for k in range(x.size):
+        state += alpha[k] * (x[k] - state)
+        out[k] = state
+    return out
+
+
+def lag(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    """The ``lag`` transform :math:`\\ell_\\tau = x_\\tau - x` for every ``tau`` (shape (n, m))."""
+    return lowpass(x, t, group_codes, taus) - np.asarray(x, dtype=float)[:, None]
+
+
+def tau_grid(t: np.ndarray, group_codes: np.ndarray, n_tau: int = N_TAU) -> np.ndarray:
+    """Geometric grid of time constants suited to the sampling and the run lengths.
+
+    From two median sampling intervals (or 1/100 of the median run length, if larger) to
+    half the median run length.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Order axis, sorted within groups.
+    group_codes : ndarray of int, shape (n,)
+        Group code of each row.
+    n_tau : int
+        Number of grid points.
+
+    Returns
+    -------
+    ndarray, shape (n_tau,)
+    """
+    steps, spans = [], []
+    for rows in group_slices(group_codes):
+        tg = t[rows]
+        d = np.diff(tg)
+        steps.extend(d[d > 0])
+        spans.append(tg[-1] - tg[0])
+    span = float(np.median(spans))
+    if not steps or span <= 0:
+        raise ProblemError("order: the order column does not increase within any group")
+    low = max(2.0 * float(np.median(steps)), span / 100.0)
+    high = span / 2.0
+    if high <= low:
+        high = 2.0 * low
+    return np.geomspace(low, high, n_tau)

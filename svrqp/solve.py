@@ -1,0 +1,452 @@
+"""One entry point for every solver: ``solve(problem, backend=...) -> Solution``.
+
+Quadratic programs go to any installed `qpsolvers <https://qpsolvers.github.io>`_ backend or to
+cvxpy (the same QP stated in cvxpy's modelling language); linear systems go to a direct
+factorisation. Every backend has one adapter entry in :data:`BACKENDS`: the extra that installs
+it, the matrix format it prefers, how the common tolerance ``tol`` maps onto its own settings, and
+the settings it accepts (anything else is rejected with the valid list — no unchecked ``**kwargs``).
+
+Every returned :class:`Solution` has been certificate-checked: its relative primal residual,
+dual residual and duality gap (see :meth:`QuadraticProgram.kkt_residuals`) are at most
+``check_tol``; otherwise :class:`~svrqp.exceptions.SolverError` names the backend and its status.
+
+Sign conventions follow qpsolvers: ``y`` multiplies :math:`Ax - b`, ``z \\ge 0`` multiplies
+:math:`Gx - h`, and ``z_box`` is negative on active lower bounds, positive on active upper bounds.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib.metadata import PackageNotFoundError, version
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from svrqp.exceptions import BackendNotAvailableError, ProblemError, SolverError
+from svrqp.problems import LinearSystem, QuadraticProgram
+
+#: One vocabulary of statuses; every backend's outcome is mapped into it.
+STATUSES = ("optimal", "infeasible", "max_iter", "time_limit", "failed")
+
+#: Allowed slack between the requested ``tol`` and the relative certificates, because each
+#: backend measures its own stopping criterion in its own (scaled) norm.
+DEFAULT_CHECK_FACTOR = 100.0
+
+#: Tiny diagonal added for backends that need a positive definite P (Goldfarb–Idnani in
+#: quadprog): relative to max |P_ii|. Its effect on the objective is reported in ``settings``.
+PD_REGULARISATION = 1e-10
+
+
+@dataclass(frozen=True)
+class Backend:
+    """How svrqp talks to one backend."""
+
+    name: str
+    package: str
+    extra: str | None
+    sparse: bool
+    tolerances: Callable[[float], dict[str, Any]]
+    options: frozenset[str]
+    needs_positive_definite: bool = False
+
+    @property
+    def install_hint(self) -> str:
+        """What to install when this backend is missing."""
+        if self.extra is None:
+            return f"pip install {self.package}"
+        return f"pip install 'svrqp[{self.extra}]'"
+
+
+def _same(*keys: str) -> Callable[[float], dict[str, Any]]:
+    return lambda tol: {key: tol for key in keys}
+
+
+BACKENDS: dict[str, Backend] = {
+    backend.name: backend
+    for backend in (
+        Backend(
+            "clarabel", "clarabel", None, True,
+            lambda tol: {"tol_gap_abs": tol, "tol_gap_rel": tol, "tol_feas": tol, "tol_ktratio": 1e-2 * tol},
+            frozenset({"max_iter", "time_limit", "tol_gap_abs", "tol_gap_rel", "tol_feas", "tol_ktratio",
+                       "equilibrate_enable", "presolve_enable", "direct_solve_method",
+                       "static_regularization_enable", "iterative_refinement_enable"}),
+        ),
+        Backend(
+            "osqp", "osqp", None, True,
+            # ADMM reaches 1e-8 only with polishing and many iterations (measured on the primal).
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "polishing": True, "max_iter": 100_000},
+            frozenset({"max_iter", "eps_abs", "eps_rel", "polishing", "rho", "sigma", "alpha",
+                       "adaptive_rho", "scaling", "time_limit", "check_termination", "warm_starting",
+                       "eps_prim_inf", "eps_dual_inf", "polish_refine_iter"}),
+        ),
+        Backend(
+            "piqp", "piqp", "solvers", False,
+            lambda tol: {"eps_abs": tol, "eps_rel": tol},
+            frozenset({"eps_abs", "eps_rel", "max_iter", "check_duality_gap", "eps_duality_gap_abs",
+                       "eps_duality_gap_rel", "preconditioner_iter", "backend"}),
+        ),
+        Backend(
+            "proxqp", "proxsuite", "solvers", False,
+            lambda tol: {"eps_abs": tol, "eps_rel": 0.0},
+            frozenset({"eps_abs", "eps_rel", "max_iter", "rho", "mu_eq", "mu_in", "check_duality_gap",
+                       "eps_duality_gap_abs", "eps_duality_gap_rel", "backend"}),
+        ),
+        Backend(
+            "highs", "highspy", "solvers", True,
+            _same("primal_feasibility_tolerance", "dual_feasibility_tolerance"),
+            frozenset({"primal_feasibility_tolerance", "dual_feasibility_tolerance", "time_limit",
+                       "qp_iteration_limit"}),
+        ),
+        Backend(
+            "daqp", "daqp", "solvers", False,
+            _same("primal_tol", "dual_tol"),
+            frozenset({"primal_tol", "dual_tol", "zero_tol", "iter_limit", "eps_prox", "eta_prox",
+                       "prox_iter_limit", "progress_tol", "cycle_tol", "pivot_tol", "rho_soft"}),
+            needs_positive_definite=True,
+        ),
+        Backend(
+            "quadprog", "quadprog", "solvers", False,
+            lambda tol: {},
+            frozenset(),
+            needs_positive_definite=True,
+        ),
+        Backend(
+            "scs", "scs", "solvers", True,
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iters": 1_000_000},
+            frozenset({"eps_abs", "eps_rel", "eps_infeas", "max_iters", "time_limit_secs",
+                       "acceleration_lookback", "normalize", "scale", "adaptive_scale"}),
+        ),
+        Backend(
+            "cvxopt", "cvxopt", "solvers", False,
+            lambda tol: {"abstol": tol, "reltol": tol, "feastol": tol, "maxiters": 200},
+            frozenset({"abstol", "reltol", "feastol", "maxiters", "refinement"}),
+        ),
+        Backend(
+            "qpalm", "qpalm", "solvers", True,
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iter": 100_000},
+            frozenset({"eps_abs", "eps_rel", "eps_abs_in", "eps_rel_in", "max_iter", "rho", "sigma_max",
+                       "scaling", "proximal", "gamma_init", "gamma_max"}),
+        ),
+        Backend(
+            "cvxpy", "cvxpy", None, True,
+            lambda tol: {"tol": tol},
+            frozenset({"solver"}),
+        ),
+    )
+}
+
+#: Solvers cvxpy may hand the QP to, with how ``tol`` maps onto each.
+CVXPY_SOLVERS: dict[str, Callable[[float], dict[str, Any]]] = {
+    "CLARABEL": BACKENDS["clarabel"].tolerances,
+    "OSQP": lambda tol: {"eps_abs": tol, "eps_rel": tol, "polish": True, "max_iter": 100_000},
+}
+
+
+def _backend(name: str) -> Backend:
+    if name not in BACKENDS:
+        raise ProblemError(f"unknown backend {name!r}; known backends: {sorted(BACKENDS)}")
+    return BACKENDS[name]
+
+
+def _installed(backend: Backend) -> bool:
+    try:
+        importlib.import_module(backend.package)
+    except ImportError:
+        return False
+    return True
+
+
+def available_backends() -> list[str]:
+    """Names of the QP backends installed here (the others need their extra)."""
+    return [name for name, backend in BACKENDS.items() if _installed(backend)]
+
+
+def require_backend(name: str) -> Backend:
+    """The :class:`Backend` ``name``, or :class:`BackendNotAvailableError` naming the extra."""
+    backend = _backend(name)
+    if not _installed(backend):
+        raise BackendNotAvailableError(
+            f"backend {name!r} is not installed; install it with: {backend.install_hint}"
+        )
+    return backend
+
+
+def backend_version(name: str) -> str:
+    """Installed version of a backend's package (``"unknown"`` when it has no metadata)."""
+    try:
+        return version(BACKENDS[name].package)
+    except PackageNotFoundError:
+        return "unknown"
+
+
+@dataclass
+class Solution:
+    """A certificate-checked solution.
+
+    Attributes
+    ----------
+    x, y, z, z_box
+        Primal solution and multipliers (qpsolvers' sign convention; ``None`` where undefined).
+    objective
+        Objective value at ``x`` of the problem as stated (before any regularisation).
+    status
+        One of :data:`STATUSES`.
+    primal_residual, dual_residual, duality_gap
+        Absolute certificates; ``residuals`` holds them with their relative values.
+    backend, backend_version, settings
+        Who solved it, and every setting actually passed (defaults made explicit).
+    build_time, solve_time
+        Seconds spent converting matrices for the backend, and inside the backend.
+    iterations
+        Iteration count when the backend reports one.
+    """
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64] | None
+    z: NDArray[np.float64] | None
+    z_box: NDArray[np.float64] | None
+    objective: float
+    status: str
+    residuals: dict[str, float]
+    backend: str
+    backend_version: str
+    settings: dict[str, Any] = field(default_factory=dict)
+    build_time: float = 0.0
+    solve_time: float = 0.0
+    iterations: int | None = None
+
+    @property
+    def primal_residual(self) -> float:
+        """Absolute primal residual (infinity norm)."""
+        return self.residuals["primal"]
+
+    @property
+    def dual_residual(self) -> float:
+        """Absolute dual residual (infinity norm of the Lagrangian's gradient)."""
+        return self.residuals.get("dual", 0.0)
+
+    @property
+    def duality_gap(self) -> float:
+        """Absolute duality gap."""
+        return self.residuals.get("gap", 0.0)
+
+    def is_optimal(self, eps: float) -> bool:
+        """True when every relative certificate is at most ``eps``."""
+        return all(value <= eps for key, value in self.residuals.items() if key.endswith("_rel"))
+
+
+def _status_from_text(text: str) -> str:
+    text = text.lower()
+    if "infeas" in text:
+        return "infeasible"
+    if "iter" in text:
+        return "max_iter"
+    if "time" in text:
+        return "time_limit"
+    return "failed"
+
+
+def _iterations(extras: dict[str, Any]) -> int | None:
+    for key in ("iterations", "iter"):
+        if key in extras:
+            return int(np.ravel(extras[key])[0])  # quadprog reports [iterations, inactive]
+    info = extras.get("info")
+    for key in ("iter", "iterations"):
+        if info is not None and hasattr(info, key):
+            return int(getattr(info, key))
+    return None
+
+
+def _validated_settings(backend: Backend, tol: float, options: dict[str, Any]) -> dict[str, Any]:
+    unknown = sorted(set(options) - backend.options)
+    if unknown:
+        raise ProblemError(
+            f"unknown option(s) {unknown} for backend {backend.name!r}; "
+            f"valid options: {sorted(backend.options) or 'none'}"
+        )
+    return {**backend.tolerances(tol), **options}
+
+
+def _convert(M: Any, sparse: bool) -> Any:
+    if M is None:
+        return None
+    if sparse:
+        return M if sp.issparse(M) else sp.csc_matrix(M)
+    return M.toarray() if sp.issparse(M) else M
+
+
+def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict[str, Any], initvals):
+    import qpsolvers
+
+    start = time.perf_counter()
+    P = _convert(problem.P, backend.sparse)
+    if backend.needs_positive_definite:
+        delta = PD_REGULARISATION * max(1.0, float(np.max(np.abs(problem.P.diagonal()))))
+        P = P + delta * (sp.eye(problem.n, format="csc") if sp.issparse(P) else np.eye(problem.n))
+        settings = {**settings, "_pd_regularisation": delta}
+    qp = qpsolvers.Problem(
+        P, problem.q, _convert(problem.G, backend.sparse), problem.h,
+        _convert(problem.A, backend.sparse), problem.b, problem.lb, problem.ub,
+    )
+    build_time = time.perf_counter() - start
+    solver_settings = {k: v for k, v in settings.items() if not k.startswith("_")}
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # backends warn on failure; the status below says it
+        try:
+            result = qpsolvers.solve_problem(qp, solver=backend.name, initvals=initvals, **solver_settings)
+        except Exception as err:  # a backend crash becomes a SolverError naming it
+            raise SolverError(f"backend {backend.name!r} raised {type(err).__name__}: {err}",
+                              backend.name, "failed") from err
+    solve_time = time.perf_counter() - start
+    extras = result.extras or {}
+    status = "optimal" if result.found else _status_from_text(str(extras.get("status", "")))
+    return result.x, result.y, result.z, result.z_box, status, settings, build_time, solve_time, _iterations(extras)
+
+
+def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals):
+    import cvxpy as cp
+
+    solver = str(settings.get("solver", "CLARABEL")).upper()
+    if solver not in CVXPY_SOLVERS:
+        raise ProblemError(f"cvxpy solver must be one of {sorted(CVXPY_SOLVERS)}, got {solver!r}")
+    tol = settings["tol"]
+    start = time.perf_counter()
+    x = cp.Variable(problem.n)
+    cost = 0.5 * cp.quad_form(x, cp.psd_wrap(problem.P)) + problem.q @ x
+    constraints, names = [], []
+    if problem.A is not None:
+        constraints.append(problem.A @ x == problem.b)
+        names.append("y")
+    if problem.G is not None:
+        constraints.append(problem.G @ x <= problem.h)
+        names.append("z")
+    finite_lb = None if problem.lb is None else np.isfinite(problem.lb)
+    finite_ub = None if problem.ub is None else np.isfinite(problem.ub)
+    if finite_lb is not None and finite_lb.any():
+        constraints.append(x[finite_lb] >= problem.lb[finite_lb])
+        names.append("lb")
+    if finite_ub is not None and finite_ub.any():
+        constraints.append(x[finite_ub] <= problem.ub[finite_ub])
+        names.append("ub")
+    model = cp.Problem(cp.Minimize(cost), constraints)
+    build_time = time.perf_counter() - start
+    start = time.perf_counter()
+    try:
+        model.solve(solver=solver, **CVXPY_SOLVERS[solver](tol))
+    except cp.error.SolverError as err:
+        raise SolverError(f"backend 'cvxpy' ({solver}) failed: {err}", "cvxpy", "failed") from err
+    solve_time = time.perf_counter() - start
+    if model.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or x.value is None:
+        return None, None, None, None, _status_from_text(model.status), settings, build_time, solve_time, None
+    duals = {name: np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for name, c in zip(names, constraints)}
+    z_box = None
+    if "lb" in duals or "ub" in duals:
+        z_box = np.zeros(problem.n)
+        if "lb" in duals:
+            z_box[finite_lb] -= duals["lb"]
+        if "ub" in duals:
+            z_box[finite_ub] += duals["ub"]
+    iterations = model.solver_stats.num_iters if model.solver_stats else None
+    return (np.asarray(x.value, dtype=float), duals.get("y"), duals.get("z"), z_box, "optimal",
+            {**settings, "solver": solver}, build_time, solve_time, iterations)
+
+
+def solve_qp(
+    problem: QuadraticProgram,
+    backend: str = "clarabel",
+    *,
+    tol: float = 1e-8,
+    check_tol: float | None = None,
+    initvals: NDArray[np.float64] | None = None,
+    **options: Any,
+) -> Solution:
+    """Solve a :class:`QuadraticProgram` with one backend and check its certificates.
+
+    Parameters
+    ----------
+    problem
+        The QP.
+    backend
+        A name from :data:`BACKENDS` (see :func:`available_backends`).
+    tol
+        Requested accuracy, mapped onto the backend's own tolerances.
+    check_tol
+        Largest relative primal residual, dual residual and duality gap accepted; defaults to
+        ``DEFAULT_CHECK_FACTOR * tol``.
+    initvals
+        Warm start for backends that accept one.
+    **options
+        Backend settings; unknown names are rejected with the list of valid ones.
+
+    Raises
+    ------
+    SolverError
+        The backend failed or its solution misses ``check_tol``.
+    """
+    if not np.isfinite(tol) or tol <= 0:
+        raise ProblemError(f"tol must be a positive number, got {tol!r}")
+    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
+    spec = require_backend(backend)
+    settings = _validated_settings(spec, tol, options)
+    if spec.name == "cvxpy":
+        outcome = _solve_cvxpy(problem, settings, initvals)
+    else:
+        outcome = _solve_qpsolvers(problem, spec, settings, initvals)
+    x, y, z, z_box, status, settings, build_time, solve_time, iterations = outcome
+    if x is None or status != "optimal" or not np.all(np.isfinite(x)):
+        raise SolverError(f"backend {backend!r} did not solve {problem.name!r} (status: {status})",
+                          backend, status)
+    residuals = problem.kkt_residuals(x, y, z, z_box)
+    worst = max((key for key in ("primal_rel", "dual_rel", "gap_rel")), key=residuals.__getitem__)
+    if residuals[worst] > check_tol:
+        raise SolverError(
+            f"backend {backend!r} reported success on {problem.name!r} but its {worst[:-4]} "
+            f"certificate is {residuals[worst]:.2e} (relative) > {check_tol:.1e}",
+            backend, "inaccurate",
+        )
+    settings = {**settings, "tol": tol, "check_tol": check_tol}
+    return Solution(
+        x=x, y=y, z=z, z_box=z_box, objective=problem.objective(x), status=status,
+        residuals=residuals, backend=backend, backend_version=backend_version(backend),
+        settings=settings, build_time=build_time, solve_time=solve_time, iterations=iterations,
+    )
+
+
+def solve_linear_system(system: LinearSystem, *, check_tol: float = 1e-9) -> Solution:
+    """Solve :math:`Mx = \\text{rhs}` by LU with partial pivoting (``scipy.linalg.solve``)."""
+    start = time.perf_counter()
+    try:
+        x = scipy.linalg.solve(system.M, system.rhs)
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning) as err:
+        raise SolverError(f"LU failed on {system.name!r}: {err}", "lu", "failed") from err
+    solve_time = time.perf_counter() - start
+    residuals = system.residual(x)
+    if residuals["residual_rel"] > check_tol:
+        raise SolverError(f"LU residual {residuals['residual_rel']:.2e} > {check_tol:.1e} on {system.name!r}",
+                          "lu", "inaccurate")
+    return Solution(
+        x=x, y=None, z=None, z_box=None, objective=0.0, status="optimal",
+        residuals={"primal": residuals["residual"], "primal_rel": residuals["residual_rel"]},
+        backend="lu", backend_version=f"scipy {version('scipy')}",
+        settings={"check_tol": check_tol}, solve_time=solve_time,
+    )
+
+
+def solve(problem: QuadraticProgram | LinearSystem, backend: str = "clarabel", **kwargs: Any) -> Solution:
+    """Solve a :class:`QuadraticProgram` (any QP backend) or a :class:`LinearSystem` (LU).
+
+    See :func:`solve_qp` for the QP arguments.
+    """
+    if isinstance(problem, LinearSystem):
+        return solve_linear_system(problem, **kwargs)
+    if isinstance(problem, QuadraticProgram):
+        return solve_qp(problem, backend, **kwargs)
+    raise ProblemError(f"problem must be a QuadraticProgram or LinearSystem, got {type(problem).__name__}")
