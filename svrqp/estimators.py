@@ -107,7 +107,10 @@ class EpsilonSVR(_KernelModel):
     formulation : {"split", "stacked", "primal"}, default="split"
         Which equivalent QP to solve (``"primal"`` needs ``kernel="linear"``).
     tol : float, default=1e-8
-        Requested solver accuracy; the solution's relative certificates must be below 100·tol.
+        Requested solver accuracy.
+    check_tol : float or None, default=None
+        Largest relative primal residual, dual residual and duality gap accepted from the
+        backend (``None``: 100·tol); a solution above it raises :class:`SolverError`.
 
     Attributes
     ----------
@@ -136,10 +139,11 @@ class EpsilonSVR(_KernelModel):
         "solver": [StrOptions(set(BACKENDS))],
         "formulation": [StrOptions(set(epsilon_svr.FORMULATIONS))],
         "tol": [Interval(Real, 0.0, None, closed="neither")],
+        "check_tol": [Interval(Real, 0.0, None, closed="neither"), None],
     }
 
     def __init__(self, C=1.0, epsilon=0.1, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
-                 solver="clarabel", formulation="split", tol=1e-8):
+                 solver="clarabel", formulation="split", tol=1e-8, check_tol=None):
         self.C = C
         self.epsilon = epsilon
         self.kernel = kernel
@@ -149,6 +153,7 @@ class EpsilonSVR(_KernelModel):
         self.solver = solver
         self.formulation = formulation
         self.tol = tol
+        self.check_tol = check_tol
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
@@ -169,7 +174,7 @@ class EpsilonSVR(_KernelModel):
         else:
             K = self._training_gram(X)
             self.problem_ = epsilon_svr.build(self.formulation, y, self.C, self.epsilon, K=K)
-        self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol)
+        self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol, check_tol=self.check_tol)
         beta = epsilon_svr.beta_from_solution(self.formulation, n, self.solution_.x, self.solution_.z)
         if self.formulation == "primal":
             d = X.shape[1]

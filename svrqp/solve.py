@@ -41,7 +41,7 @@ DEFAULT_CHECK_FACTOR = 100.0
 
 #: Tiny diagonal added for backends that need a positive definite P (Goldfarb–Idnani in
 #: quadprog): relative to max |P_ii|. Its effect on the objective is reported in ``settings``.
-PD_REGULARISATION = 1e-10
+PD_REGULARISATION = 1e-8
 
 
 @dataclass(frozen=True)
@@ -62,10 +62,6 @@ class Backend:
         if self.extra is None:
             return f"pip install {self.package}"
         return f"pip install 'svrqp[{self.extra}]'"
-
-
-def _same(*keys: str) -> Callable[[float], dict[str, Any]]:
-    return lambda tol: {key: tol for key in keys}
 
 
 BACKENDS: dict[str, Backend] = {
@@ -100,16 +96,20 @@ BACKENDS: dict[str, Backend] = {
         ),
         Backend(
             "highs", "highspy", "solvers", True,
-            _same("primal_feasibility_tolerance", "dual_feasibility_tolerance"),
+            # HiGHS adds qp_regularization_value (1e-7 by default) to the Hessian, which moves the
+            # SVR duals' zero blocks by ~1e-5 relative: tie it to the requested accuracy.
+            lambda tol: {"primal_feasibility_tolerance": tol, "dual_feasibility_tolerance": tol,
+                         "qp_regularization_value": 1e-2 * tol},
             frozenset({"primal_feasibility_tolerance", "dual_feasibility_tolerance", "time_limit",
-                       "qp_iteration_limit"}),
+                       "qp_iteration_limit", "qp_regularization_value"}),
         ),
         Backend(
             "daqp", "daqp", "solvers", False,
-            _same("primal_tol", "dual_tol"),
+            # eps_prox > 0 turns on DAQP's proximal-point outer loop, which solves semidefinite
+            # QPs exactly (the SVR duals' P is singular by construction).
+            lambda tol: {"primal_tol": tol, "dual_tol": tol, "eps_prox": 1e-6},
             frozenset({"primal_tol", "dual_tol", "zero_tol", "iter_limit", "eps_prox", "eta_prox",
                        "prox_iter_limit", "progress_tol", "cycle_tol", "pivot_tol", "rho_soft"}),
-            needs_positive_definite=True,
         ),
         Backend(
             "quadprog", "quadprog", "solvers", False,
@@ -413,6 +413,8 @@ def solve_qp(
             backend, "inaccurate",
         )
     settings = {**settings, "tol": tol, "check_tol": check_tol}
+    if "_pd_regularisation" in settings:  # what the added diagonal changed in the objective
+        settings["_pd_objective_shift"] = 0.5 * settings["_pd_regularisation"] * float(x @ x)
     return Solution(
         x=x, y=y, z=z, z_box=z_box, objective=problem.objective(x), status=status,
         residuals=residuals, backend=backend, backend_version=backend_version(backend),
