@@ -141,7 +141,7 @@ def test_least_norm_only_when_asked(s0_thermal_batch):
 
 def test_fewer_samples_than_parameters(s0_thermal_batch):
     X, y = s0_thermal_batch
-    with pytest.raises(ProblemError, match=r"fewer samples \(2\) than parameters \(3"):
+    with pytest.raises(ProblemError, match=r"fewer samples than parameters: 2 sample\(s\) for 3 parameters"):
         fit_linear(X[:2], y[:2])
     with pytest.raises(ProblemError, match="at least 6 distinct"):
         fit_polynomial(np.arange(5.0), np.arange(5.0), 5)

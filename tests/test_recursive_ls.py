@@ -10,7 +10,15 @@ import numpy as np
 import pytest
 
 from svrqp.exceptions import ProblemError, SingularSystemError
-from svrqp.formulations.recursive_ls import batch_state, merge, update, update_batch
+from svrqp.formulations.least_squares import IllConditionedWarning
+from svrqp.formulations.recursive_ls import (
+    batch_state,
+    initial_prefix,
+    merge,
+    transform_regressors,
+    update,
+    update_batch,
+)
 
 #: S3 eq. (25): Δr = C0 + Cc θc + Cn θn + Cs θs + Cb θb, radial error in μm.
 S3_COEF = np.array([-30.0, 0.5, 1.2, 0.8, 0.3])
@@ -143,3 +151,37 @@ def test_nan_and_shape_errors(s3_turning_centre):
         merge(state, batch_state(Z[:, :3], y))
     with pytest.raises(ProblemError, match="forgetting factors"):
         merge(state, batch_state(Z, y, forgetting=0.9))
+
+
+def test_recursion_starts_only_once_the_coefficients_are_well_determined():
+    """A sensor that hardly moves for the first ten samples (1e-6 °C steps), then warms.
+    Two samples already make (1, θ) full rank, but starting there gives a P₀ so inaccurate
+    that the recursion ends 3e-3 off; initial_prefix waits for sample 11 and ends at round-off."""
+    rng = np.random.default_rng(5)
+    n = 200
+    theta_C = np.r_[25.0 + 1e-6 * np.arange(10), 25.0 + 0.05 * np.arange(1, n - 9)]
+    Z = np.column_stack([np.ones(n), theta_C])
+    y = 3.0 + 2.0 * theta_C + 0.1 * rng.standard_normal(n)
+    start = initial_prefix(Z)
+    assert start == 11
+    state = update_batch(batch_state(Z[:start], y[:start]), Z[start:], y[start:])
+    np.testing.assert_allclose(state.a, _lstsq(Z, y), rtol=1e-9)
+    with pytest.warns(IllConditionedWarning):
+        naive = update_batch(batch_state(Z[:2], y[:2]), Z[2:], y[2:])
+    assert np.max(np.abs(naive.a - _lstsq(Z, y)) / np.abs(_lstsq(Z, y))) > 1e-6
+    assert initial_prefix(Z[:10]) is None
+
+
+def test_transformed_regressors_describe_the_same_model(s3_turning_centre):
+    """Temperatures re-referenced to 20 °C: θ̃ = θ − 20, i.e. x̃ = T x with T[1:, 0] = −20."""
+    Z, y = s3_turning_centre
+    T = np.eye(5)
+    T[1:, 0] = -20.0
+    state = batch_state(Z, y)
+    moved = transform_regressors(state, T)
+    Z_moved = Z @ T.T
+    np.testing.assert_allclose(Z_moved @ moved.a, Z @ state.a, rtol=1e-12)
+    np.testing.assert_allclose(moved.a, _lstsq(Z_moved, y), rtol=1e-9)
+    np.testing.assert_allclose(moved.P, np.linalg.inv(Z_moved.T @ Z_moved), rtol=1e-8)
+    with pytest.raises(SingularSystemError, match="singular"):
+        transform_regressors(state, np.zeros((5, 5)))

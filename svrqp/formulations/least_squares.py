@@ -170,6 +170,17 @@ def _column_names(names: Sequence[str] | None, p: int) -> list[str]:
     return list(names) if names is not None else [f"x{j}" for j in range(p)]
 
 
+def _equilibration(X: np.ndarray) -> np.ndarray:
+    """Column scale factors :math:`1/\\lVert X_{:j}\\rVert` (1 for an all-zero column)."""
+    norms = np.linalg.norm(X, axis=0)
+    return 1.0 / np.where(norms > 0, norms, 1.0)
+
+
+def _rank(singular_values: np.ndarray, n: int, p: int) -> int:
+    tolerance = max(n, p) * np.finfo(float).eps * singular_values[0]
+    return int(np.sum(singular_values > tolerance))
+
+
 def _dependent_columns(scaled: np.ndarray, names: list[str]) -> list[str]:
     """Names of the columns that take part in the smallest singular direction."""
     _, _, vt = np.linalg.svd(scaled, full_matrices=False)
@@ -219,15 +230,13 @@ def solve_normal_equations(
     names = _column_names(column_names, p)
     if n < p and rank_deficient == "raise":
         raise ProblemError(
-            f"fewer samples ({n}) than parameters ({p}): the least-squares problem is "
-            "underdetermined"
+            f"fewer samples than parameters: {n} sample(s) for {p} parameters, the "
+            "least-squares problem is underdetermined"
         )
-    norms = np.linalg.norm(X, axis=0)
-    scale = np.where(norms > 0, 1.0 / np.where(norms > 0, norms, 1.0), 1.0)
+    scale = _equilibration(X)
     scaled = X * scale
     singular_values = np.linalg.svd(scaled, compute_uv=False)
-    tolerance = max(n, p) * np.finfo(float).eps * singular_values[0]
-    rank = int(np.sum(singular_values > tolerance))
+    rank = _rank(singular_values, n, p)
     if rank < p:
         if rank_deficient == "raise":
             raise SingularSystemError(
@@ -291,8 +300,8 @@ def fit_linear(
         return LinearFit(solution.coef, 0.0, solution.rank, solution.condition_number)
     if n < p + 1 and rank_deficient == "raise":
         raise ProblemError(
-            f"fewer samples ({n}) than parameters ({p + 1}, intercept included): the "
-            "least-squares problem is underdetermined"
+            f"fewer samples than parameters: {n} sample(s) for {p + 1} parameters (intercept "
+            "included), the least-squares problem is underdetermined"
         )
     x_mean = X.mean(axis=0)
     y_mean = float(y.mean())
@@ -343,7 +352,7 @@ def fit_polynomial(
     if distinct < degree + 1:
         raise ProblemError(
             f"a degree-{degree} polynomial needs at least {degree + 1} distinct x values, "
-            f"got {distinct}"
+            f"got {distinct} in {x.size} sample(s)"
         )
     if domain is None:
         domain = (float(x.min()), float(x.max()))

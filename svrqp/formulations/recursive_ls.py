@@ -29,7 +29,11 @@ Recursion (S3 eqs. (13)–(17)), for a new sample :math:`(x_k, y_k)`:
 
 The recursion needs a starting :math:`P`; :func:`batch_state` computes it exactly from the
 first samples (eqs. (20)–(21)), so no large-:math:`P_0` approximation is involved and, with
-:math:`\lambda = 1`, :math:`a_k` equals the batch least-squares solution to round-off.
+:math:`\lambda = 1`, :math:`a_k` equals the batch least-squares solution to round-off. The
+first samples must determine every coefficient well: :func:`initial_prefix` finds the shortest
+prefix whose equilibrated information matrix has a condition number below
+:data:`START_CONDITION` (a prefix that is merely full rank — three nearly equal temperature
+readings, say — would give an inaccurate :math:`P_0` that the recursion then carries along).
 
 Residual variance (S3 eq. (19)), with :math:`S_k = \sum_i \lambda^{k-i} (y_i - x_i^\top a_k)^2`
 updated exactly by :math:`S_k = \lambda S_{k-1} + \xi_k^2 \lambda/(\lambda + x_k^\top P_{k-1}
@@ -53,6 +57,12 @@ without inverting the recursed :math:`P` back (which would cost another factor
 :math:`\kappa` of round-off). The residual
 sums merge exactly as :math:`S = S_0 + S_1 + \sum_{j\in\{0,1\}} (a_j - a)^\top P_j^{-1}(a_j - a)`.
 
+Change of regressors: if :math:`\tilde x = T x` for an invertible :math:`T` (e.g. temperatures
+taken relative to another reference), the same model has :math:`\tilde a = T^{-\top} a`,
+:math:`\tilde b = T b`, :math:`\tilde P^{-1} = T P^{-1} T^\top`, :math:`\tilde P = T^{-\top} P
+T^{-1}` and unchanged residuals (:func:`transform_regressors`); two models on differently
+referenced regressors are brought to one set before they are merged.
+
 Round-off: the covariance-form recursion loses about :math:`\kappa(P^{-1})\,\epsilon` relative
 accuracy; regressors with a large common offset (temperatures near 30 °C next to the constant
 1) raise :math:`\kappa`.
@@ -67,6 +77,11 @@ import scipy.linalg
 
 from svrqp.exceptions import ProblemError, SingularSystemError
 from svrqp.formulations.least_squares import check_finite_matrix, solve_normal_equations
+
+
+#: Largest condition number of the equilibrated information matrix :math:`\sum x_i x_i^\top`
+#: from which the recursion is started (about half of the double-precision digits survive).
+START_CONDITION = 1e8
 
 
 @dataclass(frozen=True)
@@ -136,6 +151,34 @@ def _spd_solve(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 def _symmetric_inverse(M: np.ndarray) -> np.ndarray:
     inverse = _spd_solve(M, np.eye(M.shape[0]))
     return 0.5 * (inverse + inverse.T)
+
+
+def initial_prefix(X: np.ndarray, max_condition: float = START_CONDITION) -> int | None:
+    """Length of the shortest prefix of ``X`` that determines every coefficient well.
+
+    Parameters
+    ----------
+    X : array of shape (n, p)
+        Regressor rows in arrival order.
+    max_condition : float
+        Largest accepted condition number of the equilibrated :math:`\\sum_{i\\le m} x_i x_i^\\top`.
+
+    Returns
+    -------
+    int or None
+        The smallest such :math:`m \\ge p`, or ``None`` when no prefix (not even all of ``X``)
+        qualifies.
+    """
+    X = check_finite_matrix(X, "X", 2)
+    n, p = X.shape
+    if n < p:
+        return None
+    information = np.cumsum(X[:, :, None] * X[:, None, :], axis=0)[p - 1:]  # m = p … n
+    diagonal = np.diagonal(information, axis1=1, axis2=2)
+    d = 1.0 / np.sqrt(np.where(diagonal > 0, diagonal, 1.0))
+    eigenvalues = np.linalg.eigvalsh(information * d[:, :, None] * d[:, None, :])
+    well_determined = np.flatnonzero(eigenvalues[:, 0] * max_condition > eigenvalues[:, -1])
+    return None if well_determined.size == 0 else int(well_determined[0]) + p
 
 
 def batch_state(
@@ -246,4 +289,35 @@ def merge(first: RecursiveLSState, second: RecursiveLSState) -> RecursiveLSState
         weight=first.weight + second.weight,
         sse=sse,
         forgetting=first.forgetting,
+    )
+
+
+def transform_regressors(state: RecursiveLSState, T: np.ndarray) -> RecursiveLSState:
+    """Express ``state`` in the regressors :math:`\\tilde x = T x` (the model is unchanged).
+
+    Parameters
+    ----------
+    state : RecursiveLSState
+    T : array of shape (p, p)
+        Invertible map from the old regressors to the new ones.
+    """
+    T = check_finite_matrix(T, "T", 2)
+    p = state.a.size
+    if T.shape != (p, p):
+        raise ProblemError(f"T must be {p}×{p}, got shape {T.shape}")
+    try:
+        T_inv = np.linalg.inv(T)
+    except np.linalg.LinAlgError as err:
+        raise SingularSystemError(f"the regressor map T is singular: {err}") from err
+    P = T_inv.T @ state.P @ T_inv
+    information = T @ state.information @ T.T
+    return RecursiveLSState(
+        a=T_inv.T @ state.a,
+        P=0.5 * (P + P.T),
+        b=T @ state.b,
+        information=0.5 * (information + information.T),
+        n_samples=state.n_samples,
+        weight=state.weight,
+        sse=state.sse,
+        forgetting=state.forgetting,
     )
