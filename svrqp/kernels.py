@@ -111,17 +111,29 @@ def gram(
     ndarray of shape ``(n, m)``
     """
     X = np.asarray(X, dtype=float)
+    symmetric = Y is None
     Y = X if Y is None else np.asarray(Y, dtype=float)
     if X.ndim != 2 or Y.ndim != 2 or X.shape[1] != Y.shape[1]:
         raise ProblemError(f"X and Y must be 2-D with the same columns, got {X.shape} and {Y.shape}")
-    if kernel == "linear":
-        return X @ Y.T
-    if kernel == "poly":
-        _positive(gamma, "gamma")
-        if int(degree) != degree or degree < 1:
-            raise ProblemError(f"degree must be a positive integer, got {degree!r}")
-        return (gamma * (X @ Y.T) + coef0) ** int(degree)
-    if kernel == "rbf":
-        _positive(gamma, "gamma")
-        return np.exp(-gamma * squared_distances(X, Y))
-    raise ProblemError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        if kernel == "linear":
+            K = X @ Y.T
+        elif kernel == "poly":
+            _positive(gamma, "gamma")
+            if int(degree) != degree or degree < 1:
+                raise ProblemError(f"degree must be a positive integer, got {degree!r}")
+            K = (gamma * (X @ Y.T) + coef0) ** int(degree)
+        elif kernel == "rbf":
+            _positive(gamma, "gamma")
+            D = squared_distances(X, Y)
+            if symmetric:  # exact symmetry and zero self-distance, which rounding breaks
+                D = 0.5 * (D + D.T)
+                np.fill_diagonal(D, 0.0)
+            K = np.exp(-gamma * D)
+        else:
+            raise ProblemError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    if not np.all(np.isfinite(K)):
+        raise ProblemError(
+            f"the {kernel} kernel overflows on these inputs (|X| up to {np.abs(X).max():.3g}): scale the features"
+        )
+    return K
