@@ -43,6 +43,7 @@ import joblib
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike, NDArray
 from sklearn.model_selection import KFold, ParameterGrid, check_cv
 from sklearn.utils.validation import check_X_y
@@ -484,6 +485,7 @@ def plot_convergence(result: SearchResult, target_unit: str = "target unit") -> 
     figure = Figure(figsize=(6.0, 3.6), layout="constrained")
     axes = figure.add_subplot()
     axes.plot(np.arange(result.convergence_mse.size), result.convergence_mse, marker=".")
+    axes.xaxis.set_major_locator(MaxNLocator(integer=True))
     axes.set_xlabel("generation (-)")
     axes.set_ylabel(f"best CV MSE ({target_unit}²)")
     axes.set_title("GA convergence: " + ", ".join(f"{k} = {v:.4g}" for k, v in result.best_params.items()))

@@ -229,3 +229,46 @@ def test_failed_fits_are_recorded_not_hidden(sine_wave, monkeypatch):
     assert result.best_params["C"] == 0.01
     with pytest.raises(SolverError, match="every candidate"):
         grid_search(X, y, C=[100.0], gamma=[10.0], cv=SHUFFLED_5_FOLD, backend="sequential")
+
+
+@pytest.fixture
+def sine_wave_csv(sine_wave, tmp_path):
+    """The sine-wave set as a CSV table with units in the column names."""
+    X, y = sine_wave
+    path = tmp_path / "sine.csv"
+    pd.DataFrame({"x_mm": X[:, 0], "error_um": y}).to_csv(path, index=False)
+    return path
+
+
+def _svrqp(*argv: str) -> int:
+    """Run the ``svrqp`` entry point; its exit code (0 when it returns normally)."""
+    from svrqp.cli import main
+
+    try:
+        main(list(argv))
+    except SystemExit as stop:
+        return stop.code
+    return 0
+
+
+def test_cli_tune_grid_writes_best_parameters_and_plot(sine_wave_csv, tmp_path):
+    import json
+
+    out_json, out_png = tmp_path / "tune.json", tmp_path / "scores.png"
+    argv = [str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--C", "0.01,100",
+            "--epsilon", "0.01,1", "--gamma", "0.01,10,10000", "--shuffle", "--backend", "sequential",
+            "--json", str(out_json), "--plot", str(out_png), "--target-unit", "μm"]
+    assert _svrqp("tune", *argv) == 0
+    report = json.loads(out_json.read_text())
+    assert report["best_params"] == {"C": 100.0, "epsilon": 0.01, "gamma": 10.0}
+    assert len(report["candidates"]) == 12 and out_png.stat().st_size > 0
+    assert _svrqp("tune", *argv) == 2  # the files exist: no silent overwrite
+    assert _svrqp("tune", *argv, "--force") == 0
+
+
+def test_cli_tune_ga_and_bad_input(sine_wave_csv, capsys):
+    assert _svrqp("tune", str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--method", "ga",
+                  "--population", "4", "--generations", "1", "--folds", "3", "--backend", "sequential") == 0
+    assert "ga search" in capsys.readouterr().out
+    assert _svrqp("tune", str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--C", "0,1") == 2
+    assert "every C must be finite and positive" in capsys.readouterr().err
