@@ -1,0 +1,183 @@
+"""Outputs of the solver comparison harness: machine description, CSV, Markdown table, log-log plot.
+
+The Markdown report states what was measured and on what: CPU, cores, the BLAS libraries and
+the kernel (architecture) threadpoolctl reports for each, ``OPENBLAS_CORETYPE``, the threads
+each run was allowed, package versions, the configuration, the aggregate and full tables, and a
+"Limitations" paragraph.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only, no display
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from svrqp.bench import BenchConfig, PROFILES, aggregate  # noqa: E402
+from svrqp.solve import BACKENDS  # noqa: E402
+
+#: Packages whose versions every report records (backends are added from :data:`BACKENDS`).
+CORE_PACKAGES = ("svrqp", "numpy", "scipy", "scikit-learn", "qpsolvers", "threadpoolctl")
+
+OUTPUT_NAMES = {"csv": "results.csv", "markdown": "results.md", "plot": "time_vs_n.png"}
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU, core counts, BLAS/OpenMP libraries with their kernel and threads, and ``OPENBLAS_CORETYPE``."""
+    from threadpoolctl import threadpool_info
+
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {
+        "cpu": _cpu_model(),
+        "cores_logical": os.cpu_count(),
+        "cores_usable": usable,
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE", "unset"),
+        "thread_pools": [
+            {key: pool.get(key) for key in ("user_api", "internal_api", "version", "architecture", "num_threads")}
+            | {"library": Path(pool["filepath"]).name}
+            for pool in threadpool_info()
+        ],
+    }
+
+
+def package_versions(backends: set[str] | None = None) -> dict[str, str]:
+    """Installed versions of the core packages and of the given backends' packages."""
+    names = list(CORE_PACKAGES) + [BACKENDS[name].package for name in sorted(backends or ()) if name in BACKENDS]
+    versions = {}
+    for name in dict.fromkeys(names):
+        try:
+            versions[name] = version(name)
+        except PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def markdown_table(table: pd.DataFrame, float_format: str = "{:.3g}") -> str:
+    """A GitHub Markdown table (no extra dependency): floats in ``float_format``."""
+    def cell(value: Any) -> str:
+        if isinstance(value, (float, np.floating)):
+            return "" if np.isnan(value) else float_format.format(value)
+        return str(value).replace("|", "\\|")
+
+    lines = ["| " + " | ".join(map(str, table.columns)) + " |", "|" + "---|" * len(table.columns)]
+    lines += ["| " + " | ".join(cell(value) for value in row) + " |" for row in table.itertuples(index=False)]
+    return "\n".join(lines)
+
+
+LIMITATIONS = (
+    "Every run is a fresh child process forked from the harness with the backends already "
+    "imported, so import time is excluded but cold caches are not (no warm-up run). Times include "
+    "svrqp's own wrapper work: building the Gram matrix and the QP, converting matrices for the "
+    "backend (build time), and computing the certificates after the solve (total time). libsvm "
+    "computes kernel entries inside its solver, so its build time is zero and its solve time "
+    "includes the kernel. All runs share the same BLAS thread limit, and the machine may be "
+    "shared with other work: compare ratios measured in the same report, not absolute times "
+    "across reports. Success only means that the certificates meet the profile's tolerance; the "
+    "objective gap and prediction difference against the reference (libsvm for epsilon-SVR, "
+    "numpy.linalg.solve for LS-SVR) are reported separately, and the reference itself stops at "
+    "its own tolerance. Failed and skipped runs are charged the time limit in the shifted "
+    "geometric means. Backends that need a positive definite P get a tiny diagonal "
+    "(pd_regularisation) whose effect on the objective is the pd_objective_shift column."
+)
+
+
+def markdown_report(rows: pd.DataFrame, config: BenchConfig, machine: dict[str, Any],
+                    versions: dict[str, str], title: str = "svrqp solver comparison") -> str:
+    """The full Markdown report of one benchmark run."""
+    profile = PROFILES[config.profile]
+    summary = aggregate(rows, config.time_limit_s, config.shift_s)
+    pools = pd.DataFrame(machine["thread_pools"])
+    shown = ["dataset", "n", "method", "status", "success", "build_time_s", "solve_time_s", "total_time_s",
+             "iterations", "primal_residual", "dual_residual", "duality_gap", "objective_gap_rel",
+             "prediction_diff_rel", "support_agreement"]
+    return "\n\n".join([
+        f"# {title}",
+        "## Configuration\n\n" + "\n".join([
+            f"- datasets: {', '.join(config.datasets)}; n = {', '.join(map(str, sorted(config.sizes)))}; "
+            f"d = {config.d}; kernel = {config.kernel}; C = {config.C:g}; epsilon = {config.epsilon:g}; "
+            f"gamma = {config.gamma}",
+            f"- profile `{profile.name}`: requested tol = {profile.tol:g}, success when every relative "
+            f"certificate <= {profile.residual_tol:g}",
+            f"- time limit {config.time_limit_s:g} s per run; shifted geometric mean with shift "
+            f"{config.shift_s:g} s; {config.threads} BLAS/OpenMP thread(s) per run",
+        ]),
+        "## Machine\n\n" + "\n".join([
+            f"- CPU: {machine['cpu']} ({machine['cores_usable']} usable of {machine['cores_logical']} logical cores)",
+            f"- {machine['platform']}, Python {machine['python']}",
+            f"- OPENBLAS_CORETYPE: {machine['OPENBLAS_CORETYPE']}",
+        ]) + "\n\nThread pools (threadpoolctl; `architecture` is the BLAS kernel in use):\n\n"
+        + markdown_table(pools),
+        "## Package versions\n\n" + "\n".join(f"- {name} {value}" for name, value in versions.items()),
+        "## Aggregate (shifted geometric mean of total time, failures at the time limit)\n\n"
+        + markdown_table(summary),
+        "## All runs\n\n" + markdown_table(rows[shown]),
+        "## Limitations\n\n" + LIMITATIONS,
+    ]) + "\n"
+
+
+def plot_time_vs_n(rows: pd.DataFrame, path: Path) -> None:
+    """Total time against n on log-log axes, one line per method, one panel per dataset (successes only)."""
+    datasets = list(dict.fromkeys(rows["dataset"]))
+    figure, axes = plt.subplots(1, len(datasets), figsize=(6.5 * len(datasets), 4.8), squeeze=False)
+    for axis, dataset in zip(axes[0], datasets):
+        subset = rows[(rows["dataset"] == dataset) & rows["success"]]
+        for method, runs in subset.groupby("method", sort=False):
+            runs = runs.sort_values("n")
+            axis.plot(runs["n"], runs["total_time_s"], marker="o", label=method)
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+        axis.set_xlabel("number of samples n")
+        axis.set_ylabel("total time per run (s)")
+        axis.set_title(f"{dataset} (successful runs)")
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=7, ncol=2)
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def output_paths(output_dir: Path) -> dict[str, Path]:
+    """Where :func:`write_outputs` writes each file."""
+    return {kind: Path(output_dir) / name for kind, name in OUTPUT_NAMES.items()}
+
+
+def write_outputs(rows: pd.DataFrame, config: BenchConfig, output_dir: Path, *, force: bool = False,
+                  title: str = "svrqp solver comparison") -> dict[str, Path]:
+    """Write the CSV, the Markdown report and the plot into ``output_dir``.
+
+    Raises
+    ------
+    FileExistsError
+        When one of the files exists and ``force`` is false (a user's file is never overwritten silently).
+    """
+    paths = output_paths(output_dir)
+    existing = [str(path) for path in paths.values() if path.exists()]
+    if existing and not force:
+        raise FileExistsError(f"output file(s) exist: {existing}; pass --force to overwrite")
+    Path(output_dir).mkdir(parents=True, exist_ok=True)
+    rows.to_csv(paths["csv"], index=False)
+    backends = set(rows["backend"])
+    paths["markdown"].write_text(markdown_report(rows, config, machine_info(), package_versions(backends), title))
+    plot_time_vs_n(rows, paths["plot"])
+    return paths
