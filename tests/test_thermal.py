@@ -26,9 +26,9 @@ from svrqp.machine.thermal import (
     MachineStructure,
     Sensor,
     ThermalConfig,
-    first_order_lag,
     simulate_thermal,
 )
+from svrqp.machine.signals import first_order_lag
 
 
 def single_node(capacity_J_K: float = 7000.0, conductance_W_K: float = 5.8) -> LumpedNetwork:

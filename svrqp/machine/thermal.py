@@ -54,11 +54,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-import scipy.signal
 
 from svrqp.exceptions import ProblemError
 from svrqp.machine.cycles import CycleSegment, duration_min, operation_at, warm_up_cool_down
 from svrqp.machine.network import LumpedNetwork
+from svrqp.machine.signals import first_order_lag
 
 NODES = ("spindle", "headstock", "column", "nut", "coolant")
 BOUNDARIES = ("ambient",)
@@ -360,24 +360,6 @@ def effect_inputs(config: ThermalConfig, t_min: np.ndarray) -> np.ndarray:
     u[:, ambient_row, j["ambient_drift"]] = config.ambient.temperature_C(t_min) - config.reference_C
     scales = np.array([getattr(config, name) for name in EFFECTS])
     return u * scales
-
-
-def first_order_lag(signal: np.ndarray, dt_min: float, tau_min: float) -> np.ndarray:
-    r"""Exact first-order lag of a step-held signal, starting in equilibrium (axis 0 is time).
-
-    .. math:: y_{k+1} = e^{-\Delta t/\tau} y_k + (1 - e^{-\Delta t/\tau}) x_k,\qquad y_0 = x_0.
-    """
-    signal = np.asarray(signal, dtype=float)
-    if tau_min == 0:
-        return signal.copy()
-    decay = np.exp(-dt_min / tau_min)
-    lagged = np.empty_like(signal)
-    lagged[0] = signal[0]
-    # y_k for k >= 1 filters x_0 .. x_{k-1}: a one-step delayed recursive filter.
-    lagged[1:], _ = scipy.signal.lfilter(
-        [1.0 - decay], [1.0, -decay], signal[:-1], axis=0, zi=decay * signal[:1]
-    )
-    return lagged
 
 
 def simulate_thermal(
