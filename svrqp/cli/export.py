@@ -1,0 +1,130 @@
+"""``svrqp export``: write a model as auditable JSON, the papers' CSV coefficient table, or C source.
+
+Two inputs, told apart by the suffix of INPUT:
+
+* a model file (``.json``, schema ``svrqp.model/1``) — verified, then converted to ``--format``;
+* a data table (``.csv``, ``.parquet``) — a model of kind ``--model`` is fitted on ``--features``
+  → ``--target`` first, then exported with the data's hash and the scikit-learn cross-check.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console
+from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+from svrqp.cli._common import read_table, split_columns
+from svrqp.estimators import LSSVR, EpsilonSVR
+from svrqp.exceptions import ProblemError
+from svrqp.export import FORMATS, build_document, read_document, verify, write
+from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
+
+MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
+MODEL_SUFFIXES = {".json"}
+DATA_SUFFIXES = {".csv", ".parquet", ".pq"}
+
+
+def parse_gamma(text: str) -> str | float:
+    """``"scale"``, ``"auto"`` or a positive number."""
+    if text in ("scale", "auto"):
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise ProblemError(f"--gamma must be 'scale', 'auto' or a positive number, got {text!r}") from None
+    if not value > 0:
+        raise ProblemError(f"--gamma must be positive, got {text!r}")
+    return value
+
+
+def make_estimator(model: str, *, C: float, epsilon: float, gamma: str | float, degree: int,
+                   forgetting: float, solver: str) -> Any:
+    """The unfitted estimator of kind ``model`` (one of :data:`MODELS`)."""
+    if model == "svr":
+        return EpsilonSVR(C=C, epsilon=epsilon, gamma=gamma, solver=solver)
+    if model == "lssvr":
+        return LSSVR(C=C, gamma=gamma)
+    if model == "mlr":
+        return LinearLS()
+    if model == "poly":
+        return PolynomialLS(degree=degree)
+    if model == "rls":
+        return RecursiveLS(forgetting=forgetting)
+    raise ProblemError(f"--model must be one of {MODELS}, got {model!r}")
+
+
+def _document_from_model_file(path: Path) -> dict[str, Any]:
+    report = verify(path)
+    if not report.ok:
+        failed = "; ".join(f"{check.name}: {check.detail}" for check in report.checks if not check.ok)
+        raise ProblemError(f"{path} fails verification, not converting it ({failed})")
+    return read_document(path)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``svrqp export`` to ``app``."""
+
+    @app.command("export")
+    def export_command(
+        source: Path = typer.Argument(..., help="A model file (.json, svrqp.model/1) to convert, or a data "
+                                                "table (.csv/.parquet) to fit a model on and export."),
+        out: Path = typer.Option(..., "--out", "-o", help="Output file (.json, .csv, .c) or, for C, a directory "
+                                                           "that receives svrqp_model.c and svrqp_model.h."),
+        format: str = typer.Option(None, "--format", "-f", help=f"One of {', '.join(FORMATS)}; default: from "
+                                                                 "the suffix of --out."),
+        force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
+        target: str = typer.Option(None, "--target", help="Data tables: the target column (unit in its name, "
+                                                          "e.g. error_um)."),
+        features: str = typer.Option(None, "--features", help="Data tables: input columns, comma-separated "
+                                                              "(e.g. T7_C,T9_C)."),
+        model: str = typer.Option("svr", "--model", help=f"Data tables: the model to fit, one of "
+                                                         f"{', '.join(MODELS)}."),
+        C: float = typer.Option(1.0, "--C", help="svr/lssvr: the regularisation weight C."),
+        epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target units."),
+        gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma (scikit-learn convention, "
+                                                           "= S0's g = 1/σ²; S4's σ gives 1/(2σ²)), or "
+                                                           "'scale'/'auto'."),
+        degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (one input)."),
+        forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
+        solver: str = typer.Option("clarabel", "--solver", help="svr: the QP backend."),
+        standardize: bool = typer.Option(False, "--standardize", help="Data tables: standardise the inputs "
+                                                                      "first (recorded in the file)."),
+    ) -> None:
+        """Export a model as svrqp.model/1 JSON, a CSV coefficient table (S0 Table 1) or C source."""
+        suffix = source.suffix.lower()
+        data_options = {"--target": target, "--features": features}
+        console = Console(stderr=True)
+        if suffix in MODEL_SUFFIXES:
+            given = [name for name, value in data_options.items() if value is not None]
+            if given:
+                raise ProblemError(f"{', '.join(given)} only apply when SOURCE is a data table, not a model file")
+            document = _document_from_model_file(source)
+        elif suffix in DATA_SUFFIXES:
+            if target is None or features is None:
+                raise ProblemError("a data table needs --target and --features")
+            table = read_table(source)
+            columns = split_columns(features, table, "--features")
+            split_columns(target, table, "--target")
+            estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
+                                       forgetting=forgetting, solver=solver)
+            fitted_model = make_pipeline(StandardScaler(), estimator) if standardize else estimator
+            X, y = table[columns], table[target]
+            with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                          console=console, transient=True) as progress:
+                task = progress.add_task(f"fitting {model} on {len(table)} rows", total=None)
+                fitted_model.fit(X, y)
+                progress.update(task, description="cross-checking against the reference and hashing")
+                document = build_document(fitted_model, X, y)
+        else:
+            raise ProblemError(f"SOURCE must be a model file (.json) or a data table (.csv, .parquet), got {source}")
+        for path in write(document, out, format, overwrite=force):
+            typer.echo(f"wrote {path}")
+        cross_check = document["cross_check"]
+        if cross_check is not None:
+            typer.echo(f"cross-check vs {cross_check['reference']}: max |Δprediction| = "
+                       f"{cross_check['max_abs_deviation']:.3g} (std of target {cross_check['target_std']:.3g})")

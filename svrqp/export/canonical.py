@@ -1,0 +1,84 @@
+"""Canonical JSON, content hash and training-data hash of an exported model.
+
+Canonical form (what ``content_sha256`` is the SHA-256 of)
+    The document without its ``content_sha256`` field, serialised as UTF-8 by
+    ``json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)``.
+    Numbers are written as Python writes them (``repr``: the shortest text that parses back to the
+    same IEEE-754 double), so a load → dump cycle reproduces the canonical bytes exactly.
+
+Training-data hash (``training_data.sha256``)
+    SHA-256 of ``X`` as little-endian float64 in row-major order followed by ``y`` as
+    little-endian float64, with ``X`` in the column order of ``inputs`` and in raw units
+    (before any scaling).
+
+Reading is strict: duplicate keys, ``NaN``/``Infinity`` and numbers that overflow a double are
+rejected, and nothing but ``json`` parsing happens (no pickle, no ``eval``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from svrqp.exceptions import ProblemError
+
+HASH_FIELD = "content_sha256"
+
+DATA_HASH_DEFINITION = (
+    "sha256(X as little-endian float64, row-major, columns in the order of 'inputs', raw units; "
+    "then y as little-endian float64)"
+)
+
+
+def canonical_bytes(document: dict[str, Any]) -> bytes:
+    """The canonical serialisation of ``document`` with its hash field left out."""
+    content = {key: value for key, value in document.items() if key != HASH_FIELD}
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return text.encode("utf-8")
+
+
+def content_sha256(document: dict[str, Any]) -> str:
+    """Hex SHA-256 of :func:`canonical_bytes`."""
+    return hashlib.sha256(canonical_bytes(document)).hexdigest()
+
+
+def data_sha256(X: ArrayLike, y: ArrayLike) -> str:
+    """Hex SHA-256 of the training data, as defined in :data:`DATA_HASH_DEFINITION`."""
+    X = np.ascontiguousarray(np.asarray(X, dtype="<f8"))
+    y = np.ascontiguousarray(np.asarray(y, dtype="<f8").ravel())
+    digest = hashlib.sha256(X.tobytes(order="C"))
+    digest.update(y.tobytes())
+    return digest.hexdigest()
+
+
+def _reject_constant(name: str) -> float:
+    raise ProblemError(f"model file holds the non-finite number {name}; JSON models hold finite numbers only")
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ProblemError(f"model file holds the number {text}, which overflows a double")
+    return value
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    keys = [key for key, _ in pairs]
+    duplicates = sorted({key for key in keys if keys.count(key) > 1})
+    if duplicates:
+        raise ProblemError(f"model file repeats the key(s) {duplicates}; each key may appear once")
+    return dict(pairs)
+
+
+def parse_strict(text: str) -> Any:
+    """Parse JSON text, rejecting duplicate keys and non-finite numbers."""
+    try:
+        return json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float,
+                          object_pairs_hook=_unique_keys)
+    except json.JSONDecodeError as err:
+        raise ProblemError(f"model file is not valid JSON: {err}") from None

@@ -1,0 +1,84 @@
+"""Predictions from an ``svrqp.model/1`` document alone.
+
+The document's numbers are the only model state used: inputs are mapped to the model's coordinates
+:math:`u = (x - \\text{mean}) / \\text{scale}` and then
+
+.. math::
+
+    f(x) = \\sum_i \\beta_i\\, k(u, s_i) + b \\quad\\text{(kernel kinds, S0 eq. (7))}, \\qquad
+    f(x) = a^\\top u + b \\quad\\text{(linear kinds, S0 eq. (5))},
+
+    f(x) = \\sum_{m=0}^{d} c_m P_m(t),\\ t = \\frac{2u - u_{\\min} - u_{\\max}}{u_{\\max} - u_{\\min}}
+    \\quad\\text{(polynomial, Legendre basis)}.
+
+The kernel is evaluated by :func:`svrqp.kernels.gram`, the same code the estimators use, so a
+round trip through the file reproduces the estimator's predictions bit for bit.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.polynomial import legendre
+from numpy.typing import ArrayLike, NDArray
+
+from svrqp.exceptions import ProblemError
+from svrqp.kernels import gram
+
+
+def model_coordinates(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
+    """Raw inputs ``X`` (n, d) → the model's coordinates ``u`` (scaling applied)."""
+    X = np.asarray(X, dtype=float)
+    d = len(document["inputs"])
+    if X.ndim != 2 or X.shape[1] != d:
+        raise ProblemError(f"X must have shape (n, {d}) for inputs {[v['name'] for v in document['inputs']]}, "
+                           f"got {X.shape}")
+    scaling = document["scaling"]
+    if scaling is None:
+        return X
+    return (X - np.asarray(scaling["mean"])) / np.asarray(scaling["scale"])
+
+
+def _kernel_matrix(document: dict[str, Any], U: NDArray[np.float64]) -> NDArray[np.float64]:
+    model = document["model"]
+    kernel = model["kernel"]
+    parameters = {key: kernel[key] for key in ("gamma", "degree", "coef0") if kernel[key] is not None}
+    return gram(U, np.asarray(model["support_vectors"], dtype=float), kernel=kernel["name"], **parameters)
+
+
+def _terms(document: dict[str, Any], X: ArrayLike) -> tuple[NDArray[np.float64], float]:
+    """The summands of ``f`` per input row (n, m) and the constant term."""
+    U = model_coordinates(document, X)
+    model = document["model"]
+    kind = document["kind"]
+    if kind in ("epsilon_svr", "ls_svr"):
+        return _kernel_matrix(document, U) * np.asarray(model["dual_coef"]), model["intercept"]
+    if kind == "polynomial_ls":
+        low, high = model["domain"]
+        t = (2.0 * U[:, 0] - low - high) / (high - low)
+        return legendre.legvander(t, model["degree"]) * np.asarray(model["coef"]), 0.0
+    return U * np.asarray(model["coef"]), model["intercept"]
+
+
+def predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
+    """Evaluate the model of ``document`` at raw inputs ``X`` of shape (n, d)."""
+    U = model_coordinates(document, X)
+    model = document["model"]
+    kind = document["kind"]
+    if kind in ("epsilon_svr", "ls_svr"):
+        return _kernel_matrix(document, U) @ np.asarray(model["dual_coef"]) + model["intercept"]
+    if kind == "polynomial_ls":
+        low, high = model["domain"]
+        return legendre.legval((2.0 * U[:, 0] - low - high) / (high - low), np.asarray(model["coef"]))
+    return U @ np.asarray(model["coef"]) + model["intercept"]
+
+
+def term_magnitude(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
+    """:math:`|b| + \\sum_i |\\text{term}_i|` per row: the scale of the rounding error of ``f``.
+
+    Summing the terms in another order (another BLAS, the C evaluator) changes ``f`` by a few
+    units in the last place of this magnitude, not of ``f`` itself, which may be much smaller.
+    """
+    terms, constant = _terms(document, X)
+    return np.abs(terms).sum(axis=1) + abs(constant)

@@ -1,0 +1,78 @@
+"""``model.export(path)``: the export entry point shared by every exportable estimator."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from numpy.typing import ArrayLike
+
+
+def export_model(
+    model: Any,
+    path: str | Path,
+    format: str | None = None,
+    *,
+    X: ArrayLike | None = None,
+    y: ArrayLike | None = None,
+    feature_names: Sequence[str] | None = None,
+    feature_units: Sequence[str | None] | None = None,
+    target_name: str | None = None,
+    target_unit: str | None = None,
+    probes: ArrayLike | None = None,
+    overwrite: bool = False,
+) -> list[Path]:
+    """Export a fitted model (an estimator or a ``Pipeline(StandardScaler, estimator)``).
+
+    Parameters
+    ----------
+    model
+        The fitted model.
+    path
+        Output file (``.json``, ``.csv``, ``.c``) or, for C, a directory.
+    format
+        ``"json"``, ``"csv"`` or ``"c"``; default: from the suffix of ``path``.
+    X, y, feature_names, feature_units, target_name, target_unit, probes
+        See :func:`svrqp.export.document.build_document`; pass the training data ``X, y`` to
+        record its hash and the scikit-learn cross-check.
+    overwrite
+        Replace existing files (default: refuse with ``FileExistsError``).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    from svrqp.export.document import build_document
+    from svrqp.export.writers import write
+
+    document = build_document(model, X, y, feature_names=feature_names, feature_units=feature_units,
+                              target_name=target_name, target_unit=target_unit, probes=probes)
+    return write(document, path, format, overwrite=overwrite)
+
+
+class ExportMixin:
+    """Adds :meth:`export` to an estimator (``class EpsilonSVR(ExportMixin, _KernelModel)``)."""
+
+    def export(
+        self,
+        path: str | Path,
+        format: str | None = None,
+        *,
+        X: ArrayLike | None = None,
+        y: ArrayLike | None = None,
+        feature_names: Sequence[str] | None = None,
+        feature_units: Sequence[str | None] | None = None,
+        target_name: str | None = None,
+        target_unit: str | None = None,
+        probes: ArrayLike | None = None,
+        overwrite: bool = False,
+    ) -> list[Path]:
+        """Write this fitted model as an auditable ``svrqp.model/1`` JSON, a CSV table or C source.
+
+        See :func:`svrqp.export.export_model` for the parameters.
+        """
+        return export_model(self, path, format, X=X, y=y, feature_names=feature_names,
+                            feature_units=feature_units, target_name=target_name, target_unit=target_unit,
+                            probes=probes, overwrite=overwrite)

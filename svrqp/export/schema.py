@@ -1,0 +1,102 @@
+"""The ``svrqp.model/1`` JSON Schema (package data ``model.schema.json``) and the checks on a document.
+
+:func:`validate_document` runs the JSON Schema (with the ``jsonschema`` library) and then the
+cross-field shape checks a schema cannot state (every vector has one entry per input, one
+coefficient per support vector, ...). Every failure raises :class:`~svrqp.exceptions.ProblemError`
+whose message starts with the offending field, e.g. ``model.dual_coef[3]: 'x' is not of type 'number'``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from functools import cache
+from importlib.resources import files
+from typing import Any
+
+import jsonschema
+from jsonschema.exceptions import best_match
+
+from svrqp.exceptions import ProblemError
+
+SCHEMA_ID = "svrqp.model/1"
+SCHEMA_RESOURCE = "model.schema.json"
+
+
+@cache
+def load_schema() -> dict[str, Any]:
+    """The JSON Schema of ``svrqp.model/1`` as shipped in the package."""
+    return json.loads(files("svrqp.export").joinpath(SCHEMA_RESOURCE).read_text(encoding="utf-8"))
+
+
+@cache
+def _validator() -> jsonschema.Draft202012Validator:
+    schema = load_schema()
+    jsonschema.Draft202012Validator.check_schema(schema)
+    return jsonschema.Draft202012Validator(schema)
+
+
+def field_name(path: Iterable[str | int]) -> str:
+    """``["model", "dual_coef", 3]`` → ``"model.dual_coef[3]"`` (``"<document>"`` for the root)."""
+    text = ""
+    for part in path:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "<document>"
+
+
+def _fail(field: str, message: str) -> None:
+    raise ProblemError(f"{field}: {message}")
+
+
+def _check_length(field: str, values: list, expected: int, what: str) -> None:
+    if len(values) != expected:
+        _fail(field, f"has {len(values)} entries, expected {expected} ({what})")
+
+
+def _check_shapes(document: dict[str, Any]) -> None:
+    d = len(document["inputs"])
+    per_input = f"one per input, {d} inputs"
+    if document["scaling"] is not None:
+        for key in ("mean", "scale"):
+            _check_length(f"scaling.{key}", document["scaling"][key], d, per_input)
+    if document["training_data"] is not None and document["training_data"]["n_features"] != d:
+        _fail("training_data.n_features", f"is {document['training_data']['n_features']}, expected {d} ({per_input})")
+    model = document["model"]
+    if document["kind"] in ("epsilon_svr", "ls_svr"):
+        for i, row in enumerate(model["support_vectors"]):
+            _check_length(f"model.support_vectors[{i}]", row, d, per_input)
+        _check_length("model.dual_coef", model["dual_coef"], len(model["support_vectors"]),
+                      "one per support vector")
+        if not model["fit_intercept"] and model["intercept"] != 0.0:
+            _fail("model.intercept", "must be 0 when fit_intercept is false")
+    elif document["kind"] == "polynomial_ls":
+        if d != 1:
+            _fail("inputs", f"a polynomial model has exactly one input, got {d}")
+        _check_length("model.coef", model["coef"], model["degree"] + 1, "degree + 1 Legendre coefficients")
+        low, high = model["domain"]
+        if not low < high:
+            _fail("model.domain", f"must be increasing, got [{low}, {high}]")
+    else:
+        _check_length("model.coef", model["coef"], d, per_input)
+    probes = document["probes"]
+    for i, row in enumerate(probes["X"]):
+        _check_length(f"probes.X[{i}]", row, d, per_input)
+    _check_length("probes.prediction", probes["prediction"], len(probes["X"]), "one per probe input")
+
+
+def validate_document(document: Any) -> None:
+    """Check ``document`` against the ``svrqp.model/1`` schema and its cross-field shapes.
+
+    Raises
+    ------
+    ProblemError
+        Naming the first offending field and what is wrong with it.
+    """
+    if not isinstance(document, dict):
+        _fail("<document>", f"must be a JSON object, got {type(document).__name__}")
+    if document.get("schema") != SCHEMA_ID:
+        _fail("schema", f"must be {SCHEMA_ID!r}, got {document.get('schema')!r}")
+    error = best_match(_validator().iter_errors(document))
+    if error is not None:
+        _fail(field_name(error.absolute_path), error.message)
+    _check_shapes(document)

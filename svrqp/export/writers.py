@@ -1,0 +1,136 @@
+"""Write an ``svrqp.model/1`` document as JSON, as the papers' coefficient table (CSV) or as C source.
+
+* ``json`` — the document itself, indented; numbers as Python's ``repr`` (exact round trip).
+* ``csv``  — S0 Table 1's layout: one row per support vector ``i, sv_coef, <inputs>``, with b,
+  the kernel in every convention, C, ε and the scaling in ``#`` header comments (linear kinds: one
+  row per coefficient).
+* ``c``    — ``svrqp_model.c`` and ``svrqp_model.h`` (:mod:`svrqp.export.c_source`); the path is
+  the ``.c`` file (the ``.h`` goes beside it) or a directory that receives both.
+
+No writer overwrites an existing file unless asked to (``overwrite=True``, the CLI's ``--force``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+from svrqp.exceptions import ProblemError
+from svrqp.export.c_source import c_source, header_source
+
+FORMATS = ("json", "csv", "c")
+_SUFFIX_FORMATS = {".json": "json", ".csv": "csv", ".c": "c"}
+C_STEM = "svrqp_model"
+
+
+def infer_format(path: str | Path) -> str:
+    """The format a path's suffix asks for (``.json``, ``.csv``, ``.c``; a directory → ``c``)."""
+    path = Path(path)
+    if path.suffix.lower() in _SUFFIX_FORMATS:
+        return _SUFFIX_FORMATS[path.suffix.lower()]
+    if path.is_dir():
+        return "c"
+    raise ProblemError(f"format: cannot tell the format of {str(path)!r} from its suffix; "
+                       f"give one of {FORMATS} (or a path ending in .json, .csv or .c)")
+
+
+def json_text(document: dict[str, Any]) -> str:
+    """The document as indented JSON text."""
+    return json.dumps(document, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def _comments(document: dict[str, Any]) -> list[str]:
+    model = document["model"]
+    target = document["target"]
+    lines = [f"{document['schema']} coefficient table; kind {document['kind']}",
+             f"model: {model['formula']}",
+             f"target: {target['name']} [{target['unit'] or '-'}]"]
+    kernel = model.get("kernel")
+    if kernel is not None:
+        lines.append(f"b = {model['intercept']!r}")
+        if kernel["name"] == "rbf":
+            lines.append(f"kernel rbf: exp(-gamma |u - SV|^2), gamma = {kernel['gamma']!r}; S0: g = 1/sigma^2 = "
+                         f"{kernel['g']!r}, sigma = {kernel['sigma_s0']!r}; S4 (2 sigma^2): sigma = {kernel['sigma_s4']!r}")
+        elif kernel["name"] == "poly":
+            lines.append(f"kernel poly: (gamma u.SV + coef0)^degree, gamma = {kernel['gamma']!r}, "
+                         f"coef0 = {kernel['coef0']!r}, degree = {kernel['degree']}")
+        else:
+            lines.append("kernel linear: u.SV")
+        epsilon = "" if model["epsilon"] is None else f", epsilon = {model['epsilon']!r}"
+        lines.append(f"C = {model['C']!r}{epsilon}; {len(model['dual_coef'])} support vectors; "
+                     "sv_coef = alpha_i* - alpha_i")
+    scaling = document["scaling"]
+    if scaling is not None:
+        lines.append(f"scaling: u = (x - mean) / scale, mean = {scaling['mean']!r}, scale = {scaling['scale']!r}; "
+                     "the input columns below are u")
+    lines.append(f"content_sha256 of the JSON document: {document['content_sha256']}")
+    return [f"# {line}\n" for line in lines]
+
+
+def _table(document: dict[str, Any]) -> list[list[Any]]:
+    model = document["model"]
+    names = [v["name"] for v in document["inputs"]]
+    if document["scaling"] is not None:
+        names = [f"u({name})" for name in names]
+    if "support_vectors" in model:
+        return [["i", "sv_coef", *names]] + [
+            [i, repr(beta), *(repr(v) for v in sv)]
+            for i, (beta, sv) in enumerate(zip(model["dual_coef"], model["support_vectors"], strict=True), start=1)]
+    if document["kind"] == "polynomial_ls":
+        return [["m", "legendre_coef"]] + [[m, repr(c)] for m, c in enumerate(model["coef"])]
+    return [["term", "coef"], ["intercept", repr(model["intercept"])]] + [
+        [name, repr(c)] for name, c in zip(names, model["coef"], strict=True)]
+
+
+def csv_text(document: dict[str, Any]) -> str:
+    """The coefficient table with its header comments."""
+    buffer = io.StringIO()
+    buffer.writelines(_comments(document))
+    csv.writer(buffer, lineterminator="\n").writerows(_table(document))
+    return buffer.getvalue()
+
+
+def _targets(path: Path, fmt: str) -> list[Path]:
+    if fmt != "c":
+        return [path]
+    source = path if path.suffix.lower() == ".c" else path / f"{C_STEM}.c"
+    return [source, source.with_suffix(".h")]
+
+
+def write(document: dict[str, Any], path: str | Path, format: str | None = None, *,
+          overwrite: bool = False) -> list[Path]:
+    """Write ``document`` to ``path`` in ``format`` (default: from the suffix).
+
+    Returns
+    -------
+    list of Path
+        The files written (two for C: the ``.c`` and the ``.h``).
+
+    Raises
+    ------
+    FileExistsError
+        When a file to be written exists and ``overwrite`` is false.
+    """
+    path = Path(path)
+    fmt = infer_format(path) if format is None else format
+    if fmt not in FORMATS:
+        raise ProblemError(f"format must be one of {FORMATS}, got {fmt!r}")
+    targets = _targets(path, fmt)
+    existing = [str(target) for target in targets if target.exists()]
+    if existing and not overwrite:
+        raise FileExistsError(f"refusing to overwrite existing {', '.join(existing)} (use --force / overwrite=True)")
+    if fmt == "json":
+        texts = [json_text(document)]
+    elif fmt == "csv":
+        texts = [csv_text(document)]
+    else:
+        header = targets[1]
+        guard = "".join(ch if ch.isalnum() else "_" for ch in header.name).upper()
+        texts = [c_source(document, header.name), header_source(document, guard)]
+    for target, text in zip(targets, texts, strict=True):
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(text, encoding="utf-8")
+    return targets
