@@ -1,0 +1,453 @@
+r"""Which candidate, in which transform, explains the gap — with the error rate controlled.
+
+The test statistic
+    For a candidate :math:`c` and transform :math:`t` (:mod:`svrqp.gap.transforms`) the
+    discrepancy model of :mod:`svrqp.gap.discrepancy` adds the columns :math:`Z_{c,t}` to
+    the base :math:`B` (intercept + the model's features, or the prediction). Its gain is the
+    relative drop of the out-of-sample squared error, blocked by group,
+
+    .. math::
+
+        g_{c,t} = 1 - \frac{\mathrm{SSE}_{cv}(B + Z_{c,t})}{\mathrm{SSE}_{cv}(B)},
+
+    maximised over the time constants :math:`\tau` for ``lag``. Columns: ``level`` :math:`[x]`;
+    ``rate`` :math:`[\dot x]`; ``lag`` :math:`[x, \ell_\tau]` — together these span the
+    filtered reading :math:`x_\tau`. A candidate that is also a model feature is already in
+    :math:`B`: its ``level`` is not tested, its ``rate`` :math:`[\dot x]` and ``lag``
+    :math:`[\ell_\tau]` are (thermal inertia of a modelled sensor is a genuinely unmodelled
+    effect).
+
+Significance by surrogates that keep autocorrelation
+    Under "this candidate carries nothing", the residual is unrelated to *where in time* the
+    candidate's values fall. Each surrogate rotates the candidate's transformed columns
+    circularly within every group by a random offset (:func:`svrqp.gap.blocks.circular_shifts`),
+    which keeps both series' autocorrelation, and recomputes :math:`g` including the
+    :math:`\tau` search. The Monte-Carlo p-value is sequential (Besag & Clifford 1991): draw
+    surrogates in batches up to :data:`MAX_SURROGATES`; stop once :data:`STOP_EXCEEDANCES`
+    surrogates reach the observed gain, :math:`p = h/S_h` (:math:`S_h` = draws up to the
+    :math:`h`-th exceedance), otherwise :math:`p = (1 + \#\{g_s \ge g\})/(1 + S)`.
+
+Multiple testing and effect floor
+    Benjamini–Hochberg over all candidate × transform tests of a round (:data:`ALPHA`).
+    A test counts as evidence only if its adjusted p-value is below :data:`ALPHA`, its gain
+    is at least :data:`MIN_GAIN` (relative floor) and the RMS it explains,
+    :math:`\sqrt{g\,\mathrm{SSE}_{cv}(B)/n}`, is at least :data:`MIN_AMPLITUDE` times the
+    noise level (absolute floor; noise = the smaller of the train reference RMSE and the
+    RMSE left after the candidate).
+
+Confounding
+    Candidates are correlated on purpose (coolant follows ambient; speed drives every
+    temperature). The strongest candidate :math:`a` is checked against every other candidate
+    :math:`b` that passed, on the evidence where they decorrelate — conditional tests with
+    the other already in the base: :math:`p(a\,|\,b)` and :math:`p(b\,|\,a)`.
+
+    * :math:`a|b` significant, :math:`b|a` not — :math:`a` stands; :math:`b` is "explained by a";
+    * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a`;
+    * both significant — both carry their own information; :math:`a` (larger gain) leads;
+    * neither — the data cannot tell them apart: both are reported as such and no verdict
+      is given (naming a decoy is worse than naming nothing).
+
+    ``lag`` contains ``level``; the verdict reports ``lag`` only if :math:`\ell_\tau` adds
+    significantly to the level. Further effects are accepted in rounds, each testing the
+    remaining candidates with the accepted ones in the base.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import false_discovery_control
+
+from svrqp.gap.blocks import circular_shifts
+from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
+from svrqp.gap.prepare import GapData
+from svrqp.gap.transforms import lag, rate
+
+ALPHA = 0.05
+"""Level of every test; Benjamini–Hochberg false-discovery rate within a round."""
+
+MIN_GAIN = 0.02
+"""Relative effect floor: least out-of-sample squared-error reduction over the base."""
+
+MIN_AMPLITUDE = 0.25
+"""Absolute effect floor: least explained RMS, as a fraction of the noise RMS."""
+
+SURROGATE_BATCHES = (99, 400, 1500)
+"""Surrogates drawn per stage of the sequential test (cumulative 99, 499, 1999)."""
+
+MAX_SURROGATES = sum(SURROGATE_BATCHES)
+
+STOP_EXCEEDANCES = 10
+"""A sequential test stops after this many surrogates reach the observed gain."""
+
+MAX_EFFECTS = 3
+"""Most effects accepted in successive rounds."""
+
+_CHUNK_ELEMENTS = 6_000_000
+"""Largest surrogate design array (rows × columns) scored at once, to bound memory."""
+
+
+@dataclass(frozen=True)
+class CandidateBank:
+    """Standardised columns of one candidate transform on the real rows.
+
+    Attributes
+    ----------
+    column : str
+        Candidate column.
+    transform : str
+        ``"level"``, ``"rate"`` or ``"lag"``.
+    taus : ndarray or None
+        Time constant of each variant (``lag``), else None.
+    Z : ndarray, shape (n_real, v, k)
+        ``v`` variants (time constants) of ``k`` columns each.
+    """
+
+    column: str
+    transform: str
+    taus: np.ndarray | None
+    Z: np.ndarray
+
+    def block(self, variant: int) -> np.ndarray:
+        """Columns of one variant, shape (n_real, k)."""
+        return self.Z[:, variant, :]
+
+    def tau(self, variant: int) -> float | None:
+        """Time constant of a variant (None unless ``lag``)."""
+        return None if self.taus is None else float(self.taus[variant])
+
+
+def _standardise(columns: np.ndarray) -> np.ndarray:
+    """Centre and scale each column on the rows given; constant columns become zero."""
+    centred = columns - columns.mean(axis=0)
+    scale = centred.std(axis=0)
+    return np.divide(centred, scale, out=np.zeros_like(centred), where=scale > 1e-12 * (1 + np.abs(columns).max(axis=0)))
+
+
+def transform_columns(data: GapData, column: str, transform: str, taus: np.ndarray | None) -> np.ndarray:
+    """Raw (unstandardised) columns of a transform on every row, shape (n, v, k).
+
+    ``level`` (1 variant, ``[x]``), ``rate`` (1 variant, ``[dx/dt]``), ``lag``
+    (one variant per ``tau``: ``[x, x_tau - x]``, or ``[x_tau - x]`` when the candidate is
+    a model feature).
+    """
+    x = data.C[:, data.candidates.index(column)]
+    if transform == "level":
+        return x[:, None, None]
+    if transform == "rate":
+        return rate(x, data.t, data.groups)[:, None, None]
+    ell = lag(x, data.t, data.groups, taus)
+    if column in data.features:
+        return ell[:, :, None]
+    return np.stack([np.broadcast_to(x[:, None], ell.shape), ell], axis=2)
+
+
+def build_banks(data: GapData, taus: np.ndarray) -> list[CandidateBank]:
+    """Every candidate × transform bank to be tested, standardised on the real rows."""
+    real = data.is_real
+    banks = []
+    for column in data.candidates:
+        for transform in ("level", "rate", "lag"):
+            if transform == "level" and column in data.features:
+                continue  # already modelled
+            cols = transform_columns(data, column, transform, taus)[real]
+            n, v, k = cols.shape
+            Z = _standardise(cols.reshape(n, v * k)).reshape(n, v, k)
+            banks.append(CandidateBank(column, transform, taus if transform == "lag" else None, Z))
+    return banks
+
+
+@dataclass(frozen=True)
+class TestOutcome:
+    """Result of one surrogate test.
+
+    Attributes
+    ----------
+    bank : CandidateBank
+        What was tested.
+    variant : int
+        Index of the best time constant (0 unless ``lag``).
+    gain : float
+        Observed out-of-sample gain of the best variant.
+    gains : ndarray
+        Observed gain of every variant.
+    p_value : float
+        Sequential Monte-Carlo p-value.
+    n_surrogates : int
+        Surrogates drawn.
+    remaining_rmse : float
+        Out-of-sample RMSE left with the best variant added.
+    """
+
+    bank: CandidateBank
+    variant: int
+    gain: float
+    gains: np.ndarray
+    p_value: float
+    n_surrogates: int
+    remaining_rmse: float
+
+    @property
+    def column(self) -> str:
+        return self.bank.column
+
+    @property
+    def transform(self) -> str:
+        return self.bank.transform
+
+    @property
+    def tau(self) -> float | None:
+        return self.bank.tau(self.variant)
+
+
+def surrogate_test(
+    cv: CrossValidatedDiscrepancy,
+    bank: CandidateBank,
+    groups: np.ndarray,
+    rng: np.random.Generator,
+    max_surrogates: int = MAX_SURROGATES,
+) -> TestOutcome:
+    """Sequential circular-shift surrogate test of one bank against a fitted base.
+
+    Parameters
+    ----------
+    cv : CrossValidatedDiscrepancy
+        Scorer holding the residual, the base and the folds.
+    bank : CandidateBank
+        Columns to test (all variants; the statistic is the best variant's gain).
+    groups : ndarray of int
+        Group code per real row.
+    rng : numpy.random.Generator
+        Source of the shifts.
+    max_surrogates : int
+        Stop after the batch of :data:`SURROGATE_BATCHES` that reaches this many draws.
+
+    Returns
+    -------
+    TestOutcome
+    """
+    n, v, k = bank.Z.shape
+    gains = cv.gain(bank.Z)
+    variant = int(np.argmax(gains))
+    observed = float(gains[variant])
+    remaining = float(np.sqrt(cv.sse_base * (1 - observed) / cv.n))
+    exceed: list[np.ndarray] = []
+    drawn = 0
+    chunk = max(1, _CHUNK_ELEMENTS // (n * v * k))
+    for batch in SURROGATE_BATCHES:
+        for start in range(0, batch, chunk):
+            size = min(chunk, batch - start)
+            index = circular_shifts(groups, size, rng)  # (size, n)
+            Zs = bank.Z[index.T].reshape(n, size * v, k)
+            surrogate = cv.gain(Zs).reshape(size, v).max(axis=1)
+            exceed.append(surrogate >= observed)
+        drawn += batch
+        hits = np.concatenate(exceed)
+        if hits.sum() >= STOP_EXCEEDANCES:
+            stop = int(np.flatnonzero(hits)[STOP_EXCEEDANCES - 1]) + 1
+            return TestOutcome(bank, variant, observed, gains, STOP_EXCEEDANCES / stop, stop, remaining)
+        if drawn >= max_surrogates:
+            break
+    p = (1 + int(hits.sum())) / (1 + drawn)
+    return TestOutcome(bank, variant, observed, gains, p, drawn, remaining)
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """A test with its multiplicity-adjusted p-value and floor decision."""
+
+    test: TestOutcome
+    q_value: float
+    passes: bool
+    round: int
+
+
+def _test_round(
+    r: np.ndarray,
+    B: np.ndarray,
+    banks: list[CandidateBank],
+    folds: list[np.ndarray],
+    groups: np.ndarray,
+    noise_rmse: float,
+    rng: np.random.Generator,
+    round_number: int,
+) -> list[Evidence]:
+    """Test every bank against base ``B``; Benjamini–Hochberg and the effect floor."""
+    if not banks:
+        return []
+    cv = CrossValidatedDiscrepancy(r, B, folds)
+    tests = [surrogate_test(cv, bank, groups, rng) for bank in banks]
+    q = false_discovery_control([t.p_value for t in tests], method="bh")
+    return [
+        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, cv, noise_rmse)), round_number)
+        for t, qi in zip(tests, q)
+    ]
+
+
+def _above_floor(test: TestOutcome, cv: CrossValidatedDiscrepancy, noise_rmse: float) -> bool:
+    explained = np.sqrt(max(test.gain, 0.0) * cv.sse_base / cv.n)
+    noise = min(noise_rmse, test.remaining_rmse)
+    return test.gain >= MIN_GAIN and explained >= MIN_AMPLITUDE * noise
+
+
+@dataclass
+class Attribution:
+    """Outcome of the attribution step.
+
+    Attributes
+    ----------
+    evidence : list of Evidence
+        First-round tests of every candidate × transform.
+    accepted : list of Evidence
+        Effects accepted, in order (the first is the verdict unless ``ambiguous``).
+    ambiguous : list of str
+        Columns that cannot be told apart from the first effect (verdict withheld if any).
+    notes : dict
+        Column → sentence on its relation to the accepted effects.
+    """
+
+    evidence: list[Evidence]
+    accepted: list[Evidence] = field(default_factory=list)
+    ambiguous: list[str] = field(default_factory=list)
+    notes: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def verdict(self) -> Evidence | None:
+        """The single cause the engine stands behind, or None."""
+        if not self.accepted or self.ambiguous:
+            return None
+        return self.accepted[0]
+
+
+def _best_by_column(evidence: list[Evidence], passing_only: bool) -> dict[str, Evidence]:
+    best: dict[str, Evidence] = {}
+    for ev in evidence:
+        if passing_only and not ev.passes:
+            continue
+        if ev.test.column not in best or ev.test.gain > best[ev.test.column].test.gain:
+            best[ev.test.column] = ev
+    return best
+
+
+PAIRWISE_SURROGATES = 499
+"""Most surrogates of a single conditional test (level :data:`ALPHA`, no multiplicity)."""
+
+
+class _Conditional:
+    """Conditional surrogate tests ``p(bank | given blocks)`` on a fixed residual and folds."""
+
+    def __init__(self, r, B, folds, groups, rng):
+        self.r, self.B, self.folds, self.groups, self.rng = r, B, folds, groups, rng
+
+    def p(self, bank: CandidateBank, given: list[np.ndarray]) -> float:
+        cv = CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
+        return surrogate_test(cv, bank, self.groups, self.rng, PAIRWISE_SURROGATES).p_value
+
+
+def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given: list[np.ndarray]) -> Evidence:
+    """Best passing transform of one column; ``lag`` only if it adds to ``level``."""
+    passing = sorted((e for e in column_evidence if e.passes), key=lambda e: -e.test.gain)
+    best = passing[0]
+    level = next((e for e in passing if e.test.transform == "level"), None)
+    if best.test.transform == "lag" and level is not None:
+        lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z[:, :, 1:])
+        if cond.p(lag_only, [*given, level.test.bank.block(0)]) >= ALPHA:
+            return level
+    return best
+
+
+def attribute(
+    r: np.ndarray,
+    B: np.ndarray,
+    banks: list[CandidateBank],
+    folds: list[np.ndarray],
+    groups: np.ndarray,
+    noise_rmse: float,
+    rng: np.random.Generator,
+) -> Attribution:
+    """Test, rank and disambiguate candidate effects (see the module docstring).
+
+    Parameters
+    ----------
+    r : ndarray, shape (n_real,)
+        Baseline residual on the real rows.
+    B : ndarray, shape (n_real, p)
+        Base regressors (with an intercept column).
+    banks : list of CandidateBank
+        Everything to test (:func:`build_banks`).
+    folds : list of ndarray
+        Blocked cross-validation folds of the real rows.
+    groups : ndarray of int
+        Group code per real row.
+    noise_rmse : float
+        Noise level for the absolute floor (the train reference RMSE).
+    rng : numpy.random.Generator
+        Source of the surrogates.
+
+    Returns
+    -------
+    Attribution
+    """
+    cond = _Conditional(r, B, folds, groups, rng)
+    evidence = _test_round(r, B, banks, folds, groups, noise_rmse, rng, 1)
+    result = Attribution(evidence)
+    passing = _best_by_column(evidence, passing_only=True)
+    if not passing:
+        return result
+
+    def chosen(column: str) -> Evidence:
+        return _choose_transform([e for e in evidence if e.test.column == column], cond, [])
+
+    def by_gain(columns) -> list[str]:
+        return sorted(columns, key=lambda c: -passing[c].test.gain)
+
+    champion = chosen(by_gain(passing)[0])
+    pending = by_gain(c for c in passing if c != champion.test.column)
+    done: set[str] = set()
+    for _ in range(len(passing) ** 2):  # bound: each swap needs one-sided evidence
+        if not pending:
+            break
+        rival = chosen(pending.pop(0))
+        a, b = champion.test, rival.test
+        a_beyond_b = cond.p(a.bank, [b.bank.block(b.variant)]) < ALPHA
+        b_beyond_a = cond.p(b.bank, [a.bank.block(a.variant)]) < ALPHA
+        if b_beyond_a and not a_beyond_b:
+            # The rival explains the champion away: it takes over and faces the others again.
+            result.notes[a.column] = f"explained by {b.column}"
+            champion = rival
+            pending = by_gain((done | set(pending)) - {a.column, b.column})
+            done = {a.column}
+            result.ambiguous.clear()
+            continue
+        done.add(b.column)
+        if a_beyond_b and not b_beyond_a:
+            result.notes[b.column] = f"explained by {a.column}"
+        elif a_beyond_b and b_beyond_a:
+            result.notes[b.column] = f"carries information beyond {a.column}"
+        else:
+            result.ambiguous.append(b.column)
+            result.notes[b.column] = f"cannot be told apart from {a.column}"
+    if result.ambiguous:
+        result.notes[champion.test.column] = "cannot be told apart from " + ", ".join(result.ambiguous)
+    result.accepted.append(champion)
+    _further_effects(result, r, B, banks, folds, groups, noise_rmse, rng, cond)
+    return result
+
+
+def _further_effects(result, r, B, banks, folds, groups, noise_rmse, rng, cond) -> None:
+    """Accept more effects in rounds, each conditional on those already accepted."""
+    while len(result.accepted) < MAX_EFFECTS:
+        taken = {e.test.column for e in result.accepted} | set(result.ambiguous)
+        given = [e.test.bank.block(e.test.variant) for e in result.accepted]
+        remaining = [b for b in banks if b.column not in taken]
+        evidence = _test_round(r, np.column_stack([B, *given]), remaining, folds, groups, noise_rmse, rng,
+                               len(result.accepted) + 1)
+        passing = _best_by_column(evidence, passing_only=True)
+        if not passing:
+            return
+        column = max(passing, key=lambda c: passing[c].test.gain)
+        nxt = _choose_transform([e for e in evidence if e.test.column == column], cond, given)
+        names = ", ".join(e.test.column for e in result.accepted)
+        result.notes[column] = f"in addition to {names}"
+        result.accepted.append(nxt)

@@ -1,0 +1,136 @@
+"""The baseline whose gap is diagnosed: a model fitted on the train rows, or a given prediction.
+
+Model kinds (``--model``), fitted on the train rows only:
+
+``mlr``
+    multiple linear regression of the target on the features with an intercept.
+``svr``
+    ε-SVR with an RBF kernel on standardised features and a standardised target:
+    ``C = 10``, ``epsilon = 0.05`` (in target standard deviations), ``gamma = 1/p`` for
+    ``p`` features — scikit-learn's ``gamma="scale"`` on unit-variance inputs.
+``lssvr``
+    LS-SVR with an RBF kernel on standardised features and target: ``C = 10``,
+    ``gamma = 1/p``.
+
+The *train reference* residual — the error to expect where nothing is missing — is measured
+out of sample: a model of the same kind is refitted with the train rows' groups (or blocks)
+held out in turn (:func:`svrqp.gap.blocks.blocked_folds`). In prediction mode it is simply
+target − prediction on the train rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from sklearn.base import RegressorMixin, clone
+from sklearn.compose import TransformedTargetRegressor
+from sklearn.linear_model import LinearRegression
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+from svrqp.exceptions import ProblemError
+from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.prepare import GapData
+
+MODEL_KINDS = ("mlr", "svr", "lssvr")
+"""Model families a baseline can be fitted with."""
+
+SVR_C = 10.0
+SVR_EPSILON = 0.05
+LSSVR_C = 10.0
+
+
+def make_model(kind: str, n_features: int) -> RegressorMixin:
+    """An unfitted regressor of the given kind with the defaults documented above.
+
+    Parameters
+    ----------
+    kind : {"mlr", "svr", "lssvr"}
+        Model family.
+    n_features : int
+        Number of inputs (sets the RBF width ``gamma = 1/n_features``).
+
+    Returns
+    -------
+    sklearn regressor
+    """
+    if kind == "mlr":
+        # Switch to svrqp.linear_models.LinearLS once it is available (same fit/predict API).
+        return LinearRegression()
+    gamma = 1.0 / max(n_features, 1)
+    if kind == "svr":
+        from svrqp.estimators import EpsilonSVR
+
+        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma=gamma)
+    elif kind == "lssvr":
+        from svrqp.estimators import LSSVR
+
+        core = LSSVR(C=LSSVR_C, gamma=gamma)
+    else:
+        raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
+    return make_pipeline(StandardScaler(), TransformedTargetRegressor(regressor=core, transformer=StandardScaler()))
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """Predictions of the baseline on every row and its out-of-sample train reference.
+
+    Attributes
+    ----------
+    kind : str
+        ``"mlr"``, ``"svr"``, ``"lssvr"`` or ``"prediction"``.
+    y_hat : ndarray, shape (n,)
+        Baseline prediction on every row.
+    residual : ndarray, shape (n,)
+        ``y - y_hat``.
+    train_reference : ndarray, shape (n_train,)
+        Out-of-sample residual on the train rows (see module docstring).
+    """
+
+    kind: str
+    y_hat: np.ndarray
+    residual: np.ndarray
+    train_reference: np.ndarray
+
+
+def fit_baseline(data: GapData, kind: str = "mlr") -> Baseline:
+    """Fit the baseline on the train rows (or read the prediction) and form residuals.
+
+    Parameters
+    ----------
+    data : GapData
+        Prepared rows.
+    kind : {"mlr", "svr", "lssvr"}
+        Model family; ignored in prediction mode.
+
+    Returns
+    -------
+    Baseline
+    """
+    train = data.is_train
+    if data.prediction is not None:
+        y_hat = data.prediction
+        residual = data.y - y_hat
+        return Baseline("prediction", y_hat, residual, residual[train])
+    if kind not in MODEL_KINDS:
+        raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
+    y_hat = fit_predict(kind, data.X[train], data.y[train], data.X)
+    return Baseline(kind, y_hat, data.y - y_hat, train_reference_residual(data, kind))
+
+
+def fit_predict(kind: str, X_train: np.ndarray, y_train: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Fit a model of ``kind`` on ``(X_train, y_train)`` and predict ``X``."""
+    model = clone(make_model(kind, X_train.shape[1]))
+    model.fit(X_train, y_train)
+    return np.asarray(model.predict(X), dtype=float).ravel()
+
+
+def train_reference_residual(data: GapData, kind: str) -> np.ndarray:
+    """Blocked cross-validated residual of a ``kind`` model on the train rows."""
+    X, y, groups = data.X[data.is_train], data.y[data.is_train], data.groups[data.is_train]
+    out = np.empty(len(y))
+    for test in blocked_folds(groups):
+        fit_rows = np.setdiff1d(np.arange(len(y)), test, assume_unique=True)
+        out[test] = y[test] - fit_predict(kind, X[fit_rows], y[fit_rows], X[test])
+    return out

@@ -1,0 +1,246 @@
+"""``diagnose``: the sim-to-real gap diagnosis, step by step.
+
+1. **Honest residuals** — fit the baseline on the train rows or read the prediction
+   (:mod:`svrqp.gap.baseline`); the real rows are the others.
+2. **Gate** — is the real-row error beyond the train rows' out-of-sample error, is it white
+   (:mod:`svrqp.gap.gate`)?
+3. **Localise** — where along the order axis (and candidate columns) the squared error
+   concentrates (:mod:`svrqp.gap.localise`).
+4. **Attribute** — which candidate × transform explains it beyond chance, controlling the
+   false-discovery rate and confounding (:mod:`svrqp.gap.attribute`).
+5. **Quantify** — out-of-sample shrink with a block-bootstrap interval, the gate re-run on what
+   is left, and a refit of the model family with the effect as an input
+   (:mod:`svrqp.gap.quantify`).
+6. **Report** — :class:`svrqp.gap.report.GapReport`.
+
+The discrepancy models of steps 4–5 use the base regressors "intercept + the model's
+features" (features mode) or "intercept + the prediction" (prediction mode), standardised on
+the real rows, so an effect gets credit only for what a recalibration of the model itself
+cannot do. Each cause's shrink is for that effect alone added to this base.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+from svrqp.gap import attribute as attr
+from svrqp.gap.attribute import Attribution, Evidence, attribute, build_banks
+from svrqp.gap.baseline import Baseline, fit_baseline
+from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.figures import Series, axis_label
+from svrqp.gap.gate import GateResult, gate
+from svrqp.gap.localise import Region, localise
+from svrqp.gap.prepare import GapData, prepare
+from svrqp.gap.quantify import estimate_shrink, refit_shrink
+from svrqp.gap.report import Cause, GapReport, Verdict
+from svrqp.gap.transforms import tau_grid
+
+Progress = Callable[[str, float], None]
+
+
+def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
+    """Base regressors of the discrepancy models on the real rows (intercept first)."""
+    real = data.is_real
+    columns = data.X[real] if data.prediction is None else baseline.y_hat[real, None]
+    centred = columns - columns.mean(axis=0)
+    scale = centred.std(axis=0)
+    varying = scale > 1e-12 * (1 + np.abs(columns).max(axis=0))
+    return np.column_stack([np.ones(real.sum()), centred[:, varying] / scale[varying]])
+
+
+def diagnose(
+    df: pd.DataFrame,
+    *,
+    target: str,
+    train: str | np.ndarray | pd.Series,
+    features: str | list[str] | None = None,
+    prediction: str | None = None,
+    candidates: str | list[str],
+    order: str | None = None,
+    group: str | None = None,
+    model: str = "mlr",
+    seed: int = 0,
+    progress: Progress | None = None,
+) -> GapReport:
+    """Diagnose the gap between a model (or a simulation) and real measurements.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The measurements, one row per sample.
+    target : str
+        Measured column (e.g. ``"error_um"``).
+    train : str or boolean mask
+        Pandas query selecting the rows the model was built on (e.g. ``"batch == 'x1'"``);
+        the other rows are the *real* rows where the gap is assessed.
+    features : str or list of str, optional
+        Model inputs; a baseline of kind ``model`` is fitted on the train rows. Exclusive
+        with ``prediction``.
+    prediction : str, optional
+        Column holding a simulation's prediction (nothing is fitted).
+    candidates : str or list of str
+        Measured columns that may carry the unmodelled effect (a model feature may be a
+        candidate: then only its ``rate`` and ``lag`` are tested).
+    order : str, optional
+        Time (min) or position (mm) column; rates and filters run along it.
+    group : str, optional
+        Run/batch column; transforms restart and cross-validation is blocked per group.
+    model : {"mlr", "svr", "lssvr"}
+        Baseline model family (features mode).
+    seed : int
+        Seed of the surrogates and the bootstrap (results are reproducible).
+    progress : callable, optional
+        Called as ``progress(stage, fraction_done)``.
+
+    Returns
+    -------
+    GapReport
+    """
+    started = time.perf_counter()
+    report_progress = progress or (lambda stage, done: None)
+    rng = np.random.default_rng(seed)
+
+    report_progress("checking input", 0.0)
+    data = prepare(df, target=target, train=train, features=features, prediction=prediction,
+                   candidates=candidates, order=order, group=group)
+    report_progress("fitting the baseline", 0.05)
+    baseline = fit_baseline(data, model)
+    real = data.is_real
+    r, groups = baseline.residual[real], data.groups[real]
+    B = base_design(data, baseline)
+    folds = blocked_folds(groups)
+    taus = tau_grid(data.t, data.groups)
+
+    gap = gate(r, groups, baseline.train_reference, data.groups[data.is_train])
+    report_progress("localising", 0.15)
+    where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
+    report_progress("testing candidates", 0.2)
+    banks = build_banks(data, taus)
+    attribution = attribute(r, B, banks, folds, groups, gap.train_rmse, rng)
+    report_progress("quantifying", 0.85)
+    causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
+    verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups)
+    detected = bool(gap.p_excess < attr.ALPHA or any(e.passes for e in attribution.evidence))
+    report_progress("reporting", 0.98)
+
+    series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels, data.is_train,
+                    data.y, baseline.y_hat, errors_after.get(verdict.column))
+    report = GapReport(
+        target=data.target,
+        mode="prediction" if data.prediction is not None else "features",
+        model=None if data.prediction is not None else model,
+        features=data.features,
+        prediction=data.prediction_name,
+        candidates=data.candidates,
+        order=data.order_name,
+        group=data.group_name,
+        n_rows=len(data.y),
+        n_train=int(data.is_train.sum()),
+        n_real=int(real.sum()),
+        n_dropped=data.n_dropped,
+        n_dropped_short_groups=data.n_dropped_short_groups,
+        gap=gap,
+        gap_detected=detected,
+        where=where,
+        causes=causes,
+        verdict=verdict,
+        residual_gate=residual_gate,
+        remaining=[e.test.column for e in attribution.accepted[1:]] if verdict.column else [],
+        summary=_summary(data, gap, where, verdict, attribution),
+        settings={
+            "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
+            "max_surrogates": attr.MAX_SURROGATES, "n_folds": len(folds), "taus": taus.tolist(), "seed": seed,
+        },
+        runtime_s=0.0,
+        series=series,
+    )
+    report.runtime_s = time.perf_counter() - started
+    report_progress("done", 1.0)
+    return report
+
+
+def _representatives(attribution: Attribution) -> list[Evidence]:
+    """One test per column, ranked: accepted effects, undecidable rivals, then by evidence."""
+    first = list(attribution.accepted[:1])
+    first += [_best(attribution.evidence, c) for c in attribution.ambiguous]
+    first += attribution.accepted[1:]
+    taken = {e.test.column for e in first}
+    rest = [_best(attribution.evidence, c) for c in dict.fromkeys(e.test.column for e in attribution.evidence)
+            if c not in taken]
+    rest.sort(key=lambda e: (not e.passes, -e.test.gain))
+    return first + rest
+
+
+def _best(evidence: list[Evidence], column: str) -> Evidence:
+    """A column's strongest test: the best passing one, else the one with the largest gain."""
+    own = [e for e in evidence if e.test.column == column]
+    return max(own, key=lambda e: (e.passes, e.test.gain))
+
+
+def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[str, np.ndarray]]:
+    causes, errors_after = [], {}
+    for ev in _representatives(attribution):
+        shrink = estimate_shrink(r, B, ev.test.bank.Z, folds, groups, rng)
+        errors_after[ev.test.column] = shrink.errors
+        tau = None
+        if ev.test.transform == "lag":
+            tau = ev.test.tau
+        causes.append(Cause(
+            column=ev.test.column, transform=ev.test.transform, tau=tau, p_value=ev.q_value, p_raw=ev.test.p_value,
+            gain=ev.test.gain, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
+            shrink=shrink.shrink, shrink_ci=(shrink.ci_low, shrink.ci_high), round=ev.round,
+            note=attribution.notes.get(ev.test.column),
+        ))
+    return causes, errors_after
+
+
+def _verdict(attribution, causes, errors_after, data, baseline, groups) -> tuple[Verdict, GateResult | None]:
+    train_groups = data.groups[data.is_train]
+    if attribution.verdict is None:
+        if attribution.accepted:  # strong evidence, but for several indistinguishable candidates
+            names = [causes[0].column, *attribution.ambiguous]
+            reason = (f"{', '.join(names)} explain the gap about equally well and cannot be told apart "
+                      "on these data; no single cause is named.")
+            return Verdict(column=None, reason=reason, ambiguous_with=names), None
+        reason = "No candidate explains the real-row error beyond chance (false-discovery rate "
+        reason += f"{attr.ALPHA:g}, effect floor {attr.MIN_GAIN:g} relative / {attr.MIN_AMPLITUDE:g}× noise)."
+        return Verdict(column=None, reason=reason), None
+    top = causes[0]
+    refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)
+    after = errors_after[top.column]
+    residual_gate = gate(after, groups, baseline.train_reference, train_groups)
+    reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} explains the gap "
+              f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
+              f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}); refitting the model with it as an "
+              f"input shrinks it by {refit:.0%}.")
+    return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, shrink=top.shrink,
+                   shrink_ci=top.shrink_ci, refit_shrink=refit, rmse_before=top.rmse_before,
+                   rmse_after=top.rmse_after, p_value=top.p_value), residual_gate
+
+
+def _tau_text(tau: float | None, order_name: str) -> str:
+    if tau is None:
+        return ""
+    unit = axis_label(order_name).rpartition("(")[2].rstrip(")")
+    return f" (τ = {tau:.3g} {unit})"
+
+
+def _summary(data: GapData, gap: GateResult, where: list[Region], verdict: Verdict, attribution: Attribution) -> str:
+    unit = axis_label(data.target).rpartition("(")[2].rstrip(")")
+    text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is {gap.real_rmse:.3g} {unit} RMS "
+            f"against {gap.train_rmse:.3g} {unit} on the train rows")
+    top = where[0] if where else None
+    if top is not None and top.share < 0.999:
+        text += f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error)"
+    if verdict.column is not None:
+        text += (f", and the {verdict.transform} of {verdict.column}{_tau_text(verdict.tau, data.order_name)} "
+                 f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample.")
+    elif verdict.ambiguous_with:
+        text += f"; {' and '.join(verdict.ambiguous_with)} explain it equally well and cannot be told apart."
+    else:
+        text += "; no candidate explains it beyond chance."
+    return text

@@ -1,0 +1,116 @@
+"""Figures of a gap report (matplotlib, Agg backend; every axis labelled with its unit)."""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
+import numpy as np  # noqa: E402
+
+from svrqp.gap.transforms import group_slices  # noqa: E402
+
+UNITS = {"um": "µm", "mm": "mm", "min": "min", "s": "s", "h": "h", "C": "°C", "K": "K", "rpm": "rpm", "pct": "%"}
+"""Column-name suffixes read as units (``error_um`` → µm)."""
+
+
+def axis_label(name: str) -> str:
+    """Axis label of a column: ``"time_min"`` → ``"time (min)"``; ``"row"`` → row position."""
+    if name == "row":
+        return "row within group (count)"
+    stem, _, suffix = name.rpartition("_")
+    if stem and suffix in UNITS:
+        return f"{stem.replace('_', ' ')} ({UNITS[suffix]})"
+    return f"{name} (units of the column)"
+
+
+@dataclass(frozen=True)
+class Series:
+    """What the figures draw, per row (sorted by group and order).
+
+    Attributes
+    ----------
+    target, order_name : str
+        Column names (for labels).
+    t : ndarray
+        Order values.
+    groups : ndarray of int
+        Group code per row.
+    group_labels : list of str
+        Label per group code.
+    is_train : ndarray of bool
+        Train rows.
+    y, y_hat : ndarray
+        Measured target and baseline prediction.
+    after : ndarray or None
+        Out-of-sample error on the real rows with the verdict's effect added.
+    """
+
+    target: str
+    order_name: str
+    t: np.ndarray
+    groups: np.ndarray
+    group_labels: list[str]
+    is_train: np.ndarray
+    y: np.ndarray
+    y_hat: np.ndarray
+    after: np.ndarray | None
+
+
+def _lines(ax, s: Series, values: np.ndarray, rows: np.ndarray, **style) -> None:
+    """Plot ``values`` against order, one line piece per group, only on ``rows``."""
+    first = True
+    for piece in group_slices(s.groups):
+        keep = rows[piece]
+        if keep.any():
+            label = style.pop("label", None) if first else None
+            ax.plot(s.t[piece][keep], values[piece][keep], label=label, **style)
+            first = False
+
+
+def gap_figure(s: Series, regions: list[tuple[float, float]]) -> bytes:
+    """Measured vs model (top) and residual with shaded regions (bottom), PNG bytes."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    real = ~s.is_train
+    _lines(top, s, s.y, s.is_train, color="0.6", lw=1, label="measured (train rows)")
+    _lines(top, s, s.y, real, color="C0", lw=1, label="measured (real rows)")
+    _lines(top, s, s.y_hat, np.ones_like(real), color="C1", lw=1, ls="--", label="model")
+    top.set_ylabel(axis_label(s.target))
+    top.legend(loc="best", fontsize=8)
+    residual = s.y - s.y_hat
+    _lines(bottom, s, residual, s.is_train, color="0.6", lw=1, label="residual (train rows)")
+    _lines(bottom, s, residual, real, color="C3", lw=1, label="residual (real rows)")
+    for k, (low, high) in enumerate(regions):
+        bottom.axvspan(low, high, color="C3", alpha=0.12, label="error concentrates" if k == 0 else None)
+    bottom.axhline(0, color="k", lw=0.5)
+    bottom.set_ylabel(f"residual {axis_label(s.target)}")
+    bottom.set_xlabel(axis_label(s.order_name))
+    bottom.legend(loc="best", fontsize=8)
+    return _png(fig)
+
+
+def before_after_figure(s: Series, effect: str) -> bytes:
+    """Real-row residual before and (out of sample) after adding the effect, PNG bytes."""
+    fig, ax = plt.subplots(figsize=(9, 3.5))
+    real = ~s.is_train
+    residual = s.y - s.y_hat
+    _lines(ax, s, residual, real, color="C3", lw=1, label="before")
+    after = np.full_like(residual, np.nan)
+    after[real] = s.after
+    _lines(ax, s, after, real, color="C2", lw=1, label=f"after adding {effect} (out of sample)")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel(axis_label(s.order_name))
+    ax.set_ylabel(f"residual {axis_label(s.target)}")
+    ax.legend(loc="best", fontsize=8)
+    return _png(fig)
+
+
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    return buffer.getvalue()

@@ -1,0 +1,136 @@
+r"""Is there a gap beyond chance? Tests on a residual before any cause is named.
+
+Excess error
+    The mean squared residual on the real rows, :math:`s_r^2`, against the out-of-sample
+    mean squared residual on the train rows, :math:`s_t^2` (the error to expect where
+    nothing is missing, :mod:`svrqp.gap.baseline`). Under "no gap" their ratio is
+    F-distributed; because the rows are autocorrelated, each sample counts with its
+    effective size (Bartlett's AR(1) correction)
+
+    .. math::
+
+        F = \frac{s_r^2}{s_t^2},\qquad
+        n_{\mathrm{eff}} = n\,\frac{1-\rho_1}{1+\rho_1},\qquad
+        p = P\bigl(F_{n_{\mathrm{eff},r},\,n_{\mathrm{eff},t}} \ge F\bigr),
+
+    with :math:`\rho_1` the lag-1 autocorrelation of each residual
+    (:func:`svrqp.gap.blocks.lag1_autocorrelation`).
+
+Whiteness
+    The Ljung–Box statistic of the real-row residual, pooled over groups,
+
+    .. math::
+
+        Q = n(n+2)\sum_{h=1}^{H}\frac{\hat\rho_h^2}{n-h} \sim \chi^2_H ,
+
+    the residual test of system identification (Ljung, *System Identification*, §16.6).
+    Measurement noise is often coloured, so a non-white residual alone is reported but does
+    not decide anything; the decision on causes rests on the surrogate tests of
+    :mod:`svrqp.gap.attribute`, which keep the residual's autocorrelation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from svrqp.gap.blocks import lag1_autocorrelation
+from svrqp.gap.transforms import group_slices
+
+LJUNG_BOX_LAGS = 20
+"""Largest lag :math:`H` of the Ljung–Box statistic (fewer for short groups)."""
+
+
+@dataclass(frozen=True)
+class GateResult:
+    """Outcome of the gap tests on one residual.
+
+    Attributes
+    ----------
+    train_rmse : float
+        Out-of-sample RMSE on the train rows (the reference).
+    real_rmse : float
+        RMSE of the residual on the real rows.
+    ratio : float
+        ``real_rmse / train_rmse``.
+    p_excess : float
+        p-value of the excess-error F test.
+    p_white : float
+        Ljung–Box p-value of the real-row residual.
+    rho1 : float
+        Lag-1 autocorrelation of the real-row residual.
+    """
+
+    train_rmse: float
+    real_rmse: float
+    ratio: float
+    p_excess: float
+    p_white: float
+    rho1: float
+
+
+def effective_size(residual: np.ndarray, groups: np.ndarray) -> float:
+    """Effective number of independent rows of an AR(1)-like residual."""
+    rho = lag1_autocorrelation(residual, groups)
+    return max(2.0, len(residual) * (1 - rho) / (1 + rho))
+
+
+def excess_error_pvalue(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_groups: np.ndarray) -> float:
+    """One-sided p-value that the real-row mean square exceeds the train reference's."""
+    ms_real, ms_train = float(np.mean(real**2)), float(np.mean(train**2))
+    if ms_train <= 0:
+        return 0.0 if ms_real > 0 else 1.0
+    ratio = ms_real / ms_train
+    return float(stats.f.sf(ratio, effective_size(real, real_groups), effective_size(train, train_groups)))
+
+
+def ljung_box_pvalue(residual: np.ndarray, groups: np.ndarray, lags: int = LJUNG_BOX_LAGS) -> float:
+    """Ljung–Box p-value with autocorrelations pooled over groups (each group demeaned)."""
+    slices = group_slices(groups)
+    shortest = min(s.stop - s.start for s in slices)
+    H = int(min(lags, max(1, shortest // 4)))
+    num = np.zeros(H)
+    den = 0.0
+    for rows in slices:
+        e = residual[rows] - residual[rows].mean()
+        den += float(e @ e)
+        for h in range(1, H + 1):
+            num[h - 1] += float(e[h:] @ e[:-h])
+    if den <= 0:
+        return 1.0
+    n = len(residual)
+    rho = num / den
+    Q = n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, H + 1)))
+    return float(stats.chi2.sf(Q, H))
+
+
+def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_groups: np.ndarray) -> GateResult:
+    """Run the excess-error and whiteness tests on a real-row residual.
+
+    Parameters
+    ----------
+    real : ndarray
+        Residual on the real rows (before or after adding an effect).
+    real_groups : ndarray of int
+        Group code per real row (contiguous groups).
+    train : ndarray
+        Out-of-sample reference residual on the train rows.
+    train_groups : ndarray of int
+        Group code per train row.
+
+    Returns
+    -------
+    GateResult
+    """
+    train_rmse = float(np.sqrt(np.mean(train**2)))
+    real_rmse = float(np.sqrt(np.mean(real**2)))
+    return GateResult(
+        train_rmse=train_rmse,
+        real_rmse=real_rmse,
+        ratio=real_rmse / train_rmse if train_rmse > 0 else float("inf"),
+        p_excess=excess_error_pvalue(real, real_groups, train, train_groups),
+        p_white=ljung_box_pvalue(real, real_groups),
+        rho1=lag1_autocorrelation(real, real_groups),
+    )

@@ -1,0 +1,269 @@
+"""The gap report: a dataclass, its ``svrqp.gap/1`` JSON, and HTML / Markdown renderings.
+
+The JSON is validated against the published schema ``svrqp/gap/gap.schema.json`` (shipped in
+the package) before anything is written: a report that fails it is never written. Non-finite
+numbers become ``null``. No file is overwritten unless ``force=True``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+
+from svrqp.exceptions import SvrqpError
+from svrqp.gap.figures import Series, axis_label, before_after_figure, gap_figure
+from svrqp.gap.gate import GateResult
+from svrqp.gap.localise import Region
+
+SCHEMA_ID = "svrqp.gap/1"
+
+
+def load_schema() -> dict:
+    """The JSON Schema of ``svrqp.gap/1``."""
+    return json.loads(resources.files("svrqp.gap").joinpath("gap.schema.json").read_text(encoding="utf-8"))
+
+
+@dataclass(frozen=True)
+class Cause:
+    """One row of the ranked causes table (see :mod:`svrqp.gap.attribute`)."""
+
+    column: str
+    transform: str
+    tau: float | None
+    p_value: float
+    p_raw: float
+    gain: float
+    significant: bool
+    rmse_before: float
+    rmse_after: float
+    shrink: float
+    shrink_ci: tuple[float, float]
+    round: int
+    note: str | None = None
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The single cause the engine stands behind (``column is None`` when there is none)."""
+
+    column: str | None
+    reason: str
+    transform: str | None = None
+    tau: float | None = None
+    shrink: float | None = None
+    shrink_ci: tuple[float, float] | None = None
+    refit_shrink: float | None = None
+    rmse_before: float | None = None
+    rmse_after: float | None = None
+    p_value: float | None = None
+    ambiguous_with: list[str] = field(default_factory=list)
+
+
+@dataclass
+class GapReport:
+    """Result of :func:`svrqp.gap.diagnose`.
+
+    The attributes mirror the keys of the ``svrqp.gap/1`` JSON (:meth:`to_dict`); ``series``
+    holds the per-row data the figures draw and is not part of the JSON.
+    """
+
+    target: str
+    mode: str
+    model: str | None
+    features: list[str]
+    prediction: str | None
+    candidates: list[str]
+    order: str
+    group: str | None
+    n_rows: int
+    n_train: int
+    n_real: int
+    n_dropped: int
+    n_dropped_short_groups: int
+    gap: GateResult
+    gap_detected: bool
+    where: list[Region]
+    causes: list[Cause]
+    verdict: Verdict
+    residual_gate: GateResult | None
+    remaining: list[str]
+    summary: str
+    settings: dict[str, Any]
+    runtime_s: float
+    series: Series = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``svrqp.gap/1`` document as plain Python (validated against the schema)."""
+        gap = asdict(self.gap)
+        gap["detected"] = self.gap_detected
+        residual_gate = None
+        if self.residual_gate is not None:
+            g = self.residual_gate
+            residual_gate = {"real_rmse": g.real_rmse, "ratio": g.ratio, "p_excess": g.p_excess,
+                             "p_white": g.p_white, "remaining": list(self.remaining)}
+        document = {
+            "schema": SCHEMA_ID,
+            "target": self.target,
+            "mode": self.mode,
+            "model": self.model,
+            "features": list(self.features),
+            "prediction": self.prediction,
+            "candidates": list(self.candidates),
+            "order": self.order,
+            "group": self.group,
+            "n_rows": self.n_rows,
+            "n_train": self.n_train,
+            "n_real": self.n_real,
+            "n_dropped": self.n_dropped,
+            "n_dropped_short_groups": self.n_dropped_short_groups,
+            "gap": gap,
+            "where": [asdict(r) for r in self.where],
+            "causes": [asdict(c) for c in self.causes],
+            "verdict": asdict(self.verdict),
+            "residual_gate": residual_gate,
+            "summary": self.summary,
+            "settings": self.settings,
+            "runtime_s": self.runtime_s,
+        }
+        document = _finite(document)
+        try:
+            jsonschema.validate(document, load_schema())
+        except jsonschema.ValidationError as err:
+            raise SvrqpError(f"gap report fails its schema {SCHEMA_ID} at {list(err.absolute_path)}: {err.message}") from err
+        return document
+
+    def to_json(self, indent: int = 2) -> str:
+        """The schema-valid ``svrqp.gap/1`` JSON text."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def write_json(self, path: str | Path, force: bool = False) -> Path:
+        """Write :meth:`to_json` to ``path`` (validated first; refuses to overwrite unless ``force``)."""
+        return _write(path, self.to_json().encode("utf-8"), force)
+
+    def to_markdown(self, path: str | Path | None = None, force: bool = False) -> str:
+        """The report as Markdown; with ``path``, also write it and its PNG figures beside it."""
+        figures = self._figures()
+        stem = "figure" if path is None else Path(path).stem
+        names = {key: f"{stem}_{key}.png" for key in figures}
+        text = self._markdown(names)
+        if path is not None:
+            path = Path(path)
+            targets = [path, *(path.with_name(name) for name in names.values())]
+            taken = [str(t) for t in targets if t.exists()]
+            if taken and not force:
+                raise FileExistsError(f"{taken} exist; pass force=True (--force) to overwrite them")
+            for key, png in figures.items():
+                _write(path.with_name(names[key]), png, force=True)
+            _write(path, text.encode("utf-8"), force=True)
+        return text
+
+    def to_html(self, path: str | Path, force: bool = False) -> Path:
+        """Write a self-contained HTML report (figures embedded) to ``path``."""
+        return _write(path, self._html().encode("utf-8"), force)
+
+    # -- rendering ---------------------------------------------------------------------
+
+    def _order_regions(self) -> list[tuple[float, float]]:
+        return [(r.low, r.high) for r in self.where if r.column == self.order]
+
+    def _figures(self) -> dict[str, bytes]:
+        figures = {"gap": gap_figure(self.series, self._order_regions())}
+        if self.verdict.column is not None and self.series.after is not None:
+            figures["before_after"] = before_after_figure(self.series, _effect_name(self.verdict))
+        return figures
+
+    def _tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:
+        unit = axis_label(self.target)
+        where = (["column", "low", "high", f"RMSE {unit}", "share", "n"],
+                 [[r.column, _num(r.low), _num(r.high), _num(r.rmse), f"{r.share:.0%}", str(r.n)] for r in self.where])
+        causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"RMSE after {unit}", "shrink (95 % CI)", "note"],
+                  [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.gain), _num(c.rmse_after),
+                    f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})", c.note or ("significant" if c.significant else "")]
+                   for i, c in enumerate(self.causes)])
+        g = self.gap
+        gap = (["train RMSE", "real RMSE", "ratio", "p (excess error)", "p (white residual)"],
+               [[_num(g.train_rmse), _num(g.real_rmse), _num(g.ratio), _num(g.p_excess), _num(g.p_white)]])
+        return {"gap": gap, "where": where, "causes": causes}
+
+    def _markdown(self, figure_names: dict[str, str]) -> str:
+        tables = self._tables()
+        out = [f"# Gap diagnosis of `{self.target}`", "", self.summary, "", "## Gap", "", _md_table(*tables["gap"]),
+               "", f"![measured, model and residual]({figure_names['gap']})", "", "## Where", "",
+               _md_table(*tables["where"]), "", "## Causes", "", _md_table(*tables["causes"]), ""]
+        if "before_after" in figure_names:
+            out += [f"![before and after]({figure_names['before_after']})", ""]
+        out += ["## Verdict", "", f"{self.verdict.reason}", ""]
+        return "\n".join(out)
+
+    def _html(self) -> str:
+        figures = self._figures()
+        tables = self._tables()
+        img = {k: f'<img alt="{k}" src="data:image/png;base64,{base64.b64encode(v).decode()}">' for k, v in figures.items()}
+        parts = [f"<h1>Gap diagnosis of <code>{html.escape(self.target)}</code></h1>", f"<p>{html.escape(self.summary)}</p>",
+                 "<h2>Gap</h2>", _html_table(*tables["gap"]), img["gap"], "<h2>Where</h2>", _html_table(*tables["where"]),
+                 "<h2>Causes</h2>", _html_table(*tables["causes"]), img.get("before_after", ""),
+                 "<h2>Verdict</h2>", f"<p>{html.escape(self.verdict.reason)}</p>"]
+        style = "body{font-family:sans-serif;max-width:60em;margin:2em auto}table{border-collapse:collapse}" \
+                "td,th{border:1px solid #ccc;padding:0.2em 0.5em}img{max-width:100%}"
+        return f"<!doctype html><html><head><meta charset='utf-8'><title>svrqp gap</title><style>{style}</style></head>" \
+               f"<body>{''.join(parts)}</body></html>"
+
+
+def _effect_name(v: Verdict) -> str:
+    if v.transform == "lag":
+        return f"lag of {v.column} (τ = {v.tau:.3g})"
+    return f"{v.transform} of {v.column}"
+
+
+def _num(x: float | None) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return f"{x:.3g}"
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _html_table(header: list[str], rows: list[list[str]]) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _finite(value: Any) -> Any:
+    """Replace non-finite floats by None, tuples by lists, numpy scalars by Python ones."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _write(path: str | Path, content: bytes, force: bool) -> Path:
+    """Write atomically; refuse to replace an existing file unless ``force``."""
+    path = Path(path)
+    if path.exists() and not force:
+        raise FileExistsError(f"{path} exists; pass force=True (--force) to overwrite it")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    with os.fdopen(handle, "wb") as stream:
+        stream.write(content)
+    os.replace(tmp, path)
+    return path
