@@ -1,0 +1,142 @@
+"""``svrqp fit``: fit one model on a table and report its coefficients and residuals.
+
+The rows selected by ``--train`` are fitted; the residual metrics of the papers (RMS, standard
+deviation, max |dev|, mean |dev|, peak-to-peak) are printed for them and for the other rows. For
+``rls`` the other rows are also run through S3's on-line loop (predict, compensate, update).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import typer
+from rich.console import Console
+from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+from svrqp.cli._common import read_table, split_columns
+from svrqp.cli.export import MODELS, make_estimator, parse_gamma
+from svrqp.compensate import online_compensation, residual_metrics
+from svrqp.exceptions import ProblemError
+from svrqp.linear_models import PolynomialLS, split_unit
+
+
+def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:
+    """Boolean mask of the rows ``query`` selects (all rows when it is ``None``)."""
+    if query is None:
+        return pd.Series(True, index=table.index)
+    try:
+        mask = table.eval(query)
+    except Exception as err:  # pandas raises many kinds for a malformed query
+        raise ProblemError(f"--train: cannot evaluate query {query!r}: {err}") from err
+    if not (isinstance(mask, pd.Series) and mask.dtype == bool):
+        raise ProblemError(f"--train: query {query!r} must give True/False per row")
+    if not mask.any():
+        raise ProblemError(f"--train: query {query!r} selects no rows")
+    return mask
+
+
+def _print_linear(console: Console, estimator) -> None:
+    table = Table(title="coefficients")
+    for column in ("name", "value", "unit"):
+        table.add_column(column, justify="right" if column == "value" else "left")
+    for row in estimator.coefficient_table().itertuples():
+        table.add_row(row.name, f"{row.value:.6g}", row.unit)
+    console.print(table)
+    typer.echo(estimator.to_latex())
+
+
+def _print_polynomial(console: Console, estimator: PolynomialLS, target: str) -> None:
+    table = Table()
+    table.add_column("m", justify="right")
+    table.add_column("Legendre c_m", justify="right")
+    for m, value in enumerate(estimator.legendre_coef_):
+        table.add_row(str(m), f"{value:.6g}")
+    console.print(table)
+    terms = " ".join(f"{'-' if value < 0 else '+'} {abs(value):.6g}·P{m}(u)"
+                     for m, value in enumerate(estimator.legendre_coef_))
+    low, high = estimator.domain_
+    typer.echo(f"{target} = {terms.removeprefix('+ ')},  u = (2x - {low:g} - {high:g}) / {high - low:g}")
+
+
+def _print_model(console: Console, fitted, target: str) -> None:
+    """Coefficient table and formula of a linear model, the polynomial's basis, or the SVR."""
+    estimator = fitted.steps[-1][1] if hasattr(fitted, "steps") else fitted
+    if hasattr(estimator, "coefficient_table"):
+        _print_linear(console, estimator)
+    elif isinstance(estimator, PolynomialLS):
+        _print_polynomial(console, estimator, target)
+    else:
+        typer.echo(f"{len(estimator.support_)} support vectors, b = {estimator.intercept_[0]:.6g}, "
+                   f"gamma = {estimator.gamma_:.6g}" + (" (standardised inputs)" if fitted is not estimator else ""))
+
+
+def _metrics_table(rows: list[tuple[str, np.ndarray]], unit: str) -> Table:
+    caption = ("online: the other rows through S3's loop (predict, then update the model)"
+               if any(label == "online" for label, _ in rows) else None)
+    table = Table(title=f"residuals ({unit or 'target units'})", caption=caption)
+    for column in ("rows", "n", "rms", "std", "max |dev|", "mean |dev|", "peak-to-peak"):
+        table.add_column(column, justify="left" if column == "rows" else "right")
+    for label, residual in rows:
+        metrics = residual_metrics(residual)
+        table.add_row(label, str(residual.size), *(f"{value:.4g}" for value in (
+            metrics.rms_um, metrics.std_um, metrics.max_abs_um, metrics.mean_abs_um,
+            metrics.peak_to_peak_um)))
+    return table
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``svrqp fit`` to ``app``."""
+
+    @app.command("fit")
+    def fit_command(
+        data: Path = typer.Argument(..., help="CSV or Parquet table with the target and feature columns."),
+        target: str = typer.Option(..., "--target", help="Column to predict (unit in its name, e.g. error_um)."),
+        features: str = typer.Option(..., "--features", help="Comma-separated input columns (e.g. T7_C,T9_C)."),
+        model: str = typer.Option("mlr", "--model", help=f"One of {', '.join(MODELS)}: multiple linear "
+                                  "regression, ε-SVR, LS-SVR, polynomial (one input), recursive LS."),
+        train: str = typer.Option(None, "--train", help="pandas query selecting the rows to fit (e.g. "
+                                  "\"batch == 'x1'\"); the other rows are assessed. Default: all rows."),
+        C: float = typer.Option(1.0, "--C", help="svr/lssvr: the regularisation weight C."),
+        epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target units."),
+        gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma in exp(-γ‖x−x'‖²) "
+                                  "(S0's g = 1/σ²; S4's σ gives 1/(2σ²)), or 'scale'/'auto'."),
+        degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (S2: 5)."),
+        forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
+        solver: str = typer.Option("clarabel", "--solver", help="svr: the QP backend."),
+        standardize: bool = typer.Option(False, "--standardize", help="svr/lssvr: standardise the inputs "
+                                         "before the kernel."),
+    ) -> None:
+        """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
+        table = read_table(data)
+        columns = split_columns(features, table, "--features")
+        if not columns:
+            raise ProblemError("--features: give at least one column")
+        split_columns(target, table, "--target")
+        if standardize and model not in ("svr", "lssvr"):
+            raise ProblemError("--standardize applies to svr and lssvr only")
+        estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
+                                   forgetting=forgetting, solver=solver)
+        fitted = make_pipeline(StandardScaler(), estimator) if standardize else estimator
+        mask = select_train_rows(table, train)
+        X, y = table[columns], table[target]
+        X_train, y_train, X_other, y_other = X[mask], y[mask], X[~mask], y[~mask]
+        console = Console()
+        with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                      console=Console(stderr=True), transient=True) as progress:
+            progress.add_task(f"fitting {model} on {len(y_train)} rows", total=None)
+            fitted.fit(X_train, y_train)
+        typer.echo(f"{model}: {target} ~ {', '.join(columns)}; {len(y_train)} train rows, "
+                   f"{len(y_other)} other rows")
+        _print_model(console, fitted, target)
+        rows = [("train", y_train.to_numpy(dtype=float) - fitted.predict(X_train))]
+        if len(y_other):
+            rows.append(("other", y_other.to_numpy(dtype=float) - fitted.predict(X_other)))
+            if model == "rls":
+                online = online_compensation(fitted, X_other, y_other)
+                rows.append(("online", online.run.residual_um))
+        console.print(_metrics_table(rows, split_unit(target)[1]))
