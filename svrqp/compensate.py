@@ -18,7 +18,9 @@ In output period :math:`j` the axis passes :math:`x_0 \dots x_T`; with the feed-
 
 with the dead band :math:`d = 1` μm. :func:`windowed_mean_offsets` evaluates the integral by
 the trapezoidal rule on a fine grid and holds :math:`\Delta_j` for every sample of period
-:math:`j`.
+:math:`j`. :math:`E_j` is the mean of :math:`\hat e` over the window; for motion towards
+:math:`-x` the window ends at :math:`x_T - x_f` and the integral and the length are both taken
+with their sign, so the mean keeps its sign.
 
 On-line recursive loop (S3)
 ---------------------------
