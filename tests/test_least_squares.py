@@ -130,13 +130,15 @@ def test_constant_sensor_is_named(s0_thermal_batch):
 
 
 def test_least_norm_only_when_asked(s0_thermal_batch):
+    """T7 logged twice, once in units of 0.5 °C: the minimum-norm coefficients split the
+    effect as a₀ : a₂ = 1 : 2 (minimum of a₀² + a₂² subject to a₀ + 2a₂ fixed)."""
     X, y = s0_thermal_batch
-    duplicated = np.column_stack([X, X[:, 0]])
+    duplicated = np.column_stack([X, 2.0 * X[:, 0]])
     fit = fit_linear(duplicated, y, rank_deficient="lstsq")
     reference = LinearRegression().fit(duplicated, y)  # scipy lstsq: the minimum-norm answer
     assert fit.rank == 2
     np.testing.assert_allclose(fit.coef, reference.coef_, rtol=1e-8)
-    np.testing.assert_allclose(fit.coef[0], fit.coef[2], rtol=1e-10)
+    np.testing.assert_allclose(2.0 * fit.coef[0], fit.coef[2], rtol=1e-10)
 
 
 def test_fewer_samples_than_parameters(s0_thermal_batch):

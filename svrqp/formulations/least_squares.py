@@ -243,8 +243,9 @@ def solve_normal_equations(
                 f"the design matrix is rank deficient (rank {rank} < {p} parameters); "
                 f"linearly dependent column(s): {_dependent_columns(scaled, names)}"
             )
-        z = np.linalg.lstsq(scaled, y, rcond=None)[0]
-        return NormalEquationsSolution(coef=z * scale, rank=rank, condition_number=np.inf)
+        # Minimum norm of a itself, so on the unscaled columns.
+        a = np.linalg.lstsq(X, y, rcond=None)[0]
+        return NormalEquationsSolution(coef=a, rank=rank, condition_number=np.inf)
     condition_number = float((singular_values[0] / singular_values[-1]) ** 2)
     if condition_number > CONDITION_WARNING:
         warnings.warn(
