@@ -73,10 +73,16 @@ MIN_GAIN = 0.02
 MIN_AMPLITUDE = 0.25
 """Absolute effect floor: least explained RMS, as a fraction of the noise RMS."""
 
-SURROGATE_BATCHES = (99, 400, 1500)
-"""Surrogates drawn per stage of the sequential test (cumulative 99, 499, 1999)."""
+SURROGATE_BATCHES = (99, 400, 500, 1000)
+"""Surrogates drawn per stage of the sequential test (cumulative 99, 499, 999, 1999)."""
 
 MAX_SURROGATES = sum(SURROGATE_BATCHES)
+"""Most surrogates of one test; a round of ``m`` tests draws at most ``2m/ALPHA``
+(at least 499), enough for the smallest attainable p-value to pass Benjamini–Hochberg's
+first threshold ``ALPHA/m``."""
+
+PAIRWISE_SURROGATES = 499
+"""Most surrogates of a single conditional test (level :data:`ALPHA`, no multiplicity)."""
 
 STOP_EXCEEDANCES = 10
 """A sequential test stops after this many surrogates reach the observed gain."""
@@ -100,18 +106,23 @@ class CandidateBank:
         ``"level"``, ``"rate"`` or ``"lag"``.
     taus : ndarray or None
         Time constant of each variant (``lag``), else None.
-    Z : ndarray, shape (n_real, v, k)
-        ``v`` variants (time constants) of ``k`` columns each.
+    Z : ndarray, shape (n_real, v)
+        Own column of each of the ``v`` variants (time constants).
+    partner : ndarray, shape (n_real,) or None
+        Column every variant also holds (the level :math:`x` in ``lag`` of an unmodelled
+        candidate), else None.
     """
 
     column: str
     transform: str
     taus: np.ndarray | None
     Z: np.ndarray
+    partner: np.ndarray | None = None
 
     def block(self, variant: int) -> np.ndarray:
         """Columns of one variant, shape (n_real, k)."""
-        return self.Z[:, variant, :]
+        own = self.Z[:, variant : variant + 1]
+        return own if self.partner is None else np.column_stack([self.partner, own])
 
     def tau(self, variant: int) -> float | None:
         """Time constant of a variant (None unless ``lag``)."""
@@ -122,25 +133,29 @@ def _standardise(columns: np.ndarray) -> np.ndarray:
     """Centre and scale each column on the rows given; constant columns become zero."""
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
-    return np.divide(centred, scale, out=np.zeros_like(centred), where=scale > 1e-12 * (1 + np.abs(columns).max(axis=0)))
+    tiny = 1e-12 * (1 + np.abs(columns).max(axis=0))
+    return np.divide(centred, scale, out=np.zeros_like(centred), where=scale > tiny)
 
 
-def transform_columns(data: GapData, column: str, transform: str, taus: np.ndarray | None) -> np.ndarray:
-    """Raw (unstandardised) columns of a transform on every row, shape (n, v, k).
+def transform_columns(
+    data: GapData, column: str, transform: str, taus: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Raw (unstandardised) columns of a transform on every row.
 
-    ``level`` (1 variant, ``[x]``), ``rate`` (1 variant, ``[dx/dt]``), ``lag``
-    (one variant per ``tau``: ``[x, x_tau - x]``, or ``[x_tau - x]`` when the candidate is
-    a model feature).
+    Returns
+    -------
+    own : ndarray, shape (n, v)
+        ``level``: :math:`x`; ``rate``: :math:`\\dot x`; ``lag``: :math:`\\ell_\\tau` per ``tau``.
+    partner : ndarray, shape (n,) or None
+        :math:`x` for ``lag`` of a candidate that is not a model feature, else None.
     """
     x = data.C[:, data.candidates.index(column)]
     if transform == "level":
-        return x[:, None, None]
+        return x[:, None], None
     if transform == "rate":
-        return rate(x, data.t, data.groups)[:, None, None]
+        return rate(x, data.t, data.groups)[:, None], None
     ell = lag(x, data.t, data.groups, taus)
-    if column in data.features:
-        return ell[:, :, None]
-    return np.stack([np.broadcast_to(x[:, None], ell.shape), ell], axis=2)
+    return ell, (None if column in data.features else x)
 
 
 def build_banks(data: GapData, taus: np.ndarray) -> list[CandidateBank]:
@@ -151,10 +166,11 @@ def build_banks(data: GapData, taus: np.ndarray) -> list[CandidateBank]:
         for transform in ("level", "rate", "lag"):
             if transform == "level" and column in data.features:
                 continue  # already modelled
-            cols = transform_columns(data, column, transform, taus)[real]
-            n, v, k = cols.shape
-            Z = _standardise(cols.reshape(n, v * k)).reshape(n, v, k)
-            banks.append(CandidateBank(column, transform, taus if transform == "lag" else None, Z))
+            own, partner = transform_columns(data, column, transform, taus)
+            banks.append(CandidateBank(
+                column, transform, taus if transform == "lag" else None, _standardise(own[real]),
+                None if partner is None else _standardise(partner[real, None])[:, 0],
+            ))
     return banks
 
 
@@ -227,20 +243,21 @@ def surrogate_test(
     -------
     TestOutcome
     """
-    n, v, k = bank.Z.shape
-    gains = cv.gain(bank.Z)
+    n, v = bank.Z.shape
+    partner = None if bank.partner is None else bank.partner[:, None]
+    gains = cv.gain(bank.Z[:, None, :], partner)[0]
     variant = int(np.argmax(gains))
     observed = float(gains[variant])
     remaining = float(np.sqrt(cv.sse_base * (1 - observed) / cv.n))
     exceed: list[np.ndarray] = []
     drawn = 0
-    chunk = max(1, _CHUNK_ELEMENTS // (n * v * k))
+    chunk = max(1, _CHUNK_ELEMENTS // (n * v))
     for batch in SURROGATE_BATCHES:
         for start in range(0, batch, chunk):
             size = min(chunk, batch - start)
-            index = circular_shifts(groups, size, rng)  # (size, n)
-            Zs = bank.Z[index.T].reshape(n, size * v, k)
-            surrogate = cv.gain(Zs).reshape(size, v).max(axis=1)
+            rows = circular_shifts(groups, size, rng).T  # (n, size): surrogate s reads rows[:, s]
+            shifted_partner = None if bank.partner is None else bank.partner[rows]
+            surrogate = cv.gain(bank.Z[rows], shifted_partner).max(axis=1)
             exceed.append(surrogate >= observed)
         drawn += batch
         hits = np.concatenate(exceed)
@@ -277,7 +294,8 @@ def _test_round(
     if not banks:
         return []
     cv = CrossValidatedDiscrepancy(r, B, folds)
-    tests = [surrogate_test(cv, bank, groups, rng) for bank in banks]
+    most = int(min(MAX_SURROGATES, max(PAIRWISE_SURROGATES, np.ceil(2 * len(banks) / ALPHA))))
+    tests = [surrogate_test(cv, bank, groups, rng, most) for bank in banks]
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
         Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, cv, noise_rmse)), round_number)
@@ -330,10 +348,6 @@ def _best_by_column(evidence: list[Evidence], passing_only: bool) -> dict[str, E
     return best
 
 
-PAIRWISE_SURROGATES = 499
-"""Most surrogates of a single conditional test (level :data:`ALPHA`, no multiplicity)."""
-
-
 class _Conditional:
     """Conditional surrogate tests ``p(bank | given blocks)`` on a fixed residual and folds."""
 
@@ -351,7 +365,7 @@ def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given
     best = passing[0]
     level = next((e for e in passing if e.test.transform == "level"), None)
     if best.test.transform == "lag" and level is not None:
-        lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z[:, :, 1:])
+        lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z)
         if cond.p(lag_only, [*given, level.test.bank.block(0)]) >= ALPHA:
             return level
     return best

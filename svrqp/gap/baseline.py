@@ -5,12 +5,16 @@ Model kinds (``--model``), fitted on the train rows only:
 ``mlr``
     multiple linear regression of the target on the features with an intercept.
 ``svr``
-    ε-SVR with an RBF kernel on standardised features and a standardised target:
-    ``C = 10``, ``epsilon = 0.05`` (in target standard deviations), ``gamma = 1/p`` for
-    ``p`` features — scikit-learn's ``gamma="scale"`` on unit-variance inputs.
+    :class:`svrqp.estimators.EpsilonSVR` with an RBF kernel on standardised features and a
+    standardised target: ``C = 10``, ``epsilon = 0.05`` (in target standard deviations),
+    ``gamma="scale"`` (:math:`1/p` for :math:`p` unit-variance features).
 ``lssvr``
-    LS-SVR with an RBF kernel on standardised features and target: ``C = 10``,
-    ``gamma = 1/p``.
+    :class:`svrqp.estimators.LSSVR` with an RBF kernel on standardised features and target:
+    ``C = 10``, ``gamma="scale"``.
+
+``mlr`` is :class:`svrqp.linear_models.LinearLS`; it returns the minimum-norm solution for
+collinear inputs (``rank_deficient="lstsq"``) so that a refit with an added effect column that
+is constant on the train rows still works.
 
 The *train reference* residual — the error to expect where nothing is missing — is measured
 out of sample: a model of the same kind is refitted with the train rows' groups (or blocks)
@@ -25,13 +29,14 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.base import RegressorMixin, clone
 from sklearn.compose import TransformedTargetRegressor
-from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from svrqp.estimators import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.prepare import GapData
+from svrqp.linear_models import LinearLS
 
 MODEL_KINDS = ("mlr", "svr", "lssvr")
 """Model families a baseline can be fitted with."""
@@ -41,32 +46,24 @@ SVR_EPSILON = 0.05
 LSSVR_C = 10.0
 
 
-def make_model(kind: str, n_features: int) -> RegressorMixin:
+def make_model(kind: str) -> RegressorMixin:
     """An unfitted regressor of the given kind with the defaults documented above.
 
     Parameters
     ----------
     kind : {"mlr", "svr", "lssvr"}
         Model family.
-    n_features : int
-        Number of inputs (sets the RBF width ``gamma = 1/n_features``).
 
     Returns
     -------
     sklearn regressor
     """
     if kind == "mlr":
-        # Switch to svrqp.linear_models.LinearLS once it is available (same fit/predict API).
-        return LinearRegression()
-    gamma = 1.0 / max(n_features, 1)
+        return LinearLS(rank_deficient="lstsq")
     if kind == "svr":
-        from svrqp.estimators import EpsilonSVR
-
-        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma=gamma)
+        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma="scale")
     elif kind == "lssvr":
-        from svrqp.estimators import LSSVR
-
-        core = LSSVR(C=LSSVR_C, gamma=gamma)
+        core = LSSVR(C=LSSVR_C, gamma="scale")
     else:
         raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
     return make_pipeline(StandardScaler(), TransformedTargetRegressor(regressor=core, transformer=StandardScaler()))
@@ -121,7 +118,7 @@ def fit_baseline(data: GapData, kind: str = "mlr") -> Baseline:
 
 def fit_predict(kind: str, X_train: np.ndarray, y_train: np.ndarray, X: np.ndarray) -> np.ndarray:
     """Fit a model of ``kind`` on ``(X_train, y_train)`` and predict ``X``."""
-    model = clone(make_model(kind, X_train.shape[1]))
+    model = clone(make_model(kind))
     model.fit(X_train, y_train)
     return np.asarray(model.predict(X), dtype=float).ravel()
 

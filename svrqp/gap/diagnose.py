@@ -14,9 +14,9 @@
 6. **Report** — :class:`svrqp.gap.report.GapReport`.
 
 The discrepancy models of steps 4–5 use the base regressors "intercept + the model's
-features" (features mode) or "intercept + the prediction" (prediction mode), standardised on
-the real rows, so an effect gets credit only for what a recalibration of the model itself
-cannot do. Each cause's shrink is for that effect alone added to this base.
+features (+ its prediction, for a non-linear model)" (features mode) or "intercept + the
+prediction" (prediction mode), standardised on the real rows (:func:`base_design`), so an
+effect gets credit only for what a linear recalibration of the model itself cannot do. Each cause's shrink is for that effect alone added to this base.
 """
 
 from __future__ import annotations
@@ -43,9 +43,19 @@ Progress = Callable[[str, float], None]
 
 
 def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
-    """Base regressors of the discrepancy models on the real rows (intercept first)."""
+    """Base regressors of the discrepancy models on the real rows (intercept first).
+
+    Features mode: the features, and for a non-linear model also its prediction (a linear
+    model's prediction is already in the span of its features). Prediction mode: the
+    prediction. Columns are standardised on the real rows; constant ones are dropped.
+    """
     real = data.is_real
-    columns = data.X[real] if data.prediction is None else baseline.y_hat[real, None]
+    if data.prediction is not None:
+        columns = baseline.y_hat[real, None]
+    elif baseline.kind == "mlr":
+        columns = data.X[real]
+    else:
+        columns = np.column_stack([data.X[real], baseline.y_hat[real]])
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
     varying = scale > 1e-12 * (1 + np.abs(columns).max(axis=0))
@@ -184,7 +194,7 @@ def _best(evidence: list[Evidence], column: str) -> Evidence:
 def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[str, np.ndarray]]:
     causes, errors_after = [], {}
     for ev in _representatives(attribution):
-        shrink = estimate_shrink(r, B, ev.test.bank.Z, folds, groups, rng)
+        shrink = estimate_shrink(r, B, ev.test.bank.Z, ev.test.bank.partner, folds, groups, rng)
         errors_after[ev.test.column] = shrink.errors
         tau = None
         if ev.test.transform == "lag":

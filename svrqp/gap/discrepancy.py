@@ -2,11 +2,12 @@ r"""Out-of-sample fits of linear discrepancy models, many candidates at once.
 
 A discrepancy model explains the baseline's residual :math:`r` on the real rows by base
 regressors :math:`B` (an intercept and the model's features, or the prediction) plus the
-:math:`k \le 2` columns :math:`Z` of one candidate transform:
+columns of one candidate block — one column :math:`z`, or a *partner* column :math:`x` shared
+by several blocks and one column :math:`z` of its own (``lag``: :math:`[x, \ell_\tau]`):
 
 .. math::
 
-    r = B\beta + Z\gamma + e .
+    r = B\beta + Z\gamma + e,\qquad Z = [z] \ \text{or}\ [x, z].
 
 It is scored by blocked cross-validation (:func:`svrqp.gap.blocks.blocked_folds`). For a
 fold with training rows :math:`T` and test rows :math:`V`, the Frisch–Waugh–Lovell theorem
@@ -17,30 +18,29 @@ gives the least-squares fit on :math:`T` in two small steps — partial the base
     A = B_T^\top B_T + \lambda I,\quad \beta_0 = A^{-1}B_T^\top r_T,\quad
     W = A^{-1} B_T^\top Z_T,\quad \tilde r = r - B\beta_0,\quad \tilde Z = Z - B W,
 
-then regress on what is left:
+then regress on what is left and score the test rows:
 
 .. math::
 
     \gamma = (\tilde Z_T^\top \tilde Z_T + \lambda I)^{-1}\tilde Z_T^\top \tilde r_T,\qquad
-    e_V = \tilde r_V - \tilde Z_V\gamma,\qquad
     \mathrm{SSE}_V = \tilde r_V^\top\tilde r_V - 2\gamma^\top \tilde Z_V^\top\tilde r_V
         + \gamma^\top \tilde Z_V^\top\tilde Z_V\,\gamma .
 
-:meth:`CrossValidatedDiscrepancy.sse` never forms :math:`\tilde Z`: with
-:math:`C_S = B_S^\top Z_S` and :math:`M_S = B_S^\top B_S` (:math:`S` = test rows of a fold,
-training sums = totals − test sums),
+:math:`\tilde Z` is never formed: with :math:`C_S = B_S^\top Z_S`, :math:`M_S = B_S^\top B_S`
+and :math:`S` the test rows of a fold (training sums = totals − test sums), for any two
+columns :math:`a, b`
 
 .. math::
 
-    \tilde Z_S^\top \tilde Z_S = Z_S^\top Z_S - C_S^\top W - W^\top C_S + W^\top M_S W,\qquad
-    \tilde Z_S^\top \tilde r_S = Z_S^\top r_S - C_S^\top\beta_0 - W^\top(B_S^\top r_S - M_S\beta_0),
+    \tilde a_S^\top \tilde b_S = a_S^\top b_S - C_{a,S}^\top W_b - W_a^\top C_{b,S} + W_a^\top M_S W_b,
+    \qquad
+    \tilde a_S^\top \tilde r_S = a_S^\top r_S - C_{a,S}^\top\beta_0 - W_a^\top(B_S^\top r_S - M_S\beta_0),
 
-so thousands of candidate columns (transforms × time constants × surrogates) cost one pass
-over the data plus :math:`k\times k` solves. :meth:`CrossValidatedDiscrepancy.errors` forms
-the per-row out-of-sample errors directly, for the few models that are reported. The ridge
-:math:`\lambda` is :data:`RIDGE` times the number of training rows: it keeps both solves
-defined when a column is collinear with the base, and with standardised columns it changes
-no well-posed fit noticeably.
+so thousands of candidate columns (transforms × time constants × surrogates) cost one
+matrix product :math:`[B, r]^\top Z` and one column-wise reduction per pass, plus
+:math:`2\times2` solves in closed form. The ridge :math:`\lambda` is :data:`RIDGE` times the
+number of training rows: it keeps both solves defined when a column is collinear with the
+base; with standardised columns it changes no well-posed fit noticeably.
 """
 
 from __future__ import annotations
@@ -58,13 +58,25 @@ RIDGE = 1e-8
 class _Fold:
     test: slice  # rows of this fold in fold-sorted order
     n_train: int
-    factor: tuple  # Cholesky factor of A
+    A_inv: np.ndarray  # inverse of the small (p x p) matrix A, applied to many right-hand sides
     beta0: np.ndarray
     M_train: np.ndarray
     M_test: np.ndarray
     q_train: np.ndarray  # B_T' r_T - M_T beta0
     q_test: np.ndarray  # B_V' r_V - M_V beta0
     rr_test: float  # |r~_V|^2
+
+
+@dataclass(frozen=True)
+class _Sums:
+    """Per-set sums of one column family: ``C = B'Z``, ``s = r'Z``, ``S = diag(Z'Z)``."""
+
+    C: np.ndarray
+    s: np.ndarray
+    S: np.ndarray
+
+    def __sub__(self, other: _Sums) -> _Sums:
+        return _Sums(self.C - other.C, self.s - other.s, self.S - other.S)
 
 
 class CrossValidatedDiscrepancy:
@@ -82,131 +94,116 @@ class CrossValidatedDiscrepancy:
     Attributes
     ----------
     errors_base : ndarray, shape (n,)
-        Out-of-sample errors of the base model alone.
+        Out-of-sample errors of the base model alone (caller's row order).
     sse_base : float
         Their sum of squares.
     """
 
     def __init__(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray]):
         self.n = len(r)
+        self.p = B.shape[1]
         # Rows are kept sorted by fold so each fold's test rows are one slice (no copies).
         self._perm = np.concatenate(folds)
-        self._r = r[self._perm]
-        self._B = B[self._perm]
-        M_total = self._B.T @ self._B
-        b_total = self._B.T @ self._r
+        self._Br = np.column_stack([B, r])[self._perm]
+        B_sorted, r_sorted = self._Br[:, :-1], self._Br[:, -1]
+        M_total = B_sorted.T @ B_sorted
+        b_total = B_sorted.T @ r_sorted
         self._folds: list[_Fold] = []
+        self.errors_base = np.empty(self.n)
         start = 0
-        p = B.shape[1]
         for test_rows in folds:
             test = slice(start, start + len(test_rows))
             start = test.stop
-            B_test, r_test = self._B[test], self._r[test]
+            B_test, r_test = B_sorted[test], r_sorted[test]
             M_test, b_test = B_test.T @ B_test, B_test.T @ r_test
             M_train, b_train = M_total - M_test, b_total - b_test
             n_train = self.n - len(test_rows)
-            factor = cho_factor(M_train + RIDGE * n_train * np.eye(p))
-            beta0 = cho_solve(factor, b_train)
+            A_inv = cho_solve(cho_factor(M_train + RIDGE * n_train * np.eye(self.p)), np.eye(self.p))
+            beta0 = A_inv @ b_train
             e_test = r_test - B_test @ beta0
-            self._folds.append(
-                _Fold(test, n_train, factor, beta0, M_train, M_test,
-                      b_train - M_train @ beta0, b_test - M_test @ beta0, float(e_test @ e_test))
-            )
-        self.errors_base = self.errors(np.zeros((self.n, 1, 1)))[:, 0]
+            self.errors_base[test_rows] = e_test
+            self._folds.append(_Fold(test, n_train, A_inv, beta0, M_train, M_test,
+                                     b_train - M_train @ beta0, b_test - M_test @ beta0, float(e_test @ e_test)))
         self.sse_base = float(self.errors_base @ self.errors_base)
 
-    def sse(self, Z: np.ndarray) -> np.ndarray:
+    def _sums(self, Z: np.ndarray, rows: slice) -> _Sums:
+        Z_rows = Z[rows]
+        Cs = np.tensordot(self._Br[rows].T, Z_rows, axes=1)
+        return _Sums(Cs[:-1], Cs[-1], np.einsum("n...,n...->...", Z_rows, Z_rows))
+
+    def sse(self, Z: np.ndarray, partner: np.ndarray | None = None) -> np.ndarray:
         """Out-of-sample sum of squared errors with each candidate block added.
 
         Parameters
         ----------
-        Z : ndarray, shape (n, m, k)
-            ``m`` candidate blocks of ``k`` columns each, rows in the caller's order
-            (standardised columns advised).
+        Z : ndarray, shape (n, q, v)
+            Own column of every block; rows in the caller's order (standardised columns
+            advised).
+        partner : ndarray, shape (n, q), optional
+            Column shared by the ``v`` blocks ``Z[:, j, :]``: block ``(j, t)`` is
+            ``[partner[:, j], Z[:, j, t]]``. Without it every block is ``[Z[:, j, t]]``.
 
         Returns
         -------
-        ndarray, shape (m,)
+        ndarray, shape (q, v)
         """
-        n, m, k = Z.shape
-        # One contiguous (n, m) array per block column, rows sorted by fold: every product
-        # below is then a BLAS call or a single streaming reduction over a slice.
-        Z_sorted = Z[self._perm]
-        columns = [np.ascontiguousarray(Z_sorted[:, :, i]) for i in range(k)]
-        parts = []
-        for fold in self._folds:
-            B_test, r_test = self._B[fold.test], self._r[fold.test]
-            Z_test = [c[fold.test] for c in columns]
-            C = np.stack([B_test.T @ z for z in Z_test], axis=2)
-            S = np.empty((m, k, k))
-            for i in range(k):
-                for j in range(i + 1):
-                    S[:, i, j] = S[:, j, i] = np.einsum("nm,nm->m", Z_test[i], Z_test[j])
-            s = np.stack([r_test @ z for z in Z_test], axis=1)
-            parts.append((C, S, s))
-        C_total = sum(part[0] for part in parts)
-        S_total = sum(part[1] for part in parts)
-        s_total = sum(part[2] for part in parts)
-        sse = np.zeros(m)
-        for fold, (C_test, S_test, s_test) in zip(self._folds, parts):
-            C_train = C_total - C_test
-            W = cho_solve(fold.factor, C_train.reshape(C_train.shape[0], -1)).reshape(C_train.shape)
-            G_train = _partialled_gram(S_total - S_test, C_train, W, fold.M_train)
-            g_train = (s_total - s_test - np.einsum("p,pmi->mi", fold.beta0, C_train)
-                       - np.einsum("p,pmi->mi", fold.q_train, W))
-            gamma = _solve_small(G_train, g_train, RIDGE * fold.n_train)
-            G_test = _partialled_gram(S_test, C_test, W, fold.M_test)
-            g_test = s_test - np.einsum("p,pmi->mi", fold.beta0, C_test) - np.einsum("p,pmi->mi", fold.q_test, W)
-            sse += (fold.rr_test - 2 * np.einsum("mi,mi->m", gamma, g_test)
-                    + np.einsum("mi,mij,mj->m", gamma, G_test, gamma))
+        n, q, v = Z.shape
+        Zs = np.ascontiguousarray(Z[self._perm])
+        Xs = None if partner is None else np.ascontiguousarray(partner[self._perm])
+        test_z = [self._sums(Zs, f.test) for f in self._folds]
+        total_z = _total(test_z)
+        if Xs is not None:
+            test_x = [self._sums(Xs, f.test) for f in self._folds]
+            total_x = _total(test_x)
+            test_xz = [np.einsum("nq,nqv->qv", Xs[f.test], Zs[f.test]) for f in self._folds]
+            total_xz = sum(test_xz)
+        sse = np.zeros((q, v))
+        for k, fold in enumerate(self._folds):
+            train_z = total_z - test_z[k]
+            W_z = np.tensordot(fold.A_inv, train_z.C, axes=1)
+            G22, g2 = _partialled(train_z, W_z, fold, train=True)
+            H22, h2 = _partialled(test_z[k], W_z, fold, train=False)
+            ridge = RIDGE * fold.n_train
+            if Xs is None:
+                gamma2 = g2 / (np.maximum(G22, 0.0) + ridge)
+                sse += fold.rr_test - 2 * gamma2 * h2 + gamma2**2 * H22
+                continue
+            train_x = total_x - test_x[k]
+            W_x = fold.A_inv @ train_x.C
+            G11, g1 = (a[:, None] for a in _partialled(train_x, W_x, fold, train=True))
+            H11, h1 = (a[:, None] for a in _partialled(test_x[k], W_x, fold, train=False))
+            G12 = _cross(total_xz - test_xz[k], train_x.C, train_z.C, W_x, W_z, fold.M_train)
+            H12 = _cross(test_xz[k], test_x[k].C, test_z[k].C, W_x, W_z, fold.M_test)
+            # Closed-form 2x2 ridge solve for (gamma1, gamma2) of every block.
+            G11, G22 = G11 + ridge, G22 + ridge
+            det = G11 * G22 - G12**2
+            gamma1 = (G22 * g1 - G12 * g2) / det
+            gamma2 = (G11 * g2 - G12 * g1) / det
+            sse += (fold.rr_test - 2 * (gamma1 * h1 + gamma2 * h2)
+                    + gamma1**2 * H11 + 2 * gamma1 * gamma2 * H12 + gamma2**2 * H22)
         return sse
 
-    def gain(self, Z: np.ndarray) -> np.ndarray:
-        """Relative out-of-sample gain :math:`1 - \\mathrm{SSE}(B+Z)/\\mathrm{SSE}(B)` (shape (m,))."""
-        return 1.0 - self.sse(Z) / self.sse_base
-
-    def errors(self, Z: np.ndarray) -> np.ndarray:
-        """Per-row out-of-sample errors with each candidate block added.
-
-        Parameters
-        ----------
-        Z : ndarray, shape (n, m, k)
-            As for :meth:`sse`; meant for a few blocks (it forms :math:`\\tilde Z`).
-
-        Returns
-        -------
-        ndarray, shape (n, m)
-            Errors in the caller's row order.
-        """
-        n, m, k = Z.shape
-        Zs = Z[self._perm].reshape(n, m * k)
-        C_total = self._B.T @ Zs
-        out = np.empty((n, m))
-        for fold in self._folds:
-            B_test = self._B[fold.test]
-            W = cho_solve(fold.factor, C_total - B_test.T @ Zs[fold.test])
-            Zt = Zs - self._B @ W
-            rt = self._r - self._B @ fold.beta0
-            train = np.ones(n, dtype=bool)
-            train[fold.test] = False
-            Zt_train = Zt[train].reshape(-1, m, k)
-            G = np.einsum("nmi,nmj->mij", Zt_train, Zt_train)
-            gamma = _solve_small(G, np.einsum("nmi,n->mi", Zt_train, rt[train]), RIDGE * fold.n_train)
-            out[fold.test] = rt[fold.test, None] - np.einsum("nmi,mi->nm", Zt[fold.test].reshape(-1, m, k), gamma)
-        unsorted = np.empty_like(out)
-        unsorted[self._perm] = out
-        return unsorted
+    def gain(self, Z: np.ndarray, partner: np.ndarray | None = None) -> np.ndarray:
+        """Relative out-of-sample gain :math:`1 - \\mathrm{SSE}(B+Z)/\\mathrm{SSE}(B)`, shape (q, v)."""
+        return 1.0 - self.sse(Z, partner) / self.sse_base
 
 
-def _partialled_gram(S_zz: np.ndarray, C: np.ndarray, W: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """:math:`Z^\\top Z - C^\\top W - W^\\top C + W^\\top M W` per candidate block, shape (m, k, k)."""
-    CW = np.einsum("pmi,pmj->mij", C, W)
-    return S_zz - CW - CW.transpose(0, 2, 1) + np.einsum("pmi,pq,qmj->mij", W, M, W, optimize=True)
+def _total(parts: list[_Sums]) -> _Sums:
+    return _Sums(sum(p.C for p in parts), sum(p.s for p in parts), sum(p.S for p in parts))
 
 
-def _solve_small(G: np.ndarray, g: np.ndarray, ridge: float) -> np.ndarray:
-    """Batch of ridge-stabilised :math:`k\\times k` systems ``(G + ridge I) gamma = g``."""
-    k = G.shape[1]
-    if k == 1:
-        return g / (np.maximum(G[:, :, 0], 0.0) + ridge)
-    return np.linalg.solve(G + ridge * np.eye(k), g[:, :, None])[:, :, 0]
+def _partialled(sums: _Sums, W: np.ndarray, fold: _Fold, train: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:math:`\\tilde z^\\top\\tilde z` and :math:`\\tilde z^\\top\\tilde r` of every column on one set."""
+    M, qvec = (fold.M_train, fold.q_train) if train else (fold.M_test, fold.q_test)
+    p = W.shape[0]
+    C2, W2 = sums.C.reshape(p, -1), W.reshape(p, -1)
+    shape = sums.S.shape
+    zz = sums.S - (2 * np.einsum("pm,pm->m", C2, W2) - np.einsum("pm,pm->m", W2, M @ W2)).reshape(shape)
+    zr = sums.s - (fold.beta0 @ C2 + qvec @ W2).reshape(shape)
+    return zz, zr
+
+
+def _cross(S_xz, C_x, C_z, W_x, W_z, M) -> np.ndarray:
+    """:math:`\\tilde x^\\top\\tilde z` for partner ``x`` (q,) against own columns ``z`` (q, v)."""
+    return (S_xz - np.einsum("pq,pqv->qv", C_x, W_z) - np.einsum("pq,pqv->qv", W_x, C_z)
+            + np.einsum("pq,pqv->qv", M @ W_x, W_z))

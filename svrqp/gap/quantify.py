@@ -34,10 +34,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from sklearn.linear_model import LinearRegression
 
 from svrqp.gap.attribute import transform_columns
-from svrqp.gap.baseline import Baseline, fit_predict
+from svrqp.gap.baseline import Baseline, fit_predict, make_model
 from svrqp.gap.blocks import block_bootstrap, block_length, blocked_folds
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.prepare import GapData
@@ -75,8 +74,15 @@ def _fit_and_predict(r_fit: np.ndarray, D_fit: np.ndarray, D_new: np.ndarray) ->
     return D_new @ coef
 
 
-def nested_errors(r: np.ndarray, B: np.ndarray, Z: np.ndarray, folds: list[np.ndarray], groups: np.ndarray) -> np.ndarray:
-    """Out-of-sample errors of ``r ~ B + Z[:, variant]`` with the variant chosen per fold.
+def nested_errors(
+    r: np.ndarray,
+    B: np.ndarray,
+    own: np.ndarray,
+    partner: np.ndarray | None,
+    folds: list[np.ndarray],
+    groups: np.ndarray,
+) -> np.ndarray:
+    """Out-of-sample errors of ``r ~ B + [partner, own[:, variant]]``, variant chosen per fold.
 
     Parameters
     ----------
@@ -84,9 +90,11 @@ def nested_errors(r: np.ndarray, B: np.ndarray, Z: np.ndarray, folds: list[np.nd
         Residual on the real rows.
     B : ndarray, shape (n, p)
         Base regressors (with an intercept).
-    Z : ndarray, shape (n, v, k)
-        Effect columns; with ``v > 1`` variants the best is chosen by inner blocked CV on
-        each outer fold's training rows.
+    own : ndarray, shape (n, v)
+        The effect's own column for each of ``v`` variants; with ``v > 1`` the best is
+        chosen by inner blocked CV on each outer fold's training rows.
+    partner : ndarray, shape (n,) or None
+        Column every variant also holds.
     folds : list of ndarray
         Outer blocked folds.
     groups : ndarray of int
@@ -96,15 +104,17 @@ def nested_errors(r: np.ndarray, B: np.ndarray, Z: np.ndarray, folds: list[np.nd
     -------
     ndarray, shape (n,)
     """
-    n, v, _ = Z.shape
+    n, v = own.shape
     errors = np.empty(n)
     for test in folds:
         train = np.setdiff1d(np.arange(n), test, assume_unique=True)
         variant = 0
         if v > 1:
             inner = CrossValidatedDiscrepancy(r[train], B[train], blocked_folds(groups[train]))
-            variant = int(np.argmax(inner.gain(Z[train])))
-        D = np.column_stack([B, Z[:, variant, :]])
+            shared = None if partner is None else partner[train, None]
+            variant = int(np.argmax(inner.gain(own[train, None, :], shared)[0]))
+        columns = [B, own[:, variant]] + ([] if partner is None else [partner])
+        D = np.column_stack(columns)
         errors[test] = r[test] - _fit_and_predict(r[train], D[train], D[test])
     return errors
 
@@ -120,9 +130,15 @@ def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray, r
 
 
 def estimate_shrink(
-    r: np.ndarray, B: np.ndarray, Z: np.ndarray, folds: list[np.ndarray], groups: np.ndarray, rng: np.random.Generator
+    r: np.ndarray,
+    B: np.ndarray,
+    own: np.ndarray,
+    partner: np.ndarray | None,
+    folds: list[np.ndarray],
+    groups: np.ndarray,
+    rng: np.random.Generator,
 ) -> ShrinkEstimate:
-    """Out-of-sample shrink of the real-row error with the columns ``Z`` added (see module).
+    """Out-of-sample shrink of the real-row error with an effect's columns added.
 
     Parameters are those of :func:`nested_errors`, plus ``rng`` for the bootstrap.
 
@@ -130,7 +146,7 @@ def estimate_shrink(
     -------
     ShrinkEstimate
     """
-    after = nested_errors(r, B, Z, folds, groups)
+    after = nested_errors(r, B, own, partner, folds, groups)
     before_rmse = float(np.sqrt(np.mean(r**2)))
     after_rmse = float(np.sqrt(np.mean(after**2)))
     low, high = shrink_interval(r, after, groups, rng)
@@ -155,13 +171,13 @@ def refit_shrink(data: GapData, baseline: Baseline, column: str, transform: str,
     float
         ``1 - rmse_refit / rmse_before`` on the real rows.
     """
-    taus = None if tau is None else np.array([tau])
-    effect = transform_columns(data, column, transform, taus)[:, 0, :]
+    own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))
+    effect = own if partner is None else np.column_stack([partner, own])
     train, real = data.is_train, data.is_real
     before = float(np.sqrt(np.mean(baseline.residual[real] ** 2)))
     if baseline.kind == "prediction":
         gap = data.y - baseline.y_hat
-        correction = LinearRegression().fit(effect[train], gap[train]).predict(effect)
+        correction = make_model("mlr").fit(effect[train], gap[train]).predict(effect)
         after_residual = gap - correction
     else:
         X = np.column_stack([data.X, effect])

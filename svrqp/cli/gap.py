@@ -1,0 +1,103 @@
+"""``svrqp gap``: sim-to-real gap diagnosis (the fixed command line of DESIGN §4).
+
+::
+
+    svrqp gap DATA.csv --target COL --train QUERY
+              (--features COL[,COL…] [--model mlr|svr|lssvr] | --prediction COL)
+              --candidates COL[,COL…] [--order COL] [--group COL]
+              --json OUT.json [--report OUT.html]
+
+``--seed`` and ``--force`` are additions: the seed of the surrogates and bootstrap, and
+permission to overwrite existing output files.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from svrqp.cli._common import read_table, split_columns
+from svrqp.exceptions import ProblemError
+from svrqp.gap import diagnose
+from svrqp.gap.baseline import MODEL_KINDS
+
+REPORT_SUFFIXES = (".html", ".htm", ".md")
+
+
+def _one(text: str | None, table, option: str) -> str | None:
+    """The single column named by an option (None when the option was not given)."""
+    names = split_columns(text, table, option)
+    if text is not None and len(names) != 1:
+        raise ProblemError(f"{option}: name exactly one column, got {text!r}")
+    return names[0] if names else None
+
+
+def gap(
+    data: Path = typer.Argument(..., help="CSV or Parquet table of measurements, one row per sample."),
+    target: str = typer.Option(..., "--target", help="Measured column whose gap is diagnosed (e.g. error_um)."),
+    train: str = typer.Option(
+        ..., "--train", help="Pandas query selecting the rows the model was built on (e.g. \"batch == 'x1'\"); "
+        "the other rows are the real rows where the gap is assessed."),
+    features: str = typer.Option(
+        None, "--features", help="Comma-separated model inputs; a --model baseline is fitted on the train rows."),
+    model: str = typer.Option(
+        None, "--model", help=f"Baseline family with --features: {' | '.join(MODEL_KINDS)} (default mlr)."),
+    prediction: str = typer.Option(
+        None, "--prediction", help="Column holding a simulation's prediction (instead of --features)."),
+    candidates: str = typer.Option(
+        ..., "--candidates", help="Comma-separated measured columns that may carry the unmodelled effect."),
+    order: str = typer.Option(
+        None, "--order", help="Time (min) or position (mm) column; rates and filters run along it."),
+    group: str = typer.Option(
+        None, "--group", help="Run/batch column; transforms restart and cross-validation is blocked per group."),
+    json_out: Path = typer.Option(..., "--json", help="Where to write the svrqp.gap/1 JSON."),
+    report: Path = typer.Option(
+        None, "--report", help="Also write a report: .html (self-contained) or .md (with PNG figures beside it)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the surrogate tests and the bootstrap."),
+    force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
+) -> None:
+    """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
+    if (features is None) == (prediction is None):
+        raise ProblemError("give exactly one of --features (a model is fitted) or --prediction (a column)")
+    if prediction is not None and model is not None:
+        raise ProblemError("--model applies to --features only; with --prediction nothing is fitted")
+    if report is not None and report.suffix.lower() not in REPORT_SUFFIXES:
+        raise ProblemError(f"--report: name the file with one of {REPORT_SUFFIXES}, got {report.name!r}")
+    outputs = [json_out] + ([report] if report is not None else [])
+    existing = [str(path) for path in outputs if path.exists()]
+    if existing and not force:  # fail before the work, not after it
+        raise FileExistsError(f"output file(s) exist: {existing}; pass --force to overwrite")
+
+    table = read_table(data)
+    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
+    with Progress(*columns, transient=True) as progress:
+        task = progress.add_task("gap diagnosis", total=1.0)
+        result = diagnose(
+            table,
+            target=_one(target, table, "--target"),
+            train=train,
+            features=split_columns(features, table, "--features") or None,
+            prediction=_one(prediction, table, "--prediction"),
+            candidates=split_columns(candidates, table, "--candidates"),
+            order=_one(order, table, "--order"),
+            group=_one(group, table, "--group"),
+            model=model or "mlr",
+            seed=seed,
+            progress=lambda stage, done: progress.update(task, completed=done, description=stage),
+        )
+    written = [result.write_json(json_out, force=force)]
+    if report is not None:
+        if report.suffix.lower() == ".md":
+            result.to_markdown(report, force=force)
+            written.append(report)
+        else:
+            written.append(result.to_html(report, force=force))
+    typer.echo(result.summary)
+    typer.echo("wrote " + ", ".join(str(path) for path in written))
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``svrqp gap`` to the command-line app."""
+    app.command("gap")(gap)
