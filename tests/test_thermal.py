@@ -19,7 +19,14 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from svrqp.exceptions import ProblemError, SingularSystemError
-from svrqp.machine.cycles import CycleSegment, operation_at, run_stop
+from svrqp.machine.cycles import (
+    CycleSegment,
+    duration_min,
+    operation_at,
+    run_stop,
+    speed_steps,
+    warm_up_cool_down,
+)
 from svrqp.machine.network import LumpedNetwork
 from svrqp.machine.thermal import (
     EFFECTS,
@@ -157,6 +164,15 @@ def test_operation_at_follows_segments_and_is_zero_outside():
     np.testing.assert_array_equal(duty, [0, 40, 40, 0, 40, 0, 0])
 
 
+def test_cycle_builders():
+    warm = warm_up_cool_down(6000.0, warm_min=240.0, cool_min=60.0)
+    assert duration_min(warm) == 300.0
+    np.testing.assert_array_equal(operation_at(warm, np.array([10.0, 250.0]))[0], [6000.0, 0.0])
+    steps = speed_steps([1000.0, 2000.0, 4000.0], minutes_each=20.0)
+    np.testing.assert_array_equal(operation_at(steps, np.array([5.0, 25.0, 45.0]))[0],
+                                  [1000.0, 2000.0, 4000.0])
+
+
 # ---------------------------------------------------------------- the machine simulator
 
 
@@ -232,6 +248,12 @@ def test_sensors_are_correlated_but_not_identical(default_run):
     assert corr.loc["T1_C", "T7_C"] > 0.5  # speed drives every machine temperature
     assert corr.loc["coolant_C", "T9_C"] > 0.3  # coolant follows ambient
     assert corr.to_numpy()[np.triu_indices(5, 1)].max() < 0.999
+
+
+def test_progress_is_reported_up_to_completion():
+    seen = []
+    simulate_thermal(replace(ThermalConfig(), soak_h=1.0), seed=0, progress=seen.append)
+    assert seen[-1] == 1.0 and seen == sorted(seen)
 
 
 def test_config_rejects_invalid_values():

@@ -162,7 +162,8 @@ def register(app: typer.Typer) -> None:
         config: Path = typer.Option(None, "--config", help="TOML file setting fields of the "
                                     "simulator's config (e.g. 'ambient_drift = 0.0'); default: "
                                     "the built-in defaults."),
-        seed: int = typer.Option(0, "--seed", help="Seed of the noise generator (same seed, same data)."),
+        seed: int = typer.Option(0, "--seed", help="Seed of the noise generator "
+                                 "(same seed, same data)."),
         nine_line: NineLineSet = typer.Option(None, "--nine-line", help="axis only: write the "
                                               "interferometer readings of this nine-line set "
                                               "instead of the tool-point error table."),
@@ -177,7 +178,8 @@ def register(app: typer.Typer) -> None:
                                    progress=lambda done: bar.update(task, completed=done))
             bar.update(task, completed=1.0)
         table.to_csv(out, index=False)
-        effects = [c.removeprefix("effect_").removesuffix("_um") for c in table if c.startswith("effect_")]
+        effects = [c.removeprefix("effect_").removesuffix("_um")
+                   for c in table if c.startswith("effect_")]
         typer.echo(f"wrote {out}: {len(table)} rows, {table.shape[1]} columns"
                    + (f"; effects: {', '.join(effects)}" if effects else ""))
 

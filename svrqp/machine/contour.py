@@ -158,6 +158,15 @@ def record_duration_s(config: GantryConfig) -> float:
     return 2 * config.dwell_s + length / v + v / config.acceleration_mm_s2
 
 
+def _following_error_mm(speed_mm_s: np.ndarray, kv_per_s: float) -> np.ndarray:
+    """Lag of a proportional position loop, :math:`\\dot e = v - K_v e`, on the fine grid.
+
+    It is the speed through a first-order lag of time constant :math:`1/K_v`, divided by
+    :math:`K_v`.
+    """
+    return first_order_lag(speed_mm_s, SERVO_STEP_S, 1 / kv_per_s) / kv_per_s
+
+
 def simulate_gantry(config: GantryConfig | None = None, seed: int = 0) -> pd.DataFrame:
     """Simulate the interferometer record of a linear interpolation.
 
@@ -184,8 +193,8 @@ def simulate_gantry(config: GantryConfig | None = None, seed: int = 0) -> pd.Dat
     # Position loops on a fine grid, sampled at the interferometer's time base.
     t_fine = np.arange(0.0, t_s[-1] + SERVO_STEP_S, SERVO_STEP_S)
     _, speed_fine, accel_fine = path_profile(config, t_fine)
-    lag_x = first_order_lag(speed_fine * direction[0], SERVO_STEP_S, 1 / config.kv_x_per_s) / config.kv_x_per_s
-    lag_y = first_order_lag(speed_fine * direction[1], SERVO_STEP_S, 1 / config.kv_y_per_s) / config.kv_y_per_s
+    lag_x = _following_error_mm(speed_fine * direction[0], config.kv_x_per_s)
+    lag_y = _following_error_mm(speed_fine * direction[1], config.kv_y_per_s)
     seen_accel = first_order_lag(accel_fine * direction[0], SERVO_STEP_S, 1 / config.kv_x_per_s)
     sample = np.minimum(np.rint(t_s / SERVO_STEP_S).astype(int), t_fine.size - 1)
     following_mm = -np.column_stack([lag_x[sample], lag_y[sample]])  # actual − commanded

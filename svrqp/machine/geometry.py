@@ -170,7 +170,9 @@ load_deflection
         if positions.size == 0 or np.any(positions < 0) or np.any(positions > self.travel_mm):
             raise ProblemError(f"positions_mm must be non-empty and lie within [0, {self.travel_mm}]")
         if len(self.lines) != 3:
-            raise ProblemError(f"lines: the nine-line method needs exactly 3 lines, got {len(self.lines)}")
+            raise ProblemError(
+                f"lines: the nine-line method needs exactly 3 lines, got {len(self.lines)}"
+            )
         if self.periodic_period_mm <= 0 or self.guideway_stiffness_N_um <= 0:
             raise ProblemError("periodic_period_mm and guideway_stiffness_N_um must be > 0")
         if self.laser_noise_um < 0:

@@ -351,7 +351,9 @@ def effect_inputs(config: ThermalConfig, t_min: np.ndarray) -> np.ndarray:
 
     u = np.zeros((t_min.size, len(NODES) + 1, len(EFFECTS)))
     j = {name: k for k, name in enumerate(EFFECTS)}
-    u[:, node["spindle"], j["spindle_heating"]] = heat.spindle_heat_W * relative_speed**heat.speed_exponent
+    u[:, node["spindle"], j["spindle_heating"]] = (
+        heat.spindle_heat_W * relative_speed**heat.speed_exponent
+    )
     u[:, node["headstock"], j["headstock_heating"]] = (
         heat.motor_heat_W * relative_speed**heat.motor_speed_exponent
     )
