@@ -1,0 +1,77 @@
+"""Figures of ``svrqp demo``: measured vs predicted vs residual over time (S0 Figs. 3–8), S4's
+straightness before and after compensation, S2's δx(x) identification and models."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402  (after choosing the Agg backend)
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from svrqp.demo.steps import S2_TRAVEL_MM, S2Result, S4Result  # noqa: E402
+
+BATCH_TITLES = {"x1": "x1 (summer, training batch)", "x2": "x2 (summer)", "x3": "x3 (autumn)"}
+
+
+def _save(figure: plt.Figure, path: Path) -> Path:
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+    return path
+
+
+def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
+    """Measured and predicted axial error (top) and the residuals (bottom) of one batch over time."""
+    rows = predictions[predictions["batch"] == batch]
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(7.5, 5.5), sharex=True)
+    top.plot(rows["time_min"], rows["error_um"], color="black", lw=1.2, label="measured (simulated)")
+    top.plot(rows["time_min"], rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
+    top.plot(rows["time_min"], rows["svr_um"], color="tab:blue", lw=1, ls="--", label="ε-SVR")
+    top.set_ylabel("axial thermal error (μm)")
+    top.set_title(f"S0 — batch {BATCH_TITLES.get(batch, batch)}")
+    top.legend(loc="best", fontsize=8)
+    bottom.plot(rows["time_min"], rows["error_um"] - rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
+    bottom.plot(rows["time_min"], rows["error_um"] - rows["svr_um"], color="tab:blue", lw=1, ls="--", label="ε-SVR")
+    bottom.axhline(0.0, color="grey", lw=0.6)
+    bottom.set_xlabel("time (min)")
+    bottom.set_ylabel("residual (μm)")
+    bottom.legend(loc="best", fontsize=8)
+    return _save(figure, path)
+
+
+def s4_figure(result: S4Result, path: Path) -> Path:
+    """Straightness deviation, its LS-SVR model and what remains after compensation, along x."""
+    figure, axis = plt.subplots(figsize=(7.5, 4))
+    axis.plot(result.x_mm, result.deviation_um, color="black", lw=0.8, label="deviation from LS line (simulated)")
+    axis.plot(result.x_mm, result.model_um, color="tab:blue", lw=1.2, label="LS-SVR model")
+    axis.plot(result.x_mm, result.compensated.residual_um, color="tab:green", lw=0.8,
+              label="after compensation (feed-forward, dead band)")
+    axis.set_xlabel("x (mm)")
+    axis.set_ylabel("straightness deviation (μm)")
+    axis.set_title("S4 — gantry straightness")
+    axis.legend(loc="best", fontsize=8)
+    return _save(figure, path)
+
+
+def s2_figure(result: S2Result, path: Path) -> Path:
+    """δx(x): truth, improved and original nine-line identification, SVR and 5th-order LSM."""
+    x_mm = result.identified["x_mm"].to_numpy()
+    fine_mm = np.linspace(x_mm.min(), x_mm.max(), 300)
+    figure, axis = plt.subplots(figsize=(7.5, 4))
+    axis.plot(result.truth["x_mm"], result.truth["delta_x_um"], "k-", lw=0.8, label="true δx (simulator)")
+    axis.plot(x_mm, result.identified["delta_x_um"], "o", color="tab:blue", label="improved nine-line")
+    axis.plot(x_mm, result.original["delta_x_um"], "x", color="tab:red", label="original nine-line")
+    axis.plot(fine_mm, result.svr.predict(pd.DataFrame({"u": fine_mm / S2_TRAVEL_MM})), color="tab:blue", lw=1,
+              label="ε-SVR")
+    axis.plot(fine_mm, result.lsm.predict(pd.DataFrame({"x_mm": fine_mm})), color="tab:orange", lw=1, ls="--",
+              label="5th-order LSM")
+    axis.set_xlabel("x (mm)")
+    axis.set_ylabel("positioning error δx (μm)")
+    axis.set_title("S2 — X-axis positioning error")
+    axis.legend(loc="best", fontsize=8)
+    return _save(figure, path)

@@ -1,0 +1,111 @@
+"""``report.html`` of ``svrqp demo``: the numbers of ``results.json`` with links to every file."""
+
+from __future__ import annotations
+
+import html
+from typing import Any
+
+SIMULATED_NOTE = ("All data in this demo are SIMULATED by svrqp.machine (the embedded datasets), imitating the "
+                  "papers' set-ups; they are not the papers' measurements, so our numbers are not expected to "
+                  "equal the published ones.")
+
+
+def _table(header: list[str], rows: list[list[Any]]) -> str:
+    def cell(value: Any) -> str:
+        if value is None:
+            return "—"
+        return f"{value:.4g}" if isinstance(value, float) else html.escape(str(value))
+
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{cell(v)}</td>" for v in row) + "</tr>" for row in rows)
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _link(path: str, text: str | None = None) -> str:
+    return f'<a href="{html.escape(path)}">{html.escape(text or path)}</a>'
+
+
+def _figure(path: str, caption: str) -> str:
+    return (f'<figure><a href="{html.escape(path)}"><img src="{html.escape(path)}" alt="{html.escape(caption)}" '
+            f'width="640"></a><figcaption>{html.escape(caption)}</figcaption></figure>')
+
+
+def _s0(s0: dict[str, Any]) -> str:
+    rows = [[r["model"], r["batch"], r["std_um"], r["rms_um"], r["max_abs_um"], r["paper_std_um"]] for r in s0["table"]]
+    best = s0["cv"]["best_params"]
+    return (f"<h2>S0 — spindle thermal error: MLR vs ε-SVR (fit on x1)</h2>"
+            f"<p>ε-SVR: RBF kernel, ε = {s0['epsilon_um']} μm fixed; {s0['cv']['folds']}-fold CV over "
+            f"C ∈ {s0['cv']['grid']['C']}, γ ∈ {s0['cv']['grid']['gamma']} chose C = {best['C']:g}, "
+            f"γ = g = {best['gamma']:g} (CV MSE {s0['cv']['best_mse_um2']:.4g} μm²); {s0['n_support']} support "
+            f"vectors (S0: 56). MLR: {html.escape(s0['mlr_formula'])}.</p>"
+            + _table(["model", "batch", "std of residual (μm)", "RMS (μm)", "max |residual| (μm)",
+                      "S0's published std (μm)"], rows)
+            + f"<p>{html.escape(s0['sentence'])}</p>"
+            + "".join(_figure(path, f"S0 batch {batch}: measured vs predicted vs residual over time")
+                      for batch, path in s0["figures"].items())
+            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: {_link(s0['cv_table'])}.</p>")
+
+
+def _s4(s4: dict[str, Any]) -> str:
+    paper = s4["paper"]
+    rows = [["straightness before (μm, peak-to-valley)", s4["before_um"], paper["before_um"]],
+            ["after compensation (μm)", s4["after_um"], paper["after_um"]],
+            ["improvement (%)", s4["improvement_percent"], paper["improvement_percent"]]]
+    return (f"<h2>S4 — LS-SVR straightness compensation</h2>"
+            f"<p>LS-SVR with S4's σ = {s4['sigma_mm']} mm (2σ² convention, γ = {s4['gamma']:.4g}) and "
+            f"C = {s4['C']}, {s4['n_support']} support vectors; output = window mean over the next "
+            f"{s4['feed_forward_mm']} mm with a {s4['dead_band_um']} μm dead band (S4 eq. 8).</p>"
+            + _table(["", "this run", "S4"], rows) + _figure(s4["figure"], "S4 straightness before and after"))
+
+
+def _s2(s2: dict[str, Any]) -> str:
+    components = list(s2["max_error_improved"])
+    rows = [[c, s2["max_error_improved"][c], s2["max_error_original"][c]] for c in components]
+    mse = s2["mse_um2"]
+    paper = s2["paper"]
+    return (f"<h2>S2 — nine-line identification and δx(x) models</h2>"
+            "<p>Largest error of the identified components against the simulator's truth:</p>"
+            + _table(["component", "improved method", "original method"], rows)
+            + f"<p>δx(x): ε-SVR (5-fold CV: C = {s2['svr_params']['C']:g}, γ = {s2['svr_params']['gamma']:.4g} "
+              f"on u = x/550; {s2['n_support']} SVs) vs 5th-order least-squares polynomial.</p>"
+            + _table(["MSE (μm²)", "ε-SVR", "5th-order LSM"],
+                     [["fit (as S2 reports)", mse["svr_fit"], mse["lsm_fit"]],
+                      ["leave-one-out", mse["svr_loo"], mse["lsm_loo"]],
+                      ["S2 published", paper["mse_svr"], paper["mse_lsm"]]])
+            + _figure(s2["figure"], "S2 δx identification and models"))
+
+
+def _export(export: dict[str, Any]) -> str:
+    verify = export["verify"]
+    checks = [[c["name"], "OK" if c["ok"] else "FAIL", c["detail"]] for c in verify["checks"]]
+    cross = export["cross_check"]
+    return ("<h2>Export of S0's ε-SVR</h2><p>"
+            + ", ".join(_link(path) for path in export["files"])
+            + f"</p><p>svrqp verify: <b>{'OK' if verify['ok'] else 'FAIL'}</b></p>"
+            + _table(["check", "result", "detail"], checks)
+            + f"<p>Cross-check against {html.escape(cross['reference'])}: max |Δprediction| = "
+              f"{cross['max_abs_deviation']:.3g} μm (std of the target {cross['target_std']:.3g} μm).</p>")
+
+
+def _gap(gap: dict[str, Any]) -> str:
+    verdict = gap["verdict"]
+    named = verdict.get("column")
+    return ("<h2>Gap diagnosis: why the summer MLR misses autumn</h2>"
+            f"<p>Verdict: <b>{html.escape(str(named) if named else 'no cause beyond chance')}</b>"
+            + (f" ({html.escape(str(verdict.get('transform')))})" if named else "")
+            + f"</p><p>{html.escape(gap['summary'])}</p>"
+            + f"<p>Full report: {_link(gap['html'])}; JSON: {_link(gap['json'])}.</p>")
+
+
+def report_html(results: dict[str, Any]) -> str:
+    """The demo's report page (figures and exported files are linked by relative paths)."""
+    sections = [_s0(results["s0"]), _s4(results["s4"]), _s2(results["s2"]), _export(results["export"])]
+    if results.get("gap") is not None:
+        sections.append(_gap(results["gap"]))
+    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>svrqp demo</title>"
+            "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
+            "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}</style></head><body>"
+            f"<h1>svrqp demo</h1><p><b>{html.escape(SIMULATED_NOTE)}</b></p>"
+            f"<p>{'Quick run (--quick): smaller CV grid. ' if results['quick'] else ''}"
+            f"Run time {results['runtime_s']:.1f} s; numbers in {_link('results.json')}.</p>"
+            + "".join(sections) + "</body></html>\n")

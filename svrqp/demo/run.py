@@ -1,0 +1,174 @@
+"""``run_demo``: every step of ``svrqp demo`` in order, writing into a fresh output directory.
+
+Files written (relative to the output directory):
+
+* ``results.json`` — every number below; ``report.html`` — the page that links everything;
+* ``s0_predictions.csv`` (per-sample measured and predicted error), ``s0_cv_grid.csv``,
+  ``s0_x1.png``, ``s0_x2.png``, ``s0_x3.png``, ``s4_straightness.png``, ``s2_delta_x.png``;
+* ``export/s0_svr.json`` (``svrqp.model/1``), ``export/s0_svr.csv``, ``export/svrqp_model.c/.h``;
+* ``gap/gap.json`` (``svrqp.gap/1``), ``gap/gap.html``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from svrqp import datasets
+from svrqp.demo import figures, steps
+from svrqp.demo.report import SIMULATED_NOTE, report_html
+from svrqp.export import build_document, verify, write
+from svrqp.kernels import gamma_from_sigma_s4
+
+Progress = Callable[[str, float], None]
+
+#: Share of the run time each step takes (for the progress bar), in order.
+STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.55, "S4: LS-SVR straightness": 0.05,
+                "S2: nine-line and δx models": 0.08, "export and verify": 0.07, "gap diagnosis": 0.2,
+                "figures and report": 0.05}
+
+
+def prepare_directory(out: Path, force: bool) -> None:
+    """Create ``out``; refuse a non-empty one unless ``force`` (then the demo's files are replaced)."""
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"{out} exists and is not a directory")
+    if out.exists() and any(out.iterdir()) and not force:
+        raise FileExistsError(f"{out} exists and is not empty; use --force to overwrite the demo's files in it")
+    (out / "export").mkdir(parents=True, exist_ok=True)
+    (out / "gap").mkdir(exist_ok=True)
+
+
+def _s0_section(result: steps.S0Result, quick: bool) -> dict[str, Any]:
+    table = result.table.to_dict(orient="records")
+    x3 = {row["model"]: row["std_um"] for row in table if row["batch"] == "x3"}
+    better, worse = sorted(x3, key=x3.get)
+    paper = steps.S0_PAPER_STD_UM
+    sentence = (f"On the autumn batch x3 the {better} leaves the smaller residual ({x3[better]:.3g} μm std) and the "
+                f"{worse} the larger ({x3[worse]:.3g} μm); S0 published ε-SVR {paper[('ε-SVR', 'x3')]} vs MLR "
+                f"{paper[('MLR', 'x3')]} μm. The data "
+                "here is simulated, so the comparison says what this simulated machine does, not what S0's did.")
+    grid = steps.S0_GRID_QUICK if quick else steps.S0_GRID
+    return {
+        "features": steps.S0_FEATURES, "target": steps.S0_TARGET, "train_batch": steps.S0_TRAIN_BATCH,
+        "epsilon_um": steps.S0_EPSILON_UM,
+        "cv": {"folds": steps.S0_FOLDS, "grid": {key: list(values) for key, values in grid.items()},
+               "best_params": result.search.best_params, "best_mse_um2": result.search.best_mse,
+               "n_fits": result.search.n_fits},
+        "n_support": int(len(result.svr.support_)),
+        "mlr_formula": result.mlr.to_latex(),
+        "table": table, "x3_better_model": better, "sentence": sentence,
+        "predictions": "s0_predictions.csv", "cv_table": "s0_cv_grid.csv",
+        "figures": {batch: f"s0_{batch}.png" for batch in sorted(result.predictions["batch"].unique())},
+    }
+
+
+def _s4_section(result: steps.S4Result) -> dict[str, Any]:
+    return {
+        "sigma_mm": steps.S4_SIGMA_MM, "gamma": gamma_from_sigma_s4(steps.S4_SIGMA_MM), "C": steps.S4_C,
+        "n_support": result.n_support, "feed_forward_mm": steps.S4_FEED_FORWARD_MM,
+        "dead_band_um": steps.S4_DEAD_BAND_UM, "before_um": result.compensated.before.peak_to_peak_um,
+        "after_um": result.compensated.after.peak_to_peak_um, "improvement_percent": result.improvement_percent,
+        "paper": steps.S4_PAPER, "figure": "s4_straightness.png",
+    }
+
+
+def _s2_section(result: steps.S2Result) -> dict[str, Any]:
+    return {
+        "max_error_improved": result.max_error_improved, "max_error_original": result.max_error_original,
+        "svr_params": result.svr_params, "n_support": result.n_support, "mse_um2": result.mse,
+        "paper": steps.S2_PAPER, "figure": "s2_delta_x.png",
+    }
+
+
+def _export_section(result: steps.S0Result, out: Path, force: bool) -> dict[str, Any]:
+    document = build_document(result.svr, result.X_train, result.y_train)
+    written = [*write(document, out / "export" / "s0_svr.json", overwrite=force),
+               *write(document, out / "export" / "s0_svr.csv", overwrite=force),
+               *write(document, out / "export" / "svrqp_model.c", overwrite=force)]
+    report = verify(out / "export" / "s0_svr.json")
+    return {
+        "files": [path.relative_to(out).as_posix() for path in written],
+        "verify": {"ok": report.ok, "max_deviation": report.max_deviation, "tolerance": report.tolerance,
+                   "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail} for c in report.checks]},
+        "cross_check": document["cross_check"],
+    }
+
+
+def run_demo(out: str | Path = "demo-output", *, quick: bool = False, force: bool = False,
+             n_jobs: int | None = None, progress: Progress | None = None) -> dict[str, Any]:
+    """Run every step of the demo and write its files into ``out``.
+
+    Parameters
+    ----------
+    out
+        Output directory, created fresh (a non-empty one needs ``force``).
+    quick
+        Smaller S0 CV grid (for tests and a first look).
+    force
+        Overwrite the demo's own files in an existing, non-empty ``out``.
+    n_jobs
+        Parallel workers of the S0 cross-validation; default 2, or 1 with ``quick`` (starting
+        worker processes costs more than the 20 fits of the quick grid).
+    progress
+        Called as ``progress(step, fraction_done)``.
+
+    Returns
+    -------
+    dict
+        The content of ``results.json``.
+    """
+    started = time.perf_counter()
+    if n_jobs is None:
+        n_jobs = 1 if quick else 2
+    out = Path(out)
+    prepare_directory(out, force)
+    report = progress or (lambda step, done: None)
+    done = 0.0
+    names = iter(STEP_WEIGHTS)
+
+    def step() -> str:
+        nonlocal done
+        name = next(names)
+        report(name, done)
+        done += STEP_WEIGHTS[name]
+        return name
+
+    name = step()
+    s0_data = datasets.load("miao2013")
+    s0_start = done - STEP_WEIGHTS[name]
+    s0 = steps.s0_thermal(s0_data, quick=quick, n_jobs=n_jobs,
+                          progress=lambda k, n: report(name, s0_start + STEP_WEIGHTS[name] * k / n))
+    step()
+    s4 = steps.s4_straightness(datasets.load("lin_gantry"))
+    step()
+    s2 = steps.s2_nine_line(datasets.load("zhou_axis_x"), datasets.load("zhou_axis_x_true"))
+    step()
+    export = _export_section(s0, out, force)
+    name = step()
+    gap_start = done - STEP_WEIGHTS[name]
+    gap = steps.gap_autumn(s0_data, progress=lambda stage, f: report(f"{name}: {stage}",
+                                                                   gap_start + STEP_WEIGHTS[name] * f))
+    gap.write_json(out / "gap" / "gap.json", force=force)
+    gap.to_html(out / "gap" / "gap.html", force=force)
+    step()
+    s0.predictions.to_csv(out / "s0_predictions.csv", index=False)
+    s0.search.table.to_csv(out / "s0_cv_grid.csv", index=False)
+    results: dict[str, Any] = {
+        "note": SIMULATED_NOTE, "quick": quick,
+        "s0": _s0_section(s0, quick), "s4": _s4_section(s4), "s2": _s2_section(s2), "export": export,
+        "gap": {"verdict": gap.to_dict()["verdict"], "summary": gap.summary, "json": "gap/gap.json",
+                "html": "gap/gap.html"},
+    }
+    for batch, path in results["s0"]["figures"].items():
+        figures.s0_batch_figure(s0.predictions, batch, out / path)
+    figures.s4_figure(s4, out / results["s4"]["figure"])
+    figures.s2_figure(s2, out / results["s2"]["figure"])
+    results["runtime_s"] = time.perf_counter() - started
+    (out / "results.json").write_text(json.dumps(results, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
+                                      encoding="utf-8")
+    (out / "report.html").write_text(report_html(results), encoding="utf-8")
+    report("done", 1.0)
+    return results

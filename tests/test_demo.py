@@ -1,0 +1,124 @@
+"""``svrqp demo --quick`` end to end: every file is written and linked, every number is finite and
+agrees with the per-sample outputs it was computed from (read back, not hard-coded)."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from svrqp import datasets
+from svrqp.cli import main
+from svrqp.demo.run import prepare_directory
+from svrqp.export import predict, read_document, verify
+from svrqp.gap.report import load_schema as load_gap_schema
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo") / "demo-output"
+    main(["demo", "--quick", "--out", str(out)])
+    return out, json.loads((out / "results.json").read_text(encoding="utf-8"))
+
+
+def _numbers(value):
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return
+    if isinstance(value, (int, float)):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _numbers(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _numbers(item)
+
+
+def test_every_number_is_finite(demo):
+    _, results = demo
+    numbers = list(_numbers(results))
+    assert len(numbers) > 50
+    assert all(math.isfinite(number) for number in numbers)
+
+
+def test_report_links_only_files_that_exist(demo):
+    out, results = demo
+    page = (out / "report.html").read_text(encoding="utf-8")
+    targets = set(re.findall(r'(?:href|src)="([^"]+)"', page))
+    expected = {"results.json", results["s0"]["predictions"], results["s0"]["cv_table"], results["s4"]["figure"],
+                results["s2"]["figure"], *results["s0"]["figures"].values(), *results["export"]["files"],
+                results["gap"]["json"], results["gap"]["html"]}
+    assert expected <= targets
+    for target in targets:
+        assert (out / target).is_file(), target
+    assert "SIMULATED" in page
+
+
+def test_s0_table_is_what_the_predictions_say(demo):
+    out, results = demo
+    predictions = pd.read_csv(out / results["s0"]["predictions"])
+    std = {}
+    for row in results["s0"]["table"]:
+        rows = predictions[predictions["batch"] == row["batch"]]
+        column = "mlr_um" if row["model"] == "MLR" else "svr_um"
+        residual = rows["error_um"] - rows[column]
+        assert row["std_um"] == pytest.approx(residual.std(ddof=0), rel=1e-9)
+        assert row["rms_um"] == pytest.approx(np.sqrt(np.mean(residual**2)), rel=1e-9)
+        std[(row["model"], row["batch"])] = row["std_um"]
+    assert {batch for _, batch in std} == {"x1", "x2", "x3"}
+    better_on_x3 = min(("MLR", "ε-SVR"), key=lambda model: std[(model, "x3")])
+    assert results["s0"]["x3_better_model"] == better_on_x3
+    assert results["s0"]["sentence"].startswith(f"On the autumn batch x3 the {better_on_x3} leaves the smaller")
+
+
+def test_exported_model_is_the_demo_svr_and_verifies(demo):
+    out, results = demo
+    assert results["export"]["verify"]["ok"]
+    assert verify(out / "export" / "s0_svr.json").ok
+    document = read_document(out / "export" / "s0_svr.json")
+    x1 = datasets.load("miao2013").query("batch == 'x1'")
+    predictions = pd.read_csv(out / results["s0"]["predictions"]).query("batch == 'x1'")
+    from_file = predict(document, x1[results["s0"]["features"]].to_numpy())
+    assert np.max(np.abs(from_file - predictions["svr_um"].to_numpy())) <= 1e-9  # CSV round trip of predictions
+    assert document["model"]["C"] == results["s0"]["cv"]["best_params"]["C"]
+    assert len(document["model"]["dual_coef"]) == results["s0"]["n_support"]
+
+
+def test_s4_and_s2_numbers_are_consistent(demo):
+    _, results = demo
+    s4 = results["s4"]
+    assert s4["improvement_percent"] == pytest.approx(100 * (1 - s4["after_um"] / s4["before_um"]))
+    assert s4["n_support"] == 82 and s4["paper"]["improvement_percent"] == 53.0
+    s2 = results["s2"]
+    assert set(s2["max_error_improved"]) == set(s2["max_error_original"])
+    assert all(value >= 0 for value in s2["mse_um2"].values())
+
+
+def test_gap_report_is_schema_valid_and_matches(demo):
+    import jsonschema
+
+    out, results = demo
+    gap = json.loads((out / results["gap"]["json"]).read_text(encoding="utf-8"))
+    jsonschema.validate(gap, load_gap_schema())
+    assert gap["verdict"] == results["gap"]["verdict"]
+
+
+def test_existing_output_is_not_overwritten_without_force(demo, capsys):
+    out, _ = demo
+    before = (out / "results.json").read_bytes()
+    with pytest.raises(SystemExit) as exit_:
+        main(["demo", "--quick", "--out", str(out)])
+    assert exit_.value.code == 2
+    assert "--force" in capsys.readouterr().err
+    assert (out / "results.json").read_bytes() == before
+    prepare_directory(out, force=True)  # allowed with --force
+
+
+def test_a_file_in_place_of_the_directory_is_refused(tmp_path):
+    (tmp_path / "demo-output").write_text("a user's file")
+    with pytest.raises(FileExistsError, match="not a directory"):
+        prepare_directory(tmp_path / "demo-output", force=True)
