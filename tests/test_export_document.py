@@ -13,6 +13,7 @@ from export_cases import EXPORT_CASES, box_grid, mlr, svr_raw_s0, svr_scaled
 from svrqp import EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.export import (
+    ExportMixin,
     build_document,
     content_sha256,
     load_schema,
@@ -184,3 +185,27 @@ def test_csv_table_is_the_papers_layout(tmp_path):
     assert [[float(v) for v in row[2:]] for row in rows[1:]] == document["model"]["support_vectors"]
     assert any(f"b = {document['model']['intercept']!r}" in line for line in comments)
     assert any("g = 1/sigma^2 = 0.5" in line for line in comments)
+
+
+class ExportableSVR(ExportMixin, EpsilonSVR):
+    """EpsilonSVR with the mixin, as the estimators will declare it."""
+
+
+def test_mixin_exports_and_the_file_verifies(tmp_path):
+    from svrqp.export import verify
+
+    case = svr_scaled()
+    model = ExportableSVR(C=100.0, epsilon=0.2, gamma=0.5).fit(case.X, case.y)
+    written = model.export(tmp_path / "model.json", X=case.X, y=case.y, target_unit="um")
+    assert written == [tmp_path / "model.json"]
+    assert verify(written[0]).ok
+    assert read_document(written[0])["target"]["unit"] == "um"
+    assert [p.name for p in model.export(tmp_path, "c")] == ["svrqp_model.c", "svrqp_model.h"]
+
+
+def test_writing_an_invalid_document_writes_nothing(tmp_path):
+    document = _valid_document()
+    document["model"]["dual_coef"][0] = None
+    with pytest.raises(ProblemError, match=r"model.dual_coef\[0\]"):
+        write(document, tmp_path / "model.json")
+    assert not (tmp_path / "model.json").exists()

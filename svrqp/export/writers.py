@@ -20,6 +20,7 @@ from typing import Any
 
 from svrqp.exceptions import ProblemError
 from svrqp.export.c_source import c_source, header_source
+from svrqp.export.schema import validate_document
 
 FORMATS = ("json", "csv", "c")
 _SUFFIX_FORMATS = {".json": "json", ".csv": "csv", ".c": "c"}
@@ -114,6 +115,7 @@ def write(document: dict[str, Any], path: str | Path, format: str | None = None,
     FileExistsError
         When a file to be written exists and ``overwrite`` is false.
     """
+    validate_document(document)
     path = Path(path)
     fmt = infer_format(path) if format is None else format
     if fmt not in FORMATS:
