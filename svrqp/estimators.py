@@ -20,6 +20,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp.exceptions import ProblemError, SolverError
+from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
 from svrqp.problems import check_psd
@@ -88,7 +89,7 @@ class _KernelModel(RegressorMixin, BaseEstimator):
         return tags
 
 
-class EpsilonSVR(_KernelModel):
+class EpsilonSVR(ExportMixin, _KernelModel):
     """ε-support vector regression solved as an explicit QP.
 
     Parameters
@@ -195,7 +196,7 @@ class EpsilonSVR(_KernelModel):
         return self
 
 
-class LSSVR(_KernelModel):
+class LSSVR(ExportMixin, _KernelModel):
     """Least-squares SVR (S4): the KKT linear system, solved by Cholesky and a Schur complement.
 
     Parameters

@@ -24,6 +24,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations import least_squares, recursive_ls
+from svrqp.export.mixin import ExportMixin
 
 #: Unit suffixes of the naming convention (``T7_C``) and how they are written.
 _UNIT_SUFFIXES = {
@@ -148,7 +149,7 @@ def _finite_inputs(estimator: BaseEstimator, X: ArrayLike) -> NDArray:
     return least_squares.check_finite_matrix(X, "X", 2)
 
 
-class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
+class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     """Multiple linear regression by the normal equations (S0 eq. (5), S3 eq. (6)).
 
     Parameters
@@ -206,7 +207,7 @@ class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
         return _finite_inputs(self, X) @ self.coef_ + self.intercept_
 
 
-class PolynomialLS(RegressorMixin, BaseEstimator):
+class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
     """Least-squares polynomial in one variable on the Legendre basis (S2 eq. (22)).
 
     Parameters
@@ -261,7 +262,7 @@ class PolynomialLS(RegressorMixin, BaseEstimator):
         return self._fit_result().to_polynomial()
 
 
-class RecursiveLS(_LinearFormula, RegressorMixin, BaseEstimator):
+class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     """Recursive least squares for :math:`y = a_0 + x^\\top a` (S3 eqs. (13)–(19)).
 
     ``partial_fit`` absorbs samples one by one through the recursion. Until the samples seen so

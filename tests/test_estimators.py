@@ -110,3 +110,14 @@ def test_property_ls_svr_raises_only_library_errors_and_never_returns_nan(X, C):
     except (ValueError, SvrqpError):
         return
     assert np.all(np.isfinite(predictions))
+
+
+@pytest.mark.parametrize("Model", [EpsilonSVR, LSSVR])
+def test_model_export_round_trips_through_verify(Model, tmp_path):
+    from svrqp.export import read_document, verify
+    from svrqp.export import predict as predict_from_file
+
+    model = Model(C=10.0).fit(X_OK, Y_OK)
+    [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
+    assert verify(path).ok
+    np.testing.assert_allclose(predict_from_file(read_document(path), X_OK), model.predict(X_OK), rtol=0, atol=1e-12)

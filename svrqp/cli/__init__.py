@@ -52,7 +52,7 @@ _USER_ERRORS = (SvrqpError, ValueError, KeyError, FileNotFoundError, FileExistsE
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``svrqp`` console script."""
     try:
-        app(args=argv, standalone_mode=False)
+        code = app(args=argv, standalone_mode=False)
     except _USER_ERRORS as err:
         if _state["debug"]:
             raise
@@ -65,10 +65,13 @@ def main(argv: list[str] | None = None) -> None:
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except Exception as click_error:  # click usage errors carry their own exit code
-        code = getattr(click_error, "exit_code", None)
-        if code is None or _state["debug"]:
+        usage_code = getattr(click_error, "exit_code", None)
+        if usage_code is None or _state["debug"]:
             raise
         show = getattr(click_error, "show", None)
         if show is not None:
             show()
+        sys.exit(usage_code)
+    # Without standalone mode click returns the code of a typer.Exit instead of exiting.
+    if isinstance(code, int) and code != 0:
         sys.exit(code)
