@@ -10,33 +10,46 @@ Markers in the Markdown pages, replaced at build time:
     The object, its file and its first and last source lines.
 ``[[cli]]``
     The reference of every ``svrqp`` subcommand, from the Typer application itself.
+``[[notebooks]]``
+    A table of the notebooks in ``notebooks/``: file and title (the first heading of each).
+``[[config: dotted.Class]]``
+    A configuration dataclass as a table: each field, its default and its documented meaning.
 ``[[include: path | language]]``
     A repository file as a fenced code block (the build fails when it is missing).
-``[[include-optional: path]]``
-    A repository Markdown file (e.g. recorded benchmark results) inlined, with its images
-    published next to the page; a note when it has not been recorded yet.
+``[[include-optional: glob]]``
+    Every repository Markdown file matching the glob (e.g. recorded benchmark results) inlined,
+    with its images published next to the page; a note when none has been recorded yet.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
+import json
+import sys
 import posixpath
 import re
 from pathlib import Path
 
+import griffe
 from mkdocs.exceptions import PluginError
 from mkdocs.structure.files import File
+
+sys.path.insert(0, str(Path(__file__).parent))
+from rst import rst_to_markdown  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 _MARKERS = {
     "code": re.compile(r"\[\[code:\s*([\w.]+)\s*\|\s*`([^`]+)`\s*\]\]"),
     "lines": re.compile(r"\[\[lines:\s*([\w.]+)\s*\]\]"),
     "cli": re.compile(r"\[\[cli\]\]"),
+    "notebooks": re.compile(r"\[\[notebooks\]\]"),
+    "config": re.compile(r"\[\[config:\s*([\w.]+)\s*\]\]"),
     "include": re.compile(r"\[\[include:\s*([^\s|\]]+)\s*\|\s*(\w*)\s*\]\]"),
     "include-optional": re.compile(r"\[\[include-optional:\s*([^\s\]]+)\s*\]\]"),
 }
-_ANY_MARKER = re.compile(r"\[\[\s*(?:code|lines|cli|include)[^\]]*")
+_ANY_MARKER = re.compile(r"\[\[\s*(?:code|lines|cli|config|notebooks|include)[^\]]*")
 _IMAGE = re.compile(r"!\[([^\]]*)\]\((?!https?://)([^)]+)\)")
 
 
@@ -99,6 +112,50 @@ def _cli() -> str:
     return re.sub(r"^(#+) ", r"#\1 ", text, flags=re.MULTILINE)  # below the page's own title
 
 
+def _short_default(field: dataclasses.Field) -> str:
+    if field.default is not dataclasses.MISSING:
+        value = field.default
+    elif field.default_factory is not dataclasses.MISSING:
+        value = field.default_factory()
+    else:
+        return "required"
+    if dataclasses.is_dataclass(value):
+        return f"`{type(value).__name__}()`"
+    if isinstance(value, tuple) and value and dataclasses.is_dataclass(value[0]):
+        return f"{len(value)} × `{type(value[0]).__name__}`"
+    return f"`{value!r}`"
+
+
+def _config(dotted: str) -> str:
+    cls = _resolve(dotted)
+    if not (isinstance(cls, type) and dataclasses.is_dataclass(cls)):
+        raise PluginError(f"docs: [[config: {dotted}]] is not a dataclass")
+    described = {}
+    for section in griffe.Docstring(inspect.getdoc(cls) or "").parse("numpy", warn_missing_types=False):
+        if section.kind is griffe.DocstringSectionKind.parameters:
+            described.update({p.name: " ".join(p.description.split()) for p in section.value})
+    missing = [f.name for f in dataclasses.fields(cls) if f.init and f.name not in described]
+    if missing:
+        raise PluginError(f"docs: {dotted} does not document field(s) {missing}")
+    rows = [f"| `{f.name}` | {_short_default(f)} | {rst_to_markdown(described[f.name])} |"
+            for f in dataclasses.fields(cls) if f.init]
+    return "\n".join(["| parameter | default | meaning |", "|---|---|---|", *rows])
+
+
+def _notebooks() -> str:
+    rows = []
+    for path in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        cells = json.loads(path.read_text(encoding="utf-8"))["cells"]
+        heading = next((line for cell in cells if cell["cell_type"] == "markdown"
+                        for line in "".join(cell["source"]).splitlines() if line.startswith("# ")), None)
+        if heading is None:
+            raise PluginError(f"docs: {path.name} has no '# ' title in a markdown cell")
+        rows.append(f"| `{path.name}` | {heading[2:].strip()} |")
+    if not rows:
+        raise PluginError("docs: no notebook found in notebooks/")
+    return "\n".join(["| notebook | what it does |", "|---|---|", *rows])
+
+
 def _include(relative: str, language: str) -> str:
     path = ROOT / relative
     if not path.is_file():
@@ -106,21 +163,25 @@ def _include(relative: str, language: str) -> str:
     return f"```{language}\n{path.read_text(encoding='utf-8').rstrip()}\n```"
 
 
-def _include_optional(argument: str, published: dict[str, Path], page_dir: str = "") -> str:
-    path = ROOT / argument
-    if not path.is_file():
-        return (f'!!! note "Not recorded yet"\n    `{argument}` does not exist in this checkout; '
-                "it is written by the command that records these results (see the CLI reference).")
-    folder = path.parent
+def _include_optional(pattern: str, published: dict[str, Path], page_dir: str = "") -> str:
+    """Every repository Markdown file matching ``pattern`` (a glob), or a note when there is none."""
+    paths = sorted(path for path in ROOT.glob(pattern) if path.is_file())
+    if not paths:
+        return (f'!!! note "Not recorded yet"\n    No file matches `{pattern}` in this checkout; it is '
+                "written by the command that records these results (see the CLI reference).")
+    return "\n\n".join(_inline_markdown(path, published, page_dir) for path in paths)
 
+
+def _inline_markdown(path: Path, published: dict[str, Path], page_dir: str) -> str:
     def publish(match: re.Match) -> str:
-        image = (folder / match[2]).resolve()
+        image = (path.parent / match[2]).resolve()
         uri = f"assets/generated/{image.relative_to(ROOT).as_posix().replace('/', '_')}"
         published[uri] = image
         return f"![{match[1]}]({posixpath.relpath(uri, page_dir or '.')})"
 
     text = _IMAGE.sub(publish, path.read_text(encoding="utf-8"))
-    return re.sub(r"^(#+) ", r"#\1 ", text, flags=re.MULTILINE)
+    source = f"*From `{path.relative_to(ROOT).as_posix()}`.*\n\n"
+    return source + re.sub(r"^(#+) ", r"#\1 ", text, flags=re.MULTILINE)
 
 
 _published: dict[str, Path] = {}
@@ -132,6 +193,8 @@ def on_page_markdown(markdown: str, page, config, files) -> str:
     markdown = _MARKERS["code"].sub(lambda m: _code(m[1], m[2]), markdown)
     markdown = _MARKERS["lines"].sub(lambda m: _lines(m[1]), markdown)
     markdown = _MARKERS["cli"].sub(lambda m: _cli(), markdown)
+    markdown = _MARKERS["config"].sub(lambda m: _config(m[1]), markdown)
+    markdown = _MARKERS["notebooks"].sub(lambda m: _notebooks(), markdown)
     markdown = _MARKERS["include"].sub(lambda m: _include(m[1], m[2]), markdown)
     markdown = _MARKERS["include-optional"].sub(lambda m: _include_optional(m[1], _published, page_dir), markdown)
     leftover = _ANY_MARKER.search(markdown)
