@@ -306,8 +306,9 @@ def grid_search(
 ) -> SearchResult:
     """k-fold cross-validated grid search over (C, ε, γ) with shared Gram matrices (RBF kernel).
 
-    Equal to ``GridSearchCV(EpsilonSVR(), {"C", "epsilon", "gamma"}, cv=cv,
-    scoring="neg_mean_squared_error")`` (or ``LSSVR`` over ``{"C", "gamma"}``), computed faster.
+    The same scores as ``GridSearchCV(EpsilonSVR(), {"C", "epsilon", "gamma"}, cv=cv,
+    scoring="neg_mean_squared_error")`` (or ``LSSVR`` over ``{"C", "gamma"}``), with the Gram
+    matrix computed once per γ instead of once per fit.
 
     Parameters
     ----------
