@@ -15,6 +15,10 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[all]"
 	touch $(STAMP)
 
+# One BLAS thread per process: pytest runs two workers on two cores, and oversubscribed
+# OpenBLAS threads made a 933x933 Cholesky 100x slower on a loaded machine.
+test: export OPENBLAS_NUM_THREADS = 1
+test: export OMP_NUM_THREADS = 1
 test: $(STAMP)
 	$(PY) -m pytest -n 2 --dist loadfile -q tests
 	if ls notebooks/*.ipynb >/dev/null 2>&1; then $(PY) -m pytest -q -n 2 --nbmake notebooks; fi

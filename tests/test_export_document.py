@@ -13,7 +13,6 @@ from export_cases import EXPORT_CASES, box_grid, mlr, svr_raw_s0, svr_scaled
 from svrqp import EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.export import (
-    ExportMixin,
     build_document,
     content_sha256,
     load_schema,
@@ -187,15 +186,11 @@ def test_csv_table_is_the_papers_layout(tmp_path):
     assert any("g = 1/sigma^2 = 0.5" in line for line in comments)
 
 
-class ExportableSVR(ExportMixin, EpsilonSVR):
-    """EpsilonSVR with the mixin, as the estimators will declare it."""
-
-
 def test_mixin_exports_and_the_file_verifies(tmp_path):
     from svrqp.export import verify
 
     case = svr_scaled()
-    model = ExportableSVR(C=100.0, epsilon=0.2, gamma=0.5).fit(case.X, case.y)
+    model = EpsilonSVR(C=100.0, epsilon=0.2, gamma=0.5).fit(case.X, case.y)
     written = model.export(tmp_path / "model.json", X=case.X, y=case.y, target_unit="um")
     assert written == [tmp_path / "model.json"]
     assert verify(written[0]).ok
