@@ -63,7 +63,7 @@ def _s2(s2: dict[str, Any]) -> str:
     rows = [[c, s2["max_error_improved"][c], s2["max_error_original"][c]] for c in components]
     mse = s2["mse_um2"]
     paper = s2["paper"]
-    return (f"<h2>S2 — nine-line identification and δx(x) models</h2>"
+    return ("<h2>S2 — nine-line identification and δx(x) models</h2>"
             "<p>Largest error of the identified components against the simulator's truth:</p>"
             + _table(["component", "improved method", "original method"], rows)
             + f"<p>δx(x): ε-SVR (5-fold CV: C = {s2['svr_params']['C']:g}, γ = {s2['svr_params']['gamma']:.4g} "
