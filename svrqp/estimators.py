@@ -169,23 +169,18 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
-        n = X.shape[0]
         if self.formulation == "primal":
             self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
-        else:
-            K = self._training_gram(X)
-            self.problem_ = epsilon_svr.build(self.formulation, y, self.C, self.epsilon, K=K)
-        self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol, check_tol=self.check_tol)
-        beta = epsilon_svr.beta_from_solution(self.formulation, n, self.solution_.x, self.solution_.z)
-        if self.formulation == "primal":
+            self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol, check_tol=self.check_tol)
+            beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
             d = X.shape[1]
             self.coef_ = self.solution_.x[:d].copy()
             b = float(self.solution_.x[d])
         else:
-            polished = epsilon_svr.polish(K, y, beta, self.C, self.epsilon)
-            self.polished_ = polished is not None
-            beta = beta if polished is None else polished
-            b = epsilon_svr.intercept_from_kkt(K, y, beta, self.C, self.epsilon)
+            K = self._training_gram(X)
+            beta, b, self.problem_, self.solution_, self.polished_ = epsilon_svr.solve_dual(
+                K, y, self.C, self.epsilon, formulation=self.formulation, backend=self.solver,
+                tol=self.tol, check_tol=self.check_tol)
         if not (np.all(np.isfinite(beta)) and np.isfinite(b)):
             raise SolverError(f"backend {self.solver!r} returned non-finite coefficients", self.solver, "failed")
         support = epsilon_svr.support_mask(beta, self.C)

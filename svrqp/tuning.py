@@ -52,7 +52,7 @@ from svrqp.estimators import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
-from svrqp.solve import require_backend, solve_qp
+from svrqp.solve import require_backend
 
 MODELS: tuple[str, ...] = ("svr", "lssvr")
 JOBLIB_BACKENDS: tuple[str, ...] = ("sequential", "loky", "threading", "dask")
@@ -148,13 +148,8 @@ def _folds(cv: int | Any, X: NDArray, y: NDArray, groups: ArrayLike | None) -> l
 def _fit_epsilon_svr(
     K: NDArray, y: NDArray, C: float, epsilon: float, solver: str, tol: float, initvals: NDArray | None
 ) -> tuple[NDArray, float, NDArray]:
-    """β, b of the ε-SVR dual on a precomputed Gram matrix — the steps of ``EpsilonSVR.fit``
-    (split form, active-set polish, KKT bias, support threshold) plus an optional warm start."""
-    solution = solve_qp(epsilon_svr.dual_split(K, y, C, epsilon), solver, tol=tol, initvals=initvals)
-    beta = epsilon_svr.beta_from_solution("split", y.shape[0], solution.x)
-    polished = epsilon_svr.polish(K, y, beta, C, epsilon)
-    beta = beta if polished is None else polished
-    b = epsilon_svr.intercept_from_kkt(K, y, beta, C, epsilon)
+    """β (zero off the support), b and the raw QP solution (the next warm start) on a Gram matrix."""
+    beta, b, _, solution, _ = epsilon_svr.solve_dual(K, y, C, epsilon, backend=solver, tol=tol, initvals=initvals)
     beta = np.where(epsilon_svr.support_mask(beta, C), beta, 0.0)
     return beta, b, solution.x
 

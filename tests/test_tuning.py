@@ -211,17 +211,17 @@ def test_ga_search_rejects_bad_ranges(sine_wave, arguments, message):
 
 def test_failed_fits_are_recorded_not_hidden(sine_wave, monkeypatch):
     """A candidate whose solver fails scores inf with its failed folds counted; the rest stand."""
-    import svrqp.tuning as tuning
+    import svrqp.solve as solve_module
     from svrqp.exceptions import SolverError
 
-    real_solve_qp = tuning.solve_qp
+    real_solve_qp = solve_module.solve_qp
 
     def failing_at_large_c(problem, backend, **kwargs):
         if problem.ub.max() >= 100.0:
             raise SolverError("simulated failure", backend, "max_iter")
         return real_solve_qp(problem, backend, **kwargs)
 
-    monkeypatch.setattr(tuning, "solve_qp", failing_at_large_c)
+    monkeypatch.setattr(solve_module, "solve_qp", failing_at_large_c)
     X, y = sine_wave
     result = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="sequential")
     failed = result.table[result.table["C"] == 100.0]

@@ -74,7 +74,7 @@ to the SVR dual).
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -310,6 +310,43 @@ def dual_objective(
     scikit-learn's ``dual_coef_`` — so objectives of different solvers compare directly.
     """
     return float(0.5 * beta @ (K @ beta) - y @ beta + epsilon * np.abs(beta).sum())
+
+
+class DualFit(NamedTuple):
+    """What :func:`solve_dual` returns."""
+
+    beta: NDArray[np.float64]  #: all n coefficients, alpha* - alpha
+    b: float  #: the bias from the KKT conditions
+    problem: QuadraticProgram  #: the QP that was solved
+    solution: Any  #: its certificate-checked svrqp.solve.Solution
+    polished: bool  #: whether polish() replaced the solver's coefficients
+
+
+def solve_dual(
+    K: NDArray[np.float64],
+    y: NDArray[np.float64],
+    C: float,
+    epsilon: float,
+    *,
+    formulation: str = "split",
+    backend: str = "clarabel",
+    tol: float = 1e-8,
+    check_tol: float | None = None,
+    initvals: NDArray[np.float64] | None = None,
+) -> DualFit:
+    r"""Build a dual QP, solve it, polish it, and read off :math:`\beta` and ``b``.
+
+    The one sequence every dual fit goes through (the estimators and the tuning loops).
+    """
+    from svrqp.solve import solve_qp  # the solver layer sits above the formulations
+
+    problem = build(formulation, y, C, epsilon, K=K)
+    solution = solve_qp(problem, backend, tol=tol, check_tol=check_tol, initvals=initvals)
+    beta = beta_from_solution(formulation, y.shape[0], solution.x)
+    polished = polish(K, y, beta, C, epsilon)
+    if polished is not None:
+        beta = polished
+    return DualFit(beta, intercept_from_kkt(K, y, beta, C, epsilon), problem, solution, polished is not None)
 
 
 def support_mask(beta: NDArray[np.float64], C: float, sv_tolerance: float = SV_TOLERANCE) -> NDArray[np.bool_]:
