@@ -1,0 +1,51 @@
+"""Kernel columns on demand, each computed once: :math:`K_{:, j} = k(X, x_j)` without forming K.
+
+Solvers that touch only some columns of the Gram matrix — the support vectors in an active-set
+crossover, the pivots of a pivoted Cholesky factorisation — use this cache, so the memory is
+O(n · columns used) instead of O(n²).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from svrqp.kernels import gram
+
+
+class KernelColumns:
+    """Columns of the Gram matrix of ``X`` (kernel parameters as in :func:`svrqp.kernels.gram`).
+
+    Calling the object with an index array returns the columns as an ``(n, len(idx))`` array;
+    columns already computed are taken from the cache.
+    """
+
+    def __init__(self, X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0, degree: int = 3,
+                 coef0: float = 0.0) -> None:
+        self.X = np.asarray(X, dtype=float)
+        self.parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
+        self._cache: dict[int, NDArray[np.float64]] = {}
+        self.evaluated = 0  # number of columns computed (not served from the cache)
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return self.X.shape[0]
+
+    def diagonal(self) -> NDArray[np.float64]:
+        """:math:`K_{ii}` for every sample, from small diagonal blocks (no column is formed)."""
+        block = 256
+        return np.concatenate([np.diag(gram(self.X[start:start + block], **self.parameters))
+                               for start in range(0, self.n, block)])
+
+    def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        idx = np.asarray(idx, dtype=np.intp).ravel()
+        missing = np.array([j for j in dict.fromkeys(idx.tolist()) if j not in self._cache], dtype=np.intp)
+        if missing.size:
+            block = gram(self.X, self.X[missing], **self.parameters)
+            for position, j in enumerate(missing.tolist()):
+                self._cache[j] = block[:, position]
+            self.evaluated += missing.size
+        if idx.size == 0:
+            return np.zeros((self.n, 0))
+        return np.column_stack([self._cache[j] for j in idx.tolist()])

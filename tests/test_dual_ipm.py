@@ -1,0 +1,122 @@
+"""svrqp's interior point and crossover against libsvm, an independent KKT check, and its own variants."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.svm import SVR
+
+from svrqp import dual_ipm
+from svrqp.exceptions import ProblemError
+from svrqp.formulations.epsilon_svr import dual_objective
+from svrqp.formulations.low_rank import pivoted_cholesky
+from svrqp.kernel_columns import KernelColumns
+from svrqp.kernels import gram
+
+from problems import SVR_CASES, thermal_two_sensors
+
+
+def libsvm_beta(case) -> tuple[np.ndarray, float]:
+    """scikit-learn's SVR(tol=1e-8) on the case: the outside reference."""
+    model = SVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma, tol=1e-8).fit(case.X, case.y)
+    beta = np.zeros(len(case.y))
+    beta[model.support_] = model.dual_coef_[0]
+    return beta, float(model.intercept_[0])
+
+
+def assert_exact_kkt(K, y, beta, b, C, epsilon):
+    """Every ε-SVR optimality condition to rounding (1e-9 relative), checked from first principles."""
+    slack = 1e-9 * (1.0 + np.abs(y).max())
+    assert abs(beta.sum()) <= 1e-9 * C * len(y)
+    assert np.all(np.abs(beta) <= C)
+    r = y - K @ beta - b
+    zero, upper, lower = beta == 0, beta == C, beta == -C
+    free = ~zero & ~upper & ~lower
+    assert np.all(np.abs(r[zero]) <= epsilon + slack)
+    assert np.allclose(r[free], epsilon * np.sign(beta[free]), atol=slack)
+    assert np.all(r[upper] >= epsilon - slack) and np.all(r[lower] <= -epsilon + slack)
+
+
+def assert_matches_libsvm(case, K, beta, b):
+    """Objective within 1e-6 relative, predictions within 1e-5·std(y) of libsvm (DESIGN §3)."""
+    reference, reference_b = libsvm_beta(case)
+    ours = dual_objective(K, case.y, beta, case.epsilon)
+    theirs = dual_objective(K, case.y, reference, case.epsilon)
+    assert ours <= theirs + 1e-6 * abs(theirs)
+    assert abs(ours - theirs) <= 1e-6 * abs(theirs)
+    difference = (K @ beta + b) - (K @ reference + reference_b)
+    assert np.max(np.abs(difference)) <= 1e-5 * case.y.std()
+
+
+@pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)
+def test_solve_exact_matches_libsvm_and_satisfies_kkt(case_factory):
+    case = case_factory()
+    K = gram(case.X, gamma=case.gamma)
+    fit = dual_ipm.solve_exact(K, case.y, case.C, case.epsilon)
+    assert fit.ipm.converged and fit.crossover.exact
+    assert_exact_kkt(K, case.y, fit.beta, fit.intercept, case.C, case.epsilon)
+    assert_matches_libsvm(case, K, fit.beta, fit.intercept)
+
+
+@pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)
+def test_solve_exact_from_data_matches_the_dense_path(case_factory):
+    case = case_factory()
+    K = gram(case.X, gamma=case.gamma)
+    fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
+                                         factor_tol=1e-6, max_rank=len(case.y))
+    assert fit.crossover.exact
+    assert_exact_kkt(K, case.y, fit.beta, fit.intercept, case.C, case.epsilon)
+    assert_matches_libsvm(case, K, fit.beta, fit.intercept)
+
+
+def test_low_rank_path_forms_no_gram_and_falls_back_when_the_factor_is_poor():
+    case = thermal_two_sensors()  # two smooth features: a low numerical rank
+    low_rank = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
+                                              factor_tol=1e-8, max_rank=len(case.y))
+    assert low_rank.times_s["gram_s"] == 0.0
+    fallback = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
+                                              factor_tol=1e-14, max_rank=3)
+    assert fallback.times_s["gram_s"] > 0.0
+    np.testing.assert_allclose(low_rank.beta, fallback.beta, atol=1e-9 * case.C)
+
+
+def test_factored_interior_point_with_a_full_factor_equals_the_dense_one():
+    case = thermal_two_sensors()
+    K = gram(case.X, gamma=case.gamma)
+    factor = pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=0.0)
+    dense = dual_ipm.interior_point(dual_ipm.DenseKernel(K), case.y, case.C, case.epsilon)
+    factored = dual_ipm.interior_point(dual_ipm.FactoredKernel(factor.L), case.y, case.C, case.epsilon)
+    assert dense.converged and factored.converged
+    objective = [dual_objective(K, case.y, fit.beta, case.epsilon) for fit in (dense, factored)]
+    assert objective[1] == pytest.approx(objective[0], rel=1e-7)
+
+
+def test_crossover_repairs_a_perturbed_start_and_reports_when_it_cannot():
+    case = thermal_two_sensors()
+    K = gram(case.X, gamma=case.gamma)
+    exact = dual_ipm.solve_exact(K, case.y, case.C, case.epsilon)
+    # Move some free coefficients to zero and some zeros off zero: wrong states to start from.
+    start = exact.beta.copy()
+    free = np.flatnonzero((np.abs(start) > 0) & (np.abs(start) < case.C))
+    zero = np.flatnonzero(start == 0)
+    start[free[:2]] = 0.0
+    start[zero[:2]] = 0.3 * case.C
+    repaired = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start)
+    assert repaired.exact and repaired.steps > 1
+    np.testing.assert_allclose(repaired.beta, exact.beta, atol=1e-9 * case.C)
+    stopped = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start, max_steps=1)
+    assert not stopped.exact
+
+
+def test_interior_point_reports_an_iteration_limit():
+    case = thermal_two_sensors()
+    fit = dual_ipm.interior_point(dual_ipm.DenseKernel(gram(case.X, gamma=case.gamma)), case.y, case.C,
+                                  case.epsilon, max_iter=2)
+    assert not fit.converged and fit.iterations == 2
+
+
+@pytest.mark.parametrize("C, epsilon", [(0.0, 0.1), (np.inf, 0.1), (1.0, -0.1)])
+def test_invalid_parameters_are_rejected(C, epsilon):
+    case = thermal_two_sensors()
+    with pytest.raises(ProblemError):
+        dual_ipm.interior_point(dual_ipm.DenseKernel(gram(case.X, gamma=case.gamma)), case.y, C, epsilon)

@@ -1,0 +1,31 @@
+"""Kernel columns on demand equal the Gram matrix's columns and are computed once."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from svrqp.kernel_columns import KernelColumns
+from svrqp.kernels import gram
+
+from problems import diabetes
+
+
+@pytest.mark.parametrize("parameters", [{"kernel": "rbf", "gamma": 5.0}, {"kernel": "linear"},
+                                        {"kernel": "poly", "gamma": 0.5, "degree": 2, "coef0": 1.0}])
+def test_columns_and_diagonal_equal_the_gram_matrix(parameters):
+    X = diabetes().X
+    K = gram(X, **parameters)
+    columns = KernelColumns(X, **parameters)
+    idx = np.array([5, 0, 17, 5])
+    np.testing.assert_allclose(columns(idx), K[:, idx], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(columns.diagonal(), np.diag(K), rtol=1e-12)
+
+
+def test_cached_columns_are_not_recomputed():
+    X = diabetes().X
+    columns = KernelColumns(X, gamma=5.0)
+    columns(np.array([1, 2, 3]))
+    columns(np.array([3, 2, 4]))
+    assert columns.evaluated == 4
+    assert columns(np.array([], dtype=int)).shape == (X.shape[0], 0)

@@ -1,0 +1,72 @@
+"""Pivoted Cholesky factor, the factored ε-SVR dual as a QP, and its error bound."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from svrqp.exceptions import ProblemError
+from svrqp.formulations import low_rank
+from svrqp.formulations.epsilon_svr import dual_objective
+from svrqp.kernel_columns import KernelColumns
+from svrqp.kernels import gram
+from svrqp.solve import solve_qp
+
+from problems import diabetes, thermal_two_sensors
+
+
+def test_factor_trace_error_is_the_trace_of_the_residual():
+    case = diabetes()
+    K = gram(case.X, gamma=case.gamma)
+    columns = KernelColumns(case.X, gamma=case.gamma)
+    factor = low_rank.pivoted_cholesky(columns, max_rank=30, tol=0.0)
+    residual = K - factor.L @ factor.L.T
+    assert factor.rank == 30 == columns.evaluated  # one kernel column per pivot, no more
+    assert factor.trace_error == pytest.approx(np.trace(residual), rel=1e-8, abs=1e-12)
+    assert np.linalg.eigvalsh(residual)[-1] <= factor.trace_error + 1e-12  # the reported bound holds
+    assert len(set(factor.pivots.tolist())) == factor.rank
+
+
+def test_full_factor_reproduces_the_gram_matrix_and_stops_at_the_tolerance():
+    case = thermal_two_sensors()
+    K = gram(case.X, gamma=case.gamma)
+    full = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=1e-12)
+    np.testing.assert_allclose(full.L @ full.L.T, K, atol=1e-10)
+    coarse = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=1e-3)
+    assert coarse.relative_trace_error <= 1e-3 and coarse.rank < full.rank
+
+
+def test_factored_qp_with_an_exact_factor_has_the_exact_optimum():
+    case = thermal_two_sensors()
+    K = gram(case.X, gamma=case.gamma)
+    factor = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=1e-14)
+    problem = low_rank.dual_low_rank(factor.L, case.y, case.C, case.epsilon)
+    beta = low_rank.beta_from_solution(len(case.y), solve_qp(problem, "clarabel").x)
+    # Reference: the dense split dual of the same data solved by an independent backend (OSQP).
+    from svrqp.formulations.epsilon_svr import beta_from_solution, dual_split
+
+    dense = beta_from_solution("split", len(case.y), solve_qp(dual_split(K, case.y, case.C, case.epsilon), "osqp").x)
+    assert dual_objective(K, case.y, beta, case.epsilon) == pytest.approx(
+        dual_objective(K, case.y, dense, case.epsilon), rel=1e-7)
+
+
+def test_objective_error_bound_holds_for_a_truncated_factor():
+    case = diabetes()
+    K = gram(case.X, gamma=case.gamma)
+    factor = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=10, tol=0.0)
+    LLt = factor.L @ factor.L.T
+    bound = low_rank.objective_error_bound(factor, len(case.y), case.C)
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        beta = rng.uniform(-case.C, case.C, len(case.y))
+        gap = abs(dual_objective(K, case.y, beta, case.epsilon) - dual_objective(LLt, case.y, beta, case.epsilon))
+        assert gap <= bound
+
+
+def test_bad_arguments_are_rejected():
+    case = thermal_two_sensors()
+    columns = KernelColumns(case.X, gamma=case.gamma)
+    with pytest.raises(ProblemError, match="max_rank"):
+        low_rank.pivoted_cholesky(columns, max_rank=0)
+    with pytest.raises(ProblemError, match="rows"):
+        low_rank.dual_low_rank(np.ones((3, 2)), case.y, case.C, case.epsilon)
