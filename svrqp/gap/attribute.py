@@ -23,26 +23,41 @@ Significance by surrogates that keep autocorrelation
     circularly within every group by a random offset (:func:`svrqp.gap.blocks.circular_shifts`),
     which keeps both series' autocorrelation, and recomputes :math:`g` including the
     :math:`\tau` search. The Monte-Carlo p-value is sequential (Besag & Clifford 1991): draw
-    surrogates in batches up to :data:`MAX_SURROGATES`; stop once :data:`STOP_EXCEEDANCES`
+    surrogates in batches (:data:`SURROGATE_BATCHES`); stop once :data:`STOP_EXCEEDANCES`
     surrogates reach the observed gain, :math:`p = h/S_h` (:math:`S_h` = draws up to the
-    :math:`h`-th exceedance), otherwise :math:`p = (1 + \#\{g_s \ge g\})/(1 + S)`.
+    :math:`h`-th exceedance), otherwise :math:`p = (1 + \#\{g_s \ge g\})/(1 + S)`. Further
+    batches are drawn only for tests whose decision is still open (:func:`run_tests`), up to
+    :math:`2m/\alpha` draws for :math:`m` tests, so that the smallest attainable p-value
+    passes Benjamini–Hochberg's first threshold :math:`\alpha/m`.
+
+    A caveat of circular shifts: a strictly periodic candidate (a chiller cycling at a fixed
+    period) matches itself at shifts of whole periods, which costs power; with several groups
+    of different phase this matters less.
 
 Multiple testing and effect floor
     Benjamini–Hochberg over all candidate × transform tests of a round (:data:`ALPHA`).
-    A test counts as evidence only if its adjusted p-value is below :data:`ALPHA`, its gain
-    is at least :data:`MIN_GAIN` (relative floor) and the RMS it explains,
-    :math:`\sqrt{g\,\mathrm{SSE}_{cv}(B)/n}`, is at least :data:`MIN_AMPLITUDE` times the
-    noise level (absolute floor; noise = the smaller of the train reference RMSE and the
-    RMSE left after the candidate).
+    A test counts as evidence only if its adjusted p-value is below :data:`ALPHA` and the
+    effect is large enough to matter:
+
+    * relative floor — its gain :math:`g` is at least :data:`MIN_GAIN`: it explains at
+      least that share of what a linear recalibration of the model leaves (the gap itself is
+      the wrong yardstick: when the missing effect made the model's coefficients wrong, the
+      recalibration in the base takes most of the gap, and the effect only the rest);
+    * absolute floor — the RMS it explains, :math:`\sqrt{g\,\mathrm{SSE}_{cv}(B)/n}`, is at
+      least :data:`MIN_AMPLITUDE` times the noise level (the smaller of the train reference
+      RMSE and the RMSE left after the candidate).
 
 Confounding
     Candidates are correlated on purpose (coolant follows ambient; speed drives every
-    temperature). The strongest candidate :math:`a` is checked against every other candidate
-    :math:`b` that passed, on the evidence where they decorrelate — conditional tests with
-    the other already in the base: :math:`p(a\,|\,b)` and :math:`p(b\,|\,a)`.
+    temperature). The strongest candidate :math:`a` is checked against every rival :math:`b`
+    — another column with significant evidence, or with at least
+    :data:`RIVAL_GAIN_FRACTION` of :math:`a`'s gain — on the evidence where they decorrelate:
+    conditional tests with the other already in the base, :math:`p(a\,|\,b)` and
+    :math:`p(b\,|\,a)`.
 
     * :math:`a|b` significant, :math:`b|a` not — :math:`a` stands; :math:`b` is "explained by a";
-    * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a`;
+    * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a` if :math:`b`
+      passed the first round itself, otherwise neither is named;
     * both significant — both carry their own information; :math:`a` (larger gain) leads;
     * neither — the data cannot tell them apart: both are reported as such and no verdict
       is given (naming a decoy is worse than naming nothing).
@@ -54,6 +69,7 @@ Confounding
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,8 +83,8 @@ from svrqp.gap.transforms import lag, rate
 ALPHA = 0.05
 """Level of every test; Benjamini–Hochberg false-discovery rate within a round."""
 
-MIN_GAIN = 0.02
-"""Relative effect floor: least out-of-sample squared-error reduction over the base."""
+MIN_GAIN = 0.05
+"""Relative effect floor: least out-of-sample gain over the base discrepancy model."""
 
 MIN_AMPLITUDE = 0.25
 """Absolute effect floor: least explained RMS, as a fraction of the noise RMS."""
@@ -86,6 +102,10 @@ PAIRWISE_SURROGATES = 499
 
 STOP_EXCEEDANCES = 10
 """A sequential test stops after this many surrogates reach the observed gain."""
+
+RIVAL_GAIN_FRACTION = 0.5
+"""A column without significant evidence is still checked as a rival of the strongest one
+when its gain reaches this fraction of the strongest gain."""
 
 MAX_EFFECTS = 3
 """Most effects accepted in successive rounds."""
@@ -194,6 +214,9 @@ class TestOutcome:
         Surrogates drawn.
     remaining_rmse : float
         Out-of-sample RMSE left with the best variant added.
+    gap_share : float
+        Out-of-sample squared error explained beyond the base, as a share of the gap
+        :math:`\sum r^2`.
     """
 
     bank: CandidateBank
@@ -203,6 +226,7 @@ class TestOutcome:
     p_value: float
     n_surrogates: int
     remaining_rmse: float
+    gap_share: float
 
     @property
     def column(self) -> str:
@@ -217,13 +241,7 @@ class TestOutcome:
         return self.bank.tau(self.variant)
 
 
-def surrogate_test(
-    cv: CrossValidatedDiscrepancy,
-    bank: CandidateBank,
-    groups: np.ndarray,
-    rng: np.random.Generator,
-    max_surrogates: int = MAX_SURROGATES,
-) -> TestOutcome:
+class SurrogateTest:
     """Sequential circular-shift surrogate test of one bank against a fitted base.
 
     Parameters
@@ -236,38 +254,76 @@ def surrogate_test(
         Group code per real row.
     rng : numpy.random.Generator
         Source of the shifts.
-    max_surrogates : int
-        Stop after the batch of :data:`SURROGATE_BATCHES` that reaches this many draws.
-
-    Returns
-    -------
-    TestOutcome
     """
-    n, v = bank.Z.shape
-    partner = None if bank.partner is None else bank.partner[:, None]
-    gains = cv.gain(bank.Z[:, None, :], partner)[0]
-    variant = int(np.argmax(gains))
-    observed = float(gains[variant])
-    remaining = float(np.sqrt(cv.sse_base * (1 - observed) / cv.n))
-    exceed: list[np.ndarray] = []
-    drawn = 0
-    chunk = max(1, _CHUNK_ELEMENTS // (n * v))
+
+    def __init__(self, cv: CrossValidatedDiscrepancy, bank: CandidateBank, groups: np.ndarray,
+                 rng: np.random.Generator):
+        self.cv, self.bank, self.groups, self.rng = cv, bank, groups, rng
+        partner = None if bank.partner is None else bank.partner[:, None]
+        self.gains = cv.gain(bank.Z[:, None, :], partner)[0]
+        self.variant = int(np.argmax(self.gains))
+        self.observed = float(self.gains[self.variant])
+        self._hits = np.zeros(0, dtype=bool)
+
+    @property
+    def drawn(self) -> int:
+        """Surrogates drawn so far."""
+        return self._hits.size
+
+    @property
+    def stopped(self) -> bool:
+        """Whether :data:`STOP_EXCEEDANCES` surrogates have reached the observed gain."""
+        return int(self._hits.sum()) >= STOP_EXCEEDANCES
+
+    def draw(self, count: int) -> None:
+        """Draw ``count`` more surrogates (in memory-bounded chunks)."""
+        n, v = self.bank.Z.shape
+        chunk = max(1, _CHUNK_ELEMENTS // (n * v))
+        for start in range(0, count, chunk):
+            size = min(chunk, count - start)
+            rows = circular_shifts(self.groups, size, self.rng).T  # (n, size): surrogate s reads rows[:, s]
+            partner = None if self.bank.partner is None else self.bank.partner[rows]
+            surrogate = self.cv.gain(self.bank.Z[rows], partner).max(axis=1)
+            self._hits = np.concatenate([self._hits, surrogate >= self.observed])
+
+    @property
+    def p_value(self) -> float:
+        """Besag–Clifford p-value: ``h/S_h`` once stopped, else ``(1 + hits)/(1 + drawn)``."""
+        if self.stopped:
+            return STOP_EXCEEDANCES / (int(np.flatnonzero(self._hits)[STOP_EXCEEDANCES - 1]) + 1)
+        return (1 + int(self._hits.sum())) / (1 + self.drawn)
+
+    def outcome(self) -> TestOutcome:
+        """The test's result."""
+        remaining = float(np.sqrt(self.cv.sse_base * (1 - self.observed) / self.cv.n))
+        share = self.observed * self.cv.sse_base / self.cv.ss_residual if self.cv.ss_residual > 0 else 0.0
+        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining,
+                           share)
+
+
+def run_tests(
+    tests: list[SurrogateTest], most: int, decided: Callable[[np.ndarray], np.ndarray]
+) -> list[TestOutcome]:
+    """Draw surrogates batch by batch for the tests whose decision is still open.
+
+    A test closes when it stops (Besag–Clifford), reaches ``most`` draws, or is rejected by
+    ``decided`` (applied to all current p-values) — a p-value computed after a fixed number of
+    draws is valid whatever happens later, so a test rejected at a coarse resolution needs no
+    finer one.
+    """
+    rejected = np.zeros(len(tests), dtype=bool)
     for batch in SURROGATE_BATCHES:
-        for start in range(0, batch, chunk):
-            size = min(chunk, batch - start)
-            rows = circular_shifts(groups, size, rng).T  # (n, size): surrogate s reads rows[:, s]
-            shifted_partner = None if bank.partner is None else bank.partner[rows]
-            surrogate = cv.gain(bank.Z[rows], shifted_partner).max(axis=1)
-            exceed.append(surrogate >= observed)
-        drawn += batch
-        hits = np.concatenate(exceed)
-        if hits.sum() >= STOP_EXCEEDANCES:
-            stop = int(np.flatnonzero(hits)[STOP_EXCEEDANCES - 1]) + 1
-            return TestOutcome(bank, variant, observed, gains, STOP_EXCEEDANCES / stop, stop, remaining)
-        if drawn >= max_surrogates:
+        open_tests = [t for t, done in zip(tests, rejected) if not done and not t.stopped and t.drawn < most]
+        if not open_tests:
             break
-    p = (1 + int(hits.sum())) / (1 + drawn)
-    return TestOutcome(bank, variant, observed, gains, p, drawn, remaining)
+        for test in open_tests:
+            test.draw(min(batch, most - test.drawn))
+        rejected = decided(np.array([t.p_value for t in tests]))
+    return [t.outcome() for t in tests]
+
+
+def _benjamini_hochberg(p: np.ndarray) -> np.ndarray:
+    return false_discovery_control(p, method="bh") < ALPHA
 
 
 @dataclass(frozen=True)
@@ -295,7 +351,7 @@ def _test_round(
         return []
     cv = CrossValidatedDiscrepancy(r, B, folds)
     most = int(min(MAX_SURROGATES, max(PAIRWISE_SURROGATES, np.ceil(2 * len(banks) / ALPHA))))
-    tests = [surrogate_test(cv, bank, groups, rng, most) for bank in banks]
+    tests = run_tests([SurrogateTest(cv, bank, groups, rng) for bank in banks], most, _benjamini_hochberg)
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
         Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, cv, noise_rmse)), round_number)
@@ -356,15 +412,17 @@ class _Conditional:
 
     def p(self, bank: CandidateBank, given: list[np.ndarray]) -> float:
         cv = CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
-        return surrogate_test(cv, bank, self.groups, self.rng, PAIRWISE_SURROGATES).p_value
+        test = SurrogateTest(cv, bank, self.groups, self.rng)
+        return run_tests([test], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0].p_value
 
 
 def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given: list[np.ndarray]) -> Evidence:
-    """Best passing transform of one column; ``lag`` only if it adds to ``level``."""
-    passing = sorted((e for e in column_evidence if e.passes), key=lambda e: -e.test.gain)
-    best = passing[0]
-    level = next((e for e in passing if e.test.transform == "level"), None)
-    if best.test.transform == "lag" and level is not None:
+    """Best transform of one column (passing ones first); ``lag`` only if it adds to ``level``."""
+    pool = [e for e in column_evidence if e.passes] or column_evidence
+    ranked = sorted(pool, key=lambda e: -e.test.gain)
+    best = ranked[0]
+    level = next((e for e in ranked if e.test.transform == "level"), None)
+    if best.test.transform == "lag" and best.test.bank.partner is not None and level is not None:
         lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z)
         if cond.p(lag_only, [*given, level.test.bank.block(0)]) >= ALPHA:
             return level
@@ -413,20 +471,26 @@ def attribute(
     def chosen(column: str) -> Evidence:
         return _choose_transform([e for e in evidence if e.test.column == column], cond, [])
 
+    best = _best_by_column(evidence, passing_only=False)
+    significant = {e.test.column for e in evidence if e.q_value < ALPHA}
+
     def by_gain(columns) -> list[str]:
-        return sorted(columns, key=lambda c: -passing[c].test.gain)
+        return sorted(columns, key=lambda c: -best[c].test.gain)
 
     champion = chosen(by_gain(passing)[0])
-    pending = by_gain(c for c in passing if c != champion.test.column)
+    # Rivals: every other column with significant evidence, or nearly as strong without it.
+    rivals = {c for c in best if c != champion.test.column
+              and (c in significant or best[c].test.gain >= RIVAL_GAIN_FRACTION * champion.test.gain > 0)}
+    pending = by_gain(rivals)
     done: set[str] = set()
-    for _ in range(len(passing) ** 2):  # bound: each swap needs one-sided evidence
+    for _ in range(len(best) ** 2):  # bound: each swap needs one-sided evidence
         if not pending:
             break
         rival = chosen(pending.pop(0))
         a, b = champion.test, rival.test
         a_beyond_b = cond.p(a.bank, [b.bank.block(b.variant)]) < ALPHA
         b_beyond_a = cond.p(b.bank, [a.bank.block(a.variant)]) < ALPHA
-        if b_beyond_a and not a_beyond_b:
+        if b_beyond_a and not a_beyond_b and b.column in passing:
             # The rival explains the champion away: it takes over and faces the others again.
             result.notes[a.column] = f"explained by {b.column}"
             champion = rival
@@ -437,8 +501,11 @@ def attribute(
         done.add(b.column)
         if a_beyond_b and not b_beyond_a:
             result.notes[b.column] = f"explained by {a.column}"
-        elif a_beyond_b and b_beyond_a:
+        elif a_beyond_b:
             result.notes[b.column] = f"carries information beyond {a.column}"
+        elif b_beyond_a:
+            result.ambiguous.append(b.column)
+            result.notes[b.column] = f"explains {a.column} away but is not significant on its own"
         else:
             result.ambiguous.append(b.column)
             result.notes[b.column] = f"cannot be told apart from {a.column}"

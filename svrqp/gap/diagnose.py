@@ -32,12 +32,12 @@ from svrqp.gap.attribute import Attribution, Evidence, attribute, build_banks
 from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.figures import Series, axis_label
-from svrqp.gap.gate import GateResult, gate
+from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink, refit_shrink
 from svrqp.gap.report import Cause, GapReport, Verdict
-from svrqp.gap.transforms import tau_grid
+from svrqp.gap.transforms import smooth, tau_grid
 
 Progress = Callable[[str, float], None]
 
@@ -46,16 +46,20 @@ def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
     """Base regressors of the discrepancy models on the real rows (intercept first).
 
     Features mode: the features, and for a non-linear model also its prediction (a linear
-    model's prediction is already in the span of its features). Prediction mode: the
-    prediction. Columns are standardised on the real rows; constant ones are dropped.
+    model's prediction is already in the span of its features), each also smoothed
+    (:func:`svrqp.gap.transforms.smooth`). The smoothed copies matter: sensor noise in the
+    inputs biases any recalibration towards zero in the directions where the inputs are
+    nearly collinear (errors in variables), and a second, independent reading of a modelled
+    temperature — or its own filtered version — would then "explain" that bias without
+    being an unmodelled effect. Prediction mode: the prediction (a simulation carries no
+    sensor noise). Columns are standardised on the real rows; constant ones are dropped.
     """
     real = data.is_real
     if data.prediction is not None:
         columns = baseline.y_hat[real, None]
-    elif baseline.kind == "mlr":
-        columns = data.X[real]
     else:
-        columns = np.column_stack([data.X[real], baseline.y_hat[real]])
+        inputs = data.X if baseline.kind == "mlr" else np.column_stack([data.X, baseline.y_hat])
+        columns = np.column_stack([inputs, smooth(inputs, data.groups)])[real]
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
     varying = scale > 1e-12 * (1 + np.abs(columns).max(axis=0))
@@ -133,8 +137,8 @@ def diagnose(
     attribution = attribute(r, B, banks, folds, groups, gap.train_rmse, rng)
     report_progress("quantifying", 0.85)
     causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
-    verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups)
-    detected = bool(gap.p_excess < attr.ALPHA or any(e.passes for e in attribution.evidence))
+    detected = gap_detected(gap, data.prediction is not None)
+    verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected)
     report_progress("reporting", 0.98)
 
     series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels, data.is_train,
@@ -201,15 +205,20 @@ def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[st
             tau = ev.test.tau
         causes.append(Cause(
             column=ev.test.column, transform=ev.test.transform, tau=tau, p_value=ev.q_value, p_raw=ev.test.p_value,
-            gain=ev.test.gain, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
+            gain=ev.test.gain, gap_share=ev.test.gap_share, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
             shrink=shrink.shrink, shrink_ci=(shrink.ci_low, shrink.ci_high), round=ev.round,
             note=attribution.notes.get(ev.test.column),
         ))
     return causes, errors_after
 
 
-def _verdict(attribution, causes, errors_after, data, baseline, groups) -> tuple[Verdict, GateResult | None]:
+def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected) -> tuple[Verdict, GateResult | None]:
     train_groups = data.groups[data.is_train]
+    if not detected:
+        reference = "the noise" if data.prediction is not None else "the train rows' out-of-sample error"
+        reason = (f"No gap beyond chance: the real-row RMSE {gap.real_rmse:.3g} is not significantly above "
+                  f"{reference} (train {gap.train_rmse:.3g}, noise {gap.noise_rmse:.3g}); no cause is named.")
+        return Verdict(column=None, reason=reason), None
     if attribution.verdict is None:
         if attribution.accepted:  # strong evidence, but for several indistinguishable candidates
             names = [causes[0].column, *attribution.ambiguous]
@@ -217,7 +226,8 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups) -> tuple
                       "on these data; no single cause is named.")
             return Verdict(column=None, reason=reason, ambiguous_with=names), None
         reason = "No candidate explains the real-row error beyond chance (false-discovery rate "
-        reason += f"{attr.ALPHA:g}, effect floor {attr.MIN_GAIN:g} relative / {attr.MIN_AMPLITUDE:g}× noise)."
+        reason += (f"{attr.ALPHA:g}, effect floor {attr.MIN_GAIN:.0%} of what a recalibration leaves and "
+                   f"{attr.MIN_AMPLITUDE:g}× the noise).")
         return Verdict(column=None, reason=reason), None
     top = causes[0]
     refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)

@@ -97,11 +97,14 @@ class CrossValidatedDiscrepancy:
         Out-of-sample errors of the base model alone (caller's row order).
     sse_base : float
         Their sum of squares.
+    ss_residual : float
+        Sum of squares of ``r`` itself (the gap before any discrepancy model).
     """
 
     def __init__(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray]):
         self.n = len(r)
         self.p = B.shape[1]
+        self.ss_residual = float(r @ r)
         # Rows are kept sorted by fold so each fold's test rows are one slice (no copies).
         self._perm = np.concatenate(folds)
         self._Br = np.column_stack([B, r])[self._perm]
@@ -125,10 +128,12 @@ class CrossValidatedDiscrepancy:
             self._folds.append(_Fold(test, n_train, A_inv, beta0, M_train, M_test,
                                      b_train - M_train @ beta0, b_test - M_test @ beta0, float(e_test @ e_test)))
         self.sse_base = float(self.errors_base @ self.errors_base)
+        self._Br_test_T = [np.ascontiguousarray(self._Br[f.test].T) for f in self._folds]
 
-    def _sums(self, Z: np.ndarray, rows: slice) -> _Sums:
+    def _sums(self, Z: np.ndarray, k: int) -> _Sums:
+        rows = self._folds[k].test
         Z_rows = Z[rows]
-        Cs = np.tensordot(self._Br[rows].T, Z_rows, axes=1)
+        Cs = (self._Br_test_T[k] @ Z_rows.reshape(len(Z_rows), -1)).reshape(-1, *Z.shape[1:])
         return _Sums(Cs[:-1], Cs[-1], np.einsum("n...,n...->...", Z_rows, Z_rows))
 
     def sse(self, Z: np.ndarray, partner: np.ndarray | None = None) -> np.ndarray:
@@ -150,10 +155,10 @@ class CrossValidatedDiscrepancy:
         n, q, v = Z.shape
         Zs = np.ascontiguousarray(Z[self._perm])
         Xs = None if partner is None else np.ascontiguousarray(partner[self._perm])
-        test_z = [self._sums(Zs, f.test) for f in self._folds]
+        test_z = [self._sums(Zs, k) for k in range(len(self._folds))]
         total_z = _total(test_z)
         if Xs is not None:
-            test_x = [self._sums(Xs, f.test) for f in self._folds]
+            test_x = [self._sums(Xs, k) for k in range(len(self._folds))]
             total_x = _total(test_x)
             test_xz = [np.einsum("nq,nqv->qv", Xs[f.test], Zs[f.test]) for f in self._folds]
             total_xz = sum(test_xz)

@@ -16,6 +16,25 @@ Excess error
     with :math:`\rho_1` the lag-1 autocorrelation of each residual
     (:func:`svrqp.gap.blocks.lag1_autocorrelation`).
 
+Excess over noise
+    The same F test against the noise variance estimated from successive differences within
+    groups (von Neumann's mean square successive difference),
+
+    .. math::
+
+        \hat\sigma^2 = \frac{\sum_g \sum_k (r_{g,k} - r_{g,k-1})^2}{2 \sum_g (n_g - 1)},
+
+    which a smooth error leaves almost untouched. It is the gate in prediction mode, where the
+    train rows carry the unmodelled effect as well and are no reference (coloured noise makes
+    :math:`\hat\sigma^2` too small, so this gate errs towards "gap"; the surrogate tests
+    remain the guard).
+
+Decision
+    Features mode: a gap exists when the real-row error exceeds the train reference
+    (:math:`p_\mathrm{excess} < \alpha`). Prediction mode: when it exceeds the train rows' or
+    the noise (:math:`\min(p_\mathrm{excess}, p_\mathrm{noise}) < \alpha`). No cause is named
+    without a gap.
+
 Whiteness
     The Ljung–Box statistic of the real-row residual, pooled over groups,
 
@@ -36,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from svrqp.gap.attribute import ALPHA
 from svrqp.gap.blocks import lag1_autocorrelation
 from svrqp.gap.transforms import group_slices
 
@@ -56,7 +76,11 @@ class GateResult:
     ratio : float
         ``real_rmse / train_rmse``.
     p_excess : float
-        p-value of the excess-error F test.
+        p-value of the excess-error F test (real rows against the train reference).
+    noise_rmse : float
+        Noise level from successive differences of the real-row residual.
+    p_noise : float
+        p-value of the F test of the real-row error against that noise level.
     p_white : float
         Ljung–Box p-value of the real-row residual.
     rho1 : float
@@ -67,6 +91,8 @@ class GateResult:
     real_rmse: float
     ratio: float
     p_excess: float
+    noise_rmse: float
+    p_noise: float
     p_white: float
     rho1: float
 
@@ -84,6 +110,26 @@ def excess_error_pvalue(real: np.ndarray, real_groups: np.ndarray, train: np.nda
         return 0.0 if ms_real > 0 else 1.0
     ratio = ms_real / ms_train
     return float(stats.f.sf(ratio, effective_size(real, real_groups), effective_size(train, train_groups)))
+
+
+def successive_difference_variance(residual: np.ndarray, groups: np.ndarray) -> float:
+    """Noise variance from successive differences within groups (see module docstring)."""
+    num = den = 0.0
+    for rows in group_slices(groups):
+        d = np.diff(residual[rows])
+        num += float(d @ d)
+        den += 2.0 * d.size
+    return num / den if den > 0 else 0.0
+
+
+def noise_pvalue(real: np.ndarray, real_groups: np.ndarray) -> float:
+    """One-sided p-value that the real-row mean square exceeds the noise level."""
+    noise = successive_difference_variance(real, real_groups)
+    ms_real = float(np.mean(real**2))
+    if noise <= 0:
+        return 0.0 if ms_real > 0 else 1.0
+    n_pairs = len(real) - len(group_slices(real_groups))
+    return float(stats.f.sf(ms_real / noise, effective_size(real, real_groups), max(n_pairs, 1)))
 
 
 def ljung_box_pvalue(residual: np.ndarray, groups: np.ndarray, lags: int = LJUNG_BOX_LAGS) -> float:
@@ -131,6 +177,15 @@ def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_gro
         real_rmse=real_rmse,
         ratio=real_rmse / train_rmse if train_rmse > 0 else float("inf"),
         p_excess=excess_error_pvalue(real, real_groups, train, train_groups),
+        noise_rmse=float(np.sqrt(successive_difference_variance(real, real_groups))),
+        p_noise=noise_pvalue(real, real_groups),
         p_white=ljung_box_pvalue(real, real_groups),
         rho1=lag1_autocorrelation(real, real_groups),
     )
+
+
+def gap_detected(result: GateResult, prediction_mode: bool) -> bool:
+    """Whether the gate finds a gap beyond chance (see "Decision" in the module docstring)."""
+    if prediction_mode:
+        return min(result.p_excess, result.p_noise) < ALPHA
+    return result.p_excess < ALPHA

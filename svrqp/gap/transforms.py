@@ -33,6 +33,7 @@ intervals and half the typical run length.
 from __future__ import annotations
 
 import numpy as np
+from scipy.signal import savgol_filter
 
 from svrqp.exceptions import ProblemError
 
@@ -165,3 +166,39 @@ def tau_grid(t: np.ndarray, group_codes: np.ndarray, n_tau: int = N_TAU) -> np.n
     if high <= low:
         high = 2.0 * low
     return np.geomspace(low, high, n_tau)
+
+
+
+SMOOTH_WINDOW = 21
+"""Savitzky–Golay window of :func:`smooth`, in samples (never more than 1/8 of a group)."""
+
+SMOOTH_ORDER = 2
+"""Polynomial order of :func:`smooth`."""
+
+
+def smooth(x: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
+    """Zero-phase Savitzky–Golay smoothing of each column within each group.
+
+    A quadratic fitted over :data:`SMOOTH_WINDOW` samples (at most an eighth of the group,
+    and odd) cuts the variance of white sensor noise about ninefold and, being symmetric,
+    shifts no phase: it cannot imitate a lag or a rate.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,) or (n, c)
+        Signal(s), rows sorted by group and order.
+    group_codes : ndarray of int, shape (n,)
+        Group code of each row.
+
+    Returns
+    -------
+    ndarray, same shape as ``x``
+    """
+    x = np.asarray(x, dtype=float)
+    out = x.copy()
+    for rows in group_slices(group_codes):
+        window = min(SMOOTH_WINDOW, (rows.stop - rows.start) // 8)
+        window -= 1 - window % 2  # odd
+        if window > SMOOTH_ORDER + 1:
+            out[rows] = savgol_filter(x[rows], window, SMOOTH_ORDER, axis=0)
+    return out

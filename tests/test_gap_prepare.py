@@ -1,0 +1,106 @@
+"""Input checks and row handling of the gap diagnosis (svrqp.gap.prepare, through diagnose)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from gap_problems import CANDIDATES, null_problem
+from svrqp.exceptions import ProblemError
+from svrqp.gap.prepare import prepare
+
+ARGS = dict(target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
+            order="time_min", group="run")
+
+
+@pytest.fixture(scope="module")
+def table():
+    """The closed-form null problem (four runs of 240 rows)."""
+    return null_problem()
+
+
+def test_rows_are_sorted_by_group_and_order(table):
+    shuffled = table.sample(frac=1.0, random_state=0)
+    data = prepare(shuffled, **ARGS)
+    assert data.group_labels == list(dict.fromkeys(shuffled["run"]))
+    for g in range(4):
+        assert np.all(np.diff(data.t[data.groups == g]) > 0)
+    np.testing.assert_array_equal(data.y, shuffled.loc[data.row_index, "error_um"].to_numpy())
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("target", "missing_um", "target: unknown column"),
+    ("features", ["spindle_C", "bogus"], "features: unknown column"),
+    ("candidates", ["air_C", "bogus"], "candidates: unknown column"),
+    ("order", "bogus", "order: unknown column"),
+    ("group", "bogus", "group: unknown column"),
+])
+def test_unknown_columns_are_named(table, option, value, message):
+    with pytest.raises(ProblemError, match=message):
+        prepare(table, **(ARGS | {option: value}))
+
+
+def test_train_query_selecting_no_rows(table):
+    with pytest.raises(ProblemError, match="selects no row"):
+        prepare(table, **(ARGS | {"train": "run == 'nope'"}))
+
+
+def test_train_query_selecting_all_rows(table):
+    with pytest.raises(ProblemError, match="selects every row"):
+        prepare(table, **(ARGS | {"train": "time_min >= 0"}))
+
+
+def test_bad_train_query(table):
+    with pytest.raises(ProblemError, match="cannot evaluate query"):
+        prepare(table, **(ARGS | {"train": "run ==="}))
+
+
+def test_non_numeric_candidate(table):
+    labelled = table.assign(label=np.where(table["time_min"] > 100, "hot", "cold"))
+    with pytest.raises(ProblemError, match=r"candidates: column\(s\) \['label'\] are not numeric"):
+        prepare(labelled, **(ARGS | {"candidates": ["air_C", "label"]}))
+
+
+def test_features_and_prediction_are_exclusive(table):
+    with pytest.raises(ProblemError, match="either features"):
+        prepare(table, **(ARGS | {"prediction": "air_C"}))
+    with pytest.raises(ProblemError, match="either features"):
+        prepare(table, **(ARGS | {"features": None}))
+
+
+def test_target_cannot_be_a_candidate(table):
+    with pytest.raises(ProblemError, match="target or the prediction"):
+        prepare(table, **(ARGS | {"candidates": ["error_um"]}))
+
+
+def test_rows_with_missing_values_are_dropped_and_counted(table):
+    holes = table.copy()
+    holes.loc[[5, 17, 400], "air_C"] = np.nan
+    holes.loc[600, "error_um"] = np.inf
+    data = prepare(holes, **ARGS)
+    assert data.n_dropped == 4
+    assert len(data.y) == len(table) - 4
+
+
+def test_short_groups_are_dropped_and_counted(table):
+    extra = table.iloc[:2].assign(run="tiny")
+    data = prepare(pd.concat([table, extra], ignore_index=True), **ARGS)
+    assert data.n_dropped_short_groups == 2
+    assert "tiny" not in data.group_labels
+
+
+def test_repeated_order_within_a_group(table):
+    repeated = table.copy()
+    repeated.loc[3, "time_min"] = repeated.loc[2, "time_min"]
+    with pytest.raises(ProblemError, match="repeated values"):
+        prepare(repeated, **ARGS)
+
+
+def test_without_order_the_row_position_is_used(table):
+    data = prepare(table, **(ARGS | {"order": None}))
+    assert data.order_name == "row"
+    np.testing.assert_array_equal(data.t[data.groups == 0], np.arange(240.0))
+
+
+def test_a_model_feature_may_be_a_candidate(table):
+    data = prepare(table, **(ARGS | {"candidates": ["spindle_C", "air_C"]}))
+    assert data.candidates == ["spindle_C", "air_C"]
