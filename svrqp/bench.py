@@ -632,6 +632,28 @@ def aggregate(rows: pd.DataFrame, time_limit_s: float, shift_s: float = 1.0) -> 
     return table.sort_values(["problem", "sgm_time_s"]).reset_index(drop=True)
 
 
+def ratios_to_reference(rows: pd.DataFrame, objective_gap_max: float = 1e-8,
+                        prediction_diff_max: float = 1e-4) -> pd.DataFrame:
+    """Per dataset and n: the reference's time, the fastest *exact* compared method, and their ratio.
+
+    Exact means: success, objective at most ``objective_gap_max`` (relative) above the reference's,
+    and predictions within ``prediction_diff_max``·std(y) of the reference's (the issue's targets).
+    """
+    reference = rows[rows["method"].isin([method.label for method in REFERENCES.values()])]
+    exact = rows[rows["success"] & (rows["objective_gap_rel"] <= objective_gap_max)
+                 & (rows["prediction_diff_rel"] <= prediction_diff_max)]
+    table = []
+    for (problem, dataset, n), runs in exact.groupby(["problem", "dataset", "n"], sort=True):
+        ref = reference[(reference["problem"] == problem) & (reference["dataset"] == dataset) & (reference["n"] == n)]
+        best = runs.loc[runs["total_time_s"].idxmin()]
+        ref_time = float(ref["total_time_s"].iloc[0]) if len(ref) else math.nan
+        table.append({"problem": problem, "dataset": dataset, "n": n, "reference": ref["method"].iloc[0] if len(ref) else "",
+                      "reference_time_s": ref_time, "fastest_exact": best["method"],
+                      "fastest_exact_time_s": best["total_time_s"], "ratio": best["total_time_s"] / ref_time})
+    return pd.DataFrame(table, columns=["problem", "dataset", "n", "reference", "reference_time_s", "fastest_exact",
+                                        "fastest_exact_time_s", "ratio"])
+
+
 # --------------------------------------------------------------------------------------------
 # The whole benchmark
 # --------------------------------------------------------------------------------------------

@@ -461,7 +461,7 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
 
 def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                           kernel: str = "rbf", gamma: float = 1.0, degree: int = 3, coef0: float = 0.0,
-                          tol: float = 1e-8, factor_tol: float = 1e-8, max_rank: int | None = None,
+                          tol: float = 1e-8, factor_tol: float = 1e-6, max_rank: int | None = None,
                           max_iter: int = 100) -> ExactFit:
     """The fastest exact path: a low-rank interior point when the kernel allows it, the dense one otherwise.
 

@@ -160,6 +160,7 @@ def test_outputs_are_written_once_and_describe_the_machine(tiny_config, tiny_row
     paths = write_outputs(tiny_rows, tiny_config, tmp_path)
     report = paths["markdown"].read_text()
     for heading in ("## Machine", "architecture", "OPENBLAS_CORETYPE", "## Package versions", "## Limitations",
+                    "## Fastest exact method",
                     "scikit-learn", "clarabel"):
         assert heading in report
     assert pd.read_csv(paths["csv"]).shape == tiny_rows.shape
@@ -178,3 +179,17 @@ def test_cli_bench_runs_a_tiny_configuration(tmp_path):
     assert rows["success"].all()
     again = CliRunner().invoke(app, arguments)
     assert again.exit_code != 0 and isinstance(again.exception, FileExistsError)
+
+
+def test_ratios_pick_the_fastest_exact_method():
+    base = {"problem": "epsilon_svr", "dataset": "d", "n": 10, "success": True, "prediction_diff_rel": 0.0}
+    rows = pd.DataFrame([
+        {**base, "method": "libsvm/smo", "total_time_s": 2.0, "objective_gap_rel": math.nan},
+        {**base, "method": "fast/inexact", "total_time_s": 0.1, "objective_gap_rel": 1e-6},
+        {**base, "method": "fast/unsolved", "total_time_s": 0.2, "objective_gap_rel": 0.0, "success": False},
+        {**base, "method": "exact/a", "total_time_s": 1.0, "objective_gap_rel": -1e-12},
+        {**base, "method": "exact/b", "total_time_s": 1.5, "objective_gap_rel": 0.0},
+    ])
+    table = bench.ratios_to_reference(rows)
+    assert table.loc[0, "fastest_exact"] == "exact/a"
+    assert table.loc[0, "ratio"] == pytest.approx(0.5)

@@ -47,17 +47,18 @@ def bench(
     gamma: str = typer.Option("scale", "--gamma", help="Kernel gamma (scikit-learn convention) or 'scale'."),
     backends: str = typer.Option(
         "clarabel,osqp,piqp,proxqp,highs", "--backends",
-        help="Comma-separated QP backends; 'all' for every installed one."),
+        help="Comma-separated QP backends ('all' for every installed one), and/or dual_ipm (svrqp's own)."),
     formulations: str = typer.Option(
         "stacked,split", "--formulations",
-        help="Comma-separated epsilon-SVR formulations: stacked, split, primal (linear kernel only)."),
+        help="Comma-separated epsilon-SVR formulations: stacked, split, low_rank, primal (linear kernel "
+             "only) for QP backends; dense, auto, low_rank for dual_ipm."),
     ls_svr: bool = typer.Option(False, "--ls-svr/--no-ls-svr", help="Also benchmark the LS-SVR linear system."),
     profile: str = typer.Option(
         "default", "--profile", help=f"Accuracy profile: {', '.join(PROFILES)} (requested and accepted tolerances)."),
     time_limit_s: float = typer.Option(60.0, "--time-limit", help="Per-run time limit in seconds (the run is killed)."),
     threads: int = typer.Option(1, "--threads", help="BLAS/OpenMP threads allowed to each run."),
     seed: int = typer.Option(0, "--seed", help="Seed of the generated datasets."),
-    output_dir: Path = typer.Option(Path("bench-output"), "--output-dir", help="Folder for results.csv, results.md and time_vs_n.png."),
+    output_dir: Path = typer.Option(Path("bench-output"), "--output-dir", help="Folder for results.csv, results.md and results_time_vs_n.png."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing result files."),
 ) -> None:
     """Run every backend x formulation on generated SVR problems; write a CSV, a Markdown report and a plot."""
