@@ -2,55 +2,66 @@
 
 Every scenario simulates several runs (groups) of a machine, leaves one physical effect out of
 the model on purpose — or nothing (*null*), or an effect that no candidate column measures
-(*unmeasured*) — runs :func:`svrqp.gap.diagnose`, and scores the answer against the truth the
-simulator knows.
+(*unmeasured*) — runs :func:`svrqp.gap.diagnose` as a user would, and scores the answer
+against the truth the simulator knows.
 
 Scenario families
 -----------------
 ``thermal/prediction``
     :func:`svrqp.machine.simulate_thermal`; the prediction is the sum of every effect column
-    except the withheld one (a simulation with that effect off, noise-free); the target adds
-    probe noise. Truth: the sensor of the effect or its driver (``TRUTH_PREDICTION``).
+    except the withheld one (the simulation with that effect off, noise-free); the target adds
+    probe noise. Truth and decoys come from the simulator itself, the same way for every effect
+    (:func:`label_columns`): each run is simulated again with only the withheld effect on, and
+    with only the effects that share its driver (spindle and headstock heating both follow the
+    speed). *Truth* is the sensor that the withheld effect moves most (largest share of its
+    variance on the real rows) and the effect's driver input (``speed_rpm`` for spindle and
+    headstock heating, ``axis_duty_pct`` for nut heating; the chiller's on/off state and the
+    air temperature are not columns apart from ``ambient_C``/``T9_C``). A *decoy* is a column
+    that neither the effect nor anything sharing its driver moves (share ≤ 0.1): with the
+    ``lag`` transform any sensor of the same driver can be filtered into a copy of the effect,
+    so such a sensor would be a second right answer, not a decoy.
 ``thermal/features``
-    The model (MLR, some LS-SVR) uses the node sensors ``T1_C`` (spindle), ``T4_C``
+    The model (MLR; every fifth one LS-SVR) uses the node sensors ``T1_C`` (spindle), ``T4_C``
     (headstock), ``bed_C`` (column), ``nut_C`` (nut), ``coolant_C`` and ``ambient_C``; one node
-    sensor is withheld and is the truth. Since the displacement is linear in node
-    temperatures, the model can represent everything but the withheld node; sensors are ideal
-    (``sensor_lag = 0``) so that their lag is not a second unmodelled effect.
+    sensor is withheld and is the truth. The displacement is linear in node temperatures, so
+    the model can represent everything but the withheld node; sensors are ideal
+    (``sensor_lag = 0``) so that their lag is not a second unmodelled effect. Decoys are
+    sensors that do not read the withheld node, and drivers.
 ``gantry/prediction``
     :func:`svrqp.machine.contour.simulate_gantry` (S4), order ``time_s``; withheld
-    ``servo_lag`` (truth ``feed_mm_min``), ``sync_error`` (``accel_mm_s2``),
-    ``motor_heating`` (``motor_C``); *unmeasured*: ``ripple`` and ``guideway_straightness``,
-    which no candidate column carries (the right answer is no verdict).
+    ``servo_lag`` (truth ``feed_mm_min``), ``sync_error`` (``accel_mm_s2``; the feed is no
+    decoy there, its rate *is* the acceleration), ``motor_heating`` (``motor_C``; its bow is
+    a product of temperature and position, outside the transforms the engine tries);
+    *unmeasured*: ``ripple`` and ``guideway_straightness``, which no candidate carries.
 
-Candidates are the truth plus correlated decoys; a decoy never contains the withheld node
-(a sensor blending the same node would be a second correct answer) nor its driver. Runs use
-random speed/duty programmes and seasons (the train runs in summer), varied record length,
-signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
-*identifiable* part of the withheld effect — what the discrepancy model's base regressors
-(intercept + prediction, or + the model's features) cannot explain on the real rows — over the
-noise std; a between-run offset that a recalibration absorbs is no signal to attribute.
+Runs use random speed/duty programmes and seasons (train runs in summer), varied record
+length, signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
+*identifiable* part of the withheld effect — what is left on the real rows after each run's
+mean and (features mode) what the model's features can take — over the noise std: per-run
+offsets of a few runs cannot be attributed, and a recalibration absorbs the rest.
 
 Metrics
 -------
 top-1 — the verdict names a truth column; top-3 — a truth column is among the first three
-causes; false attribution — a verdict on a null/unmeasured scenario; decoy rate — a wrong
-column named on a withheld scenario; IoU — rows of the first ``where`` region on the order
-axis against the rows where the noise-free residual's square exceeds its mean; shrink error —
+causes; false attribution — a verdict on a null/unmeasured scenario; decoy — a wrong column
+named on a withheld scenario; IoU — rows of the first ``where`` region on the order axis
+against the real rows where the noise-free residual's square exceeds its mean; shrink error —
 ``|verdict.shrink − oracle|``, the oracle being the same out-of-sample discrepancy model
 (:func:`svrqp.gap.quantify.estimate_shrink`) given the true effect column instead.
 
 Run: ``python benchmarks/gap_suite.py`` (writes ``benchmarks/results/gap_suite.{csv,md}``);
-``--quick`` runs a small subset, ``--jobs`` sets parallel workers (default 2).
+``--quick`` runs every tenth scenario, ``--jobs`` sets parallel workers (default 2).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import os
 import platform
 import sys
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -67,29 +78,23 @@ from svrqp.gap.quantify import estimate_shrink
 from svrqp.machine import ThermalConfig, simulate_thermal
 from svrqp.machine.contour import GantryConfig, simulate_gantry
 from svrqp.machine.cycles import CycleSegment
+from svrqp.machine.thermal import EFFECTS as THERMAL_EFFECTS
 from svrqp.machine.thermal import Ambient
 
 RESULTS = Path(__file__).resolve().parent / "results"
 AR_PHI = 0.8
 SUMMER_DAYS = (170.0, 230.0)
+TRUTH_SHARE_MIN, DECOY_SHARE_MAX = 0.1, 0.1
 
-# Thermal prediction mode: withheld effect -> columns that are right answers.
-TRUTH_PREDICTION = {
-    "spindle_heating": ("T1_C", "speed_rpm"),
-    "headstock_heating": ("T4_C", "speed_rpm"),
-    "nut_heating": ("nut_C", "axis_duty_pct"),
-    "coolant_chiller": ("coolant_C",),
-    "ambient_drift": ("ambient_C", "T9_C"),
-}
-# Decoys per withheld effect (no blend of the effect's own node, not its driver).
-DECOYS_PREDICTION = {
-    "spindle_heating": ("T5_C", "T8_C", "nut_C", "coolant_C", "ambient_C", "bed_C", "axis_duty_pct"),
-    "headstock_heating": ("T1_C", "nut_C", "coolant_C", "ambient_C", "bed_C", "axis_duty_pct", "T9_C"),
-    "nut_heating": ("T1_C", "T4_C", "T8_C", "coolant_C", "ambient_C", "bed_C", "speed_rpm"),
-    "coolant_chiller": ("T1_C", "T4_C", "nut_C", "ambient_C", "bed_C", "speed_rpm", "axis_duty_pct"),
-    "ambient_drift": ("T1_C", "T4_C", "nut_C", "coolant_C", "speed_rpm", "axis_duty_pct"),
-}
-# Thermal features mode: node sensors of the model; withheld node -> its sensor and decoys.
+SENSORS = tuple(f"{s.name}_C" for s in ThermalConfig().sensors)
+DRIVERS = ("speed_rpm", "axis_duty_pct")
+# Input column of each thermal effect (None: not a column of the table).
+DRIVER_OF = {"spindle_heating": "speed_rpm", "headstock_heating": "speed_rpm", "nut_heating": "axis_duty_pct",
+             "coolant_chiller": None, "ambient_drift": None}
+# Columns that read the driving input itself.
+INPUT_SENSORS = {"ambient_drift": ("ambient_C", "T9_C")}
+
+# Features mode: node sensors of the model; a withheld node sensor and its decoy pool.
 NODE_SENSORS = ("T1_C", "T4_C", "bed_C", "nut_C", "coolant_C", "ambient_C")
 DECOYS_FEATURES = {
     "T1_C": ("T5_C", "T9_C", "speed_rpm", "axis_duty_pct", "T8_C"),
@@ -97,54 +102,68 @@ DECOYS_FEATURES = {
     "bed_C": ("T5_C", "T9_C", "speed_rpm", "axis_duty_pct", "T1_C"),
     "nut_C": ("T5_C", "T6_C", "T8_C", "T9_C", "speed_rpm"),
 }
-NULL_FEATURES_CANDIDATES = ("T5_C", "T9_C", "speed_rpm", "axis_duty_pct", "T8_C")
-NULL_PREDICTION_CANDIDATES = ("T1_C", "T4_C", "nut_C", "coolant_C", "ambient_C", "speed_rpm")
-# Effect column whose contribution is the truth (features mode: the withheld node's share).
 NODE_OF_SENSOR = {"T1_C": "spindle", "T4_C": "headstock", "bed_C": "column", "nut_C": "nut"}
 NODE_LENGTH_MM = {"spindle": 200.0, "headstock": 250.0, "column": -350.0, "nut": 120.0}
+EXPANSION_PER_K = 11.5e-6
+NULL_FEATURES_POOL = ("T5_C", "T9_C", "speed_rpm", "axis_duty_pct", "T8_C")
+NULL_PREDICTION_POOL = ("T1_C", "T4_C", "nut_C", "coolant_C", "ambient_C", "bed_C", "speed_rpm", "axis_duty_pct")
 
 GANTRY_TRUTH = {"servo_lag": ("feed_mm_min",), "sync_error": ("accel_mm_s2",), "motor_heating": ("motor_C",)}
 GANTRY_UNMEASURED = ("ripple", "guideway_straightness")
 GANTRY_CANDIDATES = ("feed_mm_min", "accel_mm_s2", "motor_C")
-# The rate of the feed *is* the acceleration: feed is no decoy for sync_error.
 GANTRY_CANDIDATES_FOR = {"sync_error": ("accel_mm_s2", "motor_C")}
 
 
 @dataclass(frozen=True)
 class Scenario:
-    """One withheld-effect (or null) scenario; ``truth`` is empty when no verdict is right."""
+    """One scenario of the grid (see the module docstring)."""
 
     name: str
     family: str  # thermal/prediction, thermal/features, gantry/prediction
     kind: str  # withheld, null, unmeasured
-    effect: str | None
-    truth: tuple[str, ...]
-    candidates: tuple[str, ...]
-    snr: float  # std of the identifiable part of the withheld effect on the real rows / noise std
+    effect: str | None  # withheld effect (thermal/features: the withheld node sensor)
+    snr: float  # std of the identifiable part of the withheld effect / noise std
     runs: int
     run_min: float
     ar: bool
     seed: int
+    n_decoys: int = 5
     model: str = "mlr"
     null_noise_um: float = 0.3  # noise std of null scenarios (no effect to scale it by)
+
+
+@dataclass(frozen=True)
+class Case:
+    """A simulated scenario: the table, the candidates offered and the right answers."""
+
+    table: pd.DataFrame
+    candidates: tuple[str, ...]
+    truth: tuple[str, ...]
 
 
 # ----------------------------------------------------------------------------- data
 
 
-def _noise(n: int, sigma: float, ar: bool, rng: np.random.Generator, groups: np.ndarray) -> np.ndarray:
-    """White or AR(1) noise of standard deviation ``sigma``, restarting per group."""
+def train_query(s: Scenario) -> str:
+    """Train rows: the first run (the first two thermal runs when there are five or more)."""
+    return "run < 2" if s.family.startswith("thermal") and s.runs >= 5 else "run < 1"
+
+
+def _n_train(s: Scenario) -> int:
+    return 2 if s.family.startswith("thermal") and s.runs >= 5 else 1
+
+
+def _noise(n: int, sigma: float, ar: bool, rng: np.random.Generator, runs: np.ndarray) -> np.ndarray:
+    """White or AR(1) noise of standard deviation ``sigma``, restarting per run."""
     white = rng.standard_normal(n)
     if not ar:
         return sigma * white
     out = np.empty(n)
-    for g in np.unique(groups):
-        rows = np.flatnonzero(groups == g)
-        e = np.empty(rows.size)
-        e[0] = white[rows[0]]
+    for run in np.unique(runs):
+        rows = np.flatnonzero(runs == run)
+        out[rows[0]] = white[rows[0]]
         for k in range(1, rows.size):
-            e[k] = AR_PHI * e[k - 1] + np.sqrt(1 - AR_PHI**2) * white[rows[k]]
-        out[rows] = e
+            out[rows[k]] = AR_PHI * out[rows[k - 1]] + np.sqrt(1 - AR_PHI**2) * white[rows[k]]
     return sigma * out
 
 
@@ -160,39 +179,85 @@ def _programme(rng: np.random.Generator, minutes: float) -> tuple[CycleSegment, 
     return tuple(segments)
 
 
-def thermal_table(s: Scenario) -> pd.DataFrame:
-    """Simulated runs of a thermal scenario with ``prediction_um`` and ``true_effect_um``."""
-    rng = np.random.default_rng(s.seed)
-    n_train = 2 if s.runs >= 5 else 1  # as train_query
-    tables = []
+def _thermal_configs(s: Scenario, rng: np.random.Generator) -> list[ThermalConfig]:
+    configs = []
     for run in range(s.runs):
-        day = rng.uniform(*SUMMER_DAYS) if run < n_train else rng.uniform(0, 365)
+        day = rng.uniform(*SUMMER_DAYS) if run < _n_train(s) else rng.uniform(0, 365)
         config = ThermalConfig(
             cycle=_programme(rng, s.run_min),
             ambient=Ambient(day_of_year=day, daily_amplitude_C=rng.uniform(0.5, 3.5), start_hour=rng.uniform(6, 14)),
-            zero_at_start=False,
-            measurement_noise=0.0,
+            zero_at_start=False, measurement_noise=0.0,
             sensor_lag=0.0 if s.family == "thermal/features" else 1.0,
         )
-        config = replace(config, heat=replace(config.heat, chiller_period_min=rng.uniform(30, 60),
-                                              chiller_on_fraction=rng.uniform(0.2, 0.4)))
-        table = simulate_thermal(config, seed=int(rng.integers(1 << 31)))
-        tables.append(table[table["time_min"] <= s.run_min].assign(run=run))
-    df = pd.concat(tables, ignore_index=True)
-    effects = [c for c in df if c.startswith("effect_")]
-    clean = df[effects].sum(axis=1).to_numpy()
+        heat = dataclasses.replace(config.heat, chiller_period_min=rng.uniform(30, 60),
+                                   chiller_on_fraction=rng.uniform(0.2, 0.4))
+        configs.append(dataclasses.replace(config, heat=heat))
+    return configs
+
+
+def _simulate_runs(configs: list[ThermalConfig], seeds: list[int], run_min: float, **override) -> pd.DataFrame:
+    tables = []
+    for run, (config, seed) in enumerate(zip(configs, seeds)):
+        table = simulate_thermal(dataclasses.replace(config, **override), seed=seed)
+        tables.append(table[table["time_min"] <= run_min].assign(run=run))
+    return pd.concat(tables, ignore_index=True)
+
+
+def label_columns(effect: str, full: pd.DataFrame, alone: pd.DataFrame, same_driver: pd.DataFrame,
+                  real: np.ndarray) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Truth and decoy columns of a withheld thermal effect from within-run variance shares on the real rows."""
+    def within(table: pd.DataFrame, column: str) -> float:
+        values = table.loc[real, column]
+        return float(np.var(values - values.groupby(table.loc[real, "run"]).transform("mean")))
+
+    def share(part: pd.DataFrame, column: str) -> float:
+        return within(part, column) / within(full, column)
+
+    own = {c: share(alone, c) for c in SENSORS}
+    best = max(own, key=own.get)
+    truth = {best} if own[best] >= TRUTH_SHARE_MIN else set()
+    truth |= set(INPUT_SENSORS.get(effect, ())) | ({DRIVER_OF[effect]} - {None})
+    decoys = [c for c in SENSORS if c not in truth and share(same_driver, c) <= DECOY_SHARE_MAX]
+    decoys += [d for d in DRIVERS if d not in truth and d != DRIVER_OF[effect]]
+    return tuple(sorted(truth, key=lambda c: -own.get(c, 0.0))), tuple(decoys)
+
+
+def thermal_case(s: Scenario) -> Case:
+    """Simulated runs of a thermal scenario with ``prediction_um`` and ``true_effect_um``."""
+    rng = np.random.default_rng(s.seed)
+    configs = _thermal_configs(s, rng)
+    seeds = [int(rng.integers(1 << 31)) for _ in configs]
+    df = _simulate_runs(configs, seeds, s.run_min)
+    real = (df["run"] >= _n_train(s)).to_numpy()
+    clean = df[[f"effect_{e}_um" for e in THERMAL_EFFECTS]].sum(axis=1).to_numpy()
     if s.family == "thermal/prediction":
         true_effect = df[f"effect_{s.effect}_um"].to_numpy() if s.effect else np.zeros(len(df))
         df["prediction_um"] = clean - true_effect
-    elif s.effect is not None:
-        node = NODE_OF_SENSOR[s.effect]
-        true_effect = 1e3 * 11.5e-6 * NODE_LENGTH_MM[node] * (df[f"true_{node}_C"].to_numpy() - 20.0)
+        if s.effect is None:
+            candidates, truth = tuple(rng.choice(NULL_PREDICTION_POOL, s.n_decoys, replace=False)), ()
+        else:
+            scales = {e: 0.0 for e in THERMAL_EFFECTS}
+            sharing = {e for e in THERMAL_EFFECTS if e == s.effect or
+                       (DRIVER_OF[e] is not None and DRIVER_OF[e] == DRIVER_OF[s.effect])}
+            alone = _simulate_runs(configs, seeds, s.run_min, sensor_noise=0.0, **(scales | {s.effect: 1.0}))
+            same = _simulate_runs(configs, seeds, s.run_min, sensor_noise=0.0, **(scales | dict.fromkeys(sharing, 1.0)))
+            truth, decoys = label_columns(s.effect, df, alone, same, real)
+            picked = rng.choice(decoys, min(s.n_decoys, len(decoys)), replace=False)
+            candidates = tuple(rng.permutation([truth[0], *picked]))
     else:
-        true_effect = np.zeros(len(df))
-    return _add_noise(df, clean, true_effect, s, rng, df["run"] >= n_train)
+        if s.effect is None:
+            true_effect, truth = np.zeros(len(df)), ()
+            candidates = tuple(rng.choice(NULL_FEATURES_POOL, s.n_decoys, replace=False))
+        else:
+            node = NODE_OF_SENSOR[s.effect]
+            true_effect = 1e3 * EXPANSION_PER_K * NODE_LENGTH_MM[node] * (df[f"true_{node}_C"].to_numpy() - 20.0)
+            truth = (s.effect,)
+            pool = DECOYS_FEATURES[s.effect]
+            candidates = tuple(rng.permutation([s.effect, *rng.choice(pool, min(s.n_decoys, len(pool)), replace=False)]))
+    return Case(_add_noise(df, clean, true_effect, s, rng, real), candidates, truth)
 
 
-def gantry_table(s: Scenario) -> pd.DataFrame:
+def gantry_case(s: Scenario) -> Case:
     """Simulated gantry runs (varied feed, acceleration, warm-up) with the prediction column."""
     rng = np.random.default_rng(s.seed)
     tables = []
@@ -205,32 +270,32 @@ def gantry_table(s: Scenario) -> pd.DataFrame:
             motor_noise_C=0.005,
         )
         tables.append(simulate_gantry(config, seed=int(rng.integers(1 << 31))).assign(run=run))
-    df = pd.concat(tables, ignore_index=True)
-    effects = [c for c in df if c.startswith("effect_")]
-    clean = df[effects].sum(axis=1).to_numpy()
+    df = pd.concat(tables, ignore_index=True).rename(columns={"deviation_um": "error_um"})
+    clean = df[[c for c in df if c.startswith("effect_")]].sum(axis=1).to_numpy()
     true_effect = df[f"effect_{s.effect}_um"].to_numpy() if s.effect else np.zeros(len(df))
     df["prediction_um"] = clean - true_effect
-    return _add_noise(df.rename(columns={"deviation_um": "error_um"}), clean, true_effect, s, rng, df["run"] >= 1)
+    truth = GANTRY_TRUTH.get(s.effect, ()) if s.kind == "withheld" else ()
+    candidates = GANTRY_CANDIDATES_FOR.get(s.effect, GANTRY_CANDIDATES)
+    return Case(_add_noise(df, clean, true_effect, s, rng, (df["run"] >= 1).to_numpy()), candidates, truth)
 
 
-def _add_noise(df, clean, true_effect, s: Scenario, rng, real) -> pd.DataFrame:
-    """Target = noise-free error + noise of std (identifiable effect std) / SNR.
-
-    The identifiable part of the effect is what the base regressors of the discrepancy model
-    (intercept + prediction, or intercept + the model's features) cannot explain on the real
-    rows: a between-run offset that a recalibration absorbs is no signal to attribute.
-    """
-    real = real.to_numpy()
+def _add_noise(df, clean, true_effect, s: Scenario, rng, real: np.ndarray) -> pd.DataFrame:
+    """Target = noise-free error + noise of std (identifiable effect std) / SNR (see module docstring)."""
     if s.effect is None:
         sigma = s.null_noise_um
     else:
-        base = df["prediction_um"].to_numpy()[:, None] if s.family.endswith("prediction") else \
-            df[[c for c in NODE_SENSORS if c != s.effect]].to_numpy()
-        design = np.column_stack([np.ones(real.sum()), base[real]])
+        runs = pd.get_dummies(df["run"][real]).to_numpy(float)
+        design = runs if s.family.endswith("prediction") else \
+            np.column_stack([runs, df.loc[real, [c for c in NODE_SENSORS if c != s.effect]].to_numpy()])
         part = true_effect[real] - design @ np.linalg.lstsq(design, true_effect[real], rcond=None)[0]
         sigma = np.std(part) / s.snr
     noise = _noise(len(df), sigma, s.ar, rng, df["run"].to_numpy())
     return df.assign(error_um=clean + noise, noise_true_um=noise, true_effect_um=true_effect)
+
+
+def case_for(s: Scenario) -> Case:
+    """The simulated data of a scenario."""
+    return gantry_case(s) if s.family.startswith("gantry") else thermal_case(s)
 
 
 # ------------------------------------------------------------------------ scenarios
@@ -238,124 +303,102 @@ def _add_noise(df, clean, true_effect, s: Scenario, rng, real) -> pd.DataFrame:
 
 def scenarios(quick: bool = False) -> list[Scenario]:
     """The fixed scenario grid (deterministic seeds)."""
-    rng = np.random.default_rng(20240601)
     out: list[Scenario] = []
 
     def design(i: int) -> dict:
         # Cycle through SNR x record length x noise colour so every effect sees each level.
         return {"snr": (1.0, 2.0, 4.0, 8.0, 1.5)[i % 5], "runs": (3, 5, 4)[i % 3],
-                "run_min": (240.0, 420.0)[i % 2], "ar": i % 4 == 3}
+                "run_min": (240.0, 420.0)[i % 2], "ar": i % 4 == 3, "seed": 1000 + len(out)}
 
-    def decoys(pool: tuple[str, ...], k: int) -> tuple[str, ...]:
-        return tuple(rng.choice(pool, size=min(k, len(pool)), replace=False))
-
-    for effect, truth in TRUTH_PREDICTION.items():
+    for effect in THERMAL_EFFECTS:
         for i in range(10):
-            cands = (truth[0], *decoys(DECOYS_PREDICTION[effect], 4 + i % 3))
-            out.append(Scenario(f"tp-{effect}-{i}", "thermal/prediction", "withheld", effect, truth,
-                                tuple(rng.permutation(cands)), seed=1000 + len(out), **design(i)))
+            out.append(Scenario(f"tp-{effect}-{i}", "thermal/prediction", "withheld", effect,
+                                n_decoys=4 + i % 3, **design(i)))
     for sensor in DECOYS_FEATURES:
         for i in range(10):
-            cands = (sensor, *decoys(DECOYS_FEATURES[sensor], 3 + i % 3))
-            out.append(Scenario(f"tf-{sensor}-{i}", "thermal/features", "withheld", sensor, (sensor,),
-                                tuple(rng.permutation(cands)), seed=1000 + len(out),
+            out.append(Scenario(f"tf-{sensor}-{i}", "thermal/features", "withheld", sensor, n_decoys=3 + i % 3,
                                 model="lssvr" if i % 5 == 4 else "mlr", **design(i)))
-    for effect, truth in GANTRY_TRUTH.items():
+    for effect in GANTRY_TRUTH:
         for i in range(6):
-            d = design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0}
-            out.append(Scenario(f"gp-{effect}-{i}", "gantry/prediction", "withheld", effect, truth,
-                                GANTRY_CANDIDATES_FOR.get(effect, GANTRY_CANDIDATES), seed=1000 + len(out), **d))
+            out.append(Scenario(f"gp-{effect}-{i}", "gantry/prediction", "withheld", effect,
+                                **design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0}))
     for i in range(12):
-        d = design(i) | {"null_noise_um": (0.1, 0.3, 1.0)[i % 3]}
-        out.append(Scenario(f"tp-null-{i}", "thermal/prediction", "null", None, (),
-                            decoys(NULL_PREDICTION_CANDIDATES, 5), seed=1000 + len(out), **d))
-        out.append(Scenario(f"tf-null-{i}", "thermal/features", "null", None, (),
-                            decoys(NULL_FEATURES_CANDIDATES, 4), seed=1000 + len(out),
-                            model="lssvr" if i % 5 == 4 else "mlr", **d))
+        noise = {"null_noise_um": (0.1, 0.3, 1.0)[i % 3]}
+        out.append(Scenario(f"tp-null-{i}", "thermal/prediction", "null", None, **design(i) | noise))
+        out.append(Scenario(f"tf-null-{i}", "thermal/features", "null", None, n_decoys=4,
+                            model="lssvr" if i % 5 == 4 else "mlr", **design(i) | noise))
     for i in range(6):
-        d = design(i) | {"null_noise_um": (0.05, 0.15, 0.3)[i % 3], "runs": (4, 6, 8)[i % 3], "run_min": 0.0}
-        out.append(Scenario(f"gp-null-{i}", "gantry/prediction", "null", None, (), GANTRY_CANDIDATES,
-                            seed=1000 + len(out), **d))
+        out.append(Scenario(f"gp-null-{i}", "gantry/prediction", "null", None, **design(i) | {
+            "null_noise_um": (0.05, 0.15, 0.3)[i % 3], "runs": (4, 6, 8)[i % 3], "run_min": 0.0}))
     for effect in GANTRY_UNMEASURED:
         for i in range(4):
-            d = design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0}
-            out.append(Scenario(f"gu-{effect}-{i}", "gantry/prediction", "unmeasured", effect, (),
-                                GANTRY_CANDIDATES, seed=1000 + len(out), **d))
-    if quick:
-        out = out[::10]
-    return out
+            out.append(Scenario(f"gu-{effect}-{i}", "gantry/prediction", "unmeasured", effect,
+                                **design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0}))
+    return out[::10] if quick else out
 
 
 # ----------------------------------------------------------------------- evaluation
 
 
-def table_for(s: Scenario) -> pd.DataFrame:
-    """The simulated data of a scenario."""
-    return gantry_table(s) if s.family.startswith("gantry") else thermal_table(s)
-
-
-def diagnose_scenario(s: Scenario, df: pd.DataFrame):
+def diagnose_case(s: Scenario, case: Case):
     """Run the diagnosis the way a user would on this scenario."""
     gantry = s.family.startswith("gantry")
-    common = dict(target="error_um", train=train_query(s),
-                  candidates=list(s.candidates), order="time_s" if gantry else "time_min", group="run")
+    common = dict(target="error_um", train=train_query(s), candidates=list(case.candidates),
+                  order="time_s" if gantry else "time_min", group="run")
     if s.family.endswith("prediction"):
-        return diagnose(df, prediction="prediction_um", **common)
-    features = [c for c in NODE_SENSORS if c != s.effect]
-    return diagnose(df, features=features, model=s.model, **common)
+        return diagnose(case.table, prediction="prediction_um", **common)
+    return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
 
 
 def evaluate(s: Scenario) -> dict:
     """Simulate, diagnose and score one scenario."""
-    df = table_for(s)
+    case = case_for(s)
     started = time.perf_counter()
-    report = diagnose_scenario(s, df)
+    report = diagnose_case(s, case)
     runtime = time.perf_counter() - started
     verdict = report.verdict.column
     causes = [c.column for c in report.causes]
-    row = asdict(s) | {"truth": "|".join(s.truth), "candidates": "|".join(s.candidates),
-                       "n_rows": report.n_rows, "verdict": verdict, "transform": report.verdict.transform,
-                       "top1": verdict in s.truth if s.truth else None,
-                       "top3": bool(set(causes[:3]) & set(s.truth)) if s.truth else None,
-                       "named": verdict is not None, "ambiguous": bool(report.verdict.ambiguous_with),
-                       "runtime_s": runtime, "shrink": report.verdict.shrink}
-    real = ~df.eval(train_query(s)).to_numpy()
-    residual_clean = (df["error_um"] - df["noise_true_um"] - _baseline_prediction(report, df)).to_numpy()[real]
-    row["iou"] = _iou(report, df, real, residual_clean) if s.kind == "withheld" else None
-    row["oracle_shrink"] = _oracle_shrink(s, df) if s.kind == "withheld" else None
+    row = dataclasses.asdict(s) | {
+        "truth": "|".join(case.truth), "candidates": "|".join(case.candidates), "n_rows": report.n_rows,
+        "verdict": verdict, "transform": report.verdict.transform,
+        "top1": verdict in case.truth if case.truth else None,
+        "top3": bool(set(causes[:3]) & set(case.truth)) if case.truth else None,
+        "named": verdict is not None, "ambiguous": bool(report.verdict.ambiguous_with),
+        "runtime_s": runtime, "shrink": report.verdict.shrink, "iou": None, "oracle_shrink": None,
+    }
+    if s.kind == "withheld":
+        real = ~case.table.eval(train_query(s)).to_numpy()
+        clean_residual = (case.table["error_um"] - case.table["noise_true_um"]).to_numpy() - _prediction(report, case)
+        row["iou"] = _iou(report, case.table, real, clean_residual[real])
+        row["oracle_shrink"] = _oracle_shrink(s, case)
     return row
 
 
-def train_query(s: Scenario) -> str:
-    """Train rows: the first run (the first two with five runs or more)."""
-    return "run < 2" if s.family.startswith("thermal") and s.runs >= 5 else "run < 1"
-
-
-def _baseline_prediction(report, df: pd.DataFrame) -> np.ndarray:
+def _prediction(report, case: Case) -> np.ndarray:
     """The baseline's prediction in the table's row order (the report holds it sorted)."""
     series = report.series
-    order = np.lexsort((df[series.order_name].to_numpy(), df["run"].to_numpy()))
-    out = np.empty(len(df))
+    order = np.lexsort((case.table[series.order_name].to_numpy(), case.table["run"].to_numpy()))
+    out = np.empty(len(case.table))
     out[order] = series.y_hat
     return out
 
 
-def _iou(report, df, real, residual_clean) -> float:
+def _iou(report, table: pd.DataFrame, real: np.ndarray, clean_residual: np.ndarray) -> float:
     """Row IoU of the first order-axis region with the rows of above-mean clean squared error."""
     region = next(r for r in report.where if r.column == report.order)
-    order = df[report.order].to_numpy()[real]
-    truth = residual_clean**2 > np.mean(residual_clean**2)
+    order = table[report.order].to_numpy()[real]
+    truth = clean_residual**2 > np.mean(clean_residual**2)
     found = (order >= region.low) & (order <= region.high)
     union = np.sum(truth | found)
     return float(np.sum(truth & found) / union) if union else float("nan")
 
 
-def _oracle_shrink(s: Scenario, df: pd.DataFrame) -> float:
+def _oracle_shrink(s: Scenario, case: Case) -> float:
     """Shrink of the same out-of-sample discrepancy model given the true effect column."""
-    data = prepare(df, target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
-                   order="time_s" if s.family.startswith("gantry") else "time_min",
-                   **({"prediction": "prediction_um"} if s.family.endswith("prediction")
-                      else {"features": [c for c in NODE_SENSORS if c != s.effect]}))
+    mode = {"prediction": "prediction_um"} if s.family.endswith("prediction") else \
+        {"features": [c for c in NODE_SENSORS if c != s.effect]}
+    data = prepare(case.table, target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
+                   order="time_s" if s.family.startswith("gantry") else "time_min", **mode)
     baseline = fit_baseline(data, s.model)
     real = data.is_real
     r, groups = baseline.residual[real], data.groups[real]
@@ -369,16 +412,17 @@ def _oracle_shrink(s: Scenario, df: pd.DataFrame) -> float:
 
 
 def summarise(rows: pd.DataFrame) -> str:
-    """Markdown tables: overall metrics against targets, then per family and per effect."""
+    """Markdown tables: overall metrics against targets, then per family/effect and per SNR."""
     withheld = rows[rows.kind == "withheld"]
     nulls = rows[rows.kind != "withheld"]
-    correct = withheld[withheld.top1 == True]  # noqa: E712  (pandas object column)
+    top1 = withheld.top1.astype(bool)
+    correct = withheld[top1]
     metric = {
-        "top-1 accuracy (withheld)": (withheld.top1.mean(), "≥ 0.90"),
-        "top-3 accuracy (withheld)": (withheld.top3.mean(), ""),
+        "top-1 accuracy (withheld)": (top1.mean(), "≥ 0.90"),
+        "top-3 accuracy (withheld)": (withheld.top3.astype(bool).mean(), ""),
         "false attribution (null + unmeasured)": (nulls.named.mean(), "≤ 0.05"),
         "false attribution (null only)": (rows[rows.kind == "null"].named.mean(), "≤ 0.05"),
-        "decoy named (withheld, wrong column)": ((withheld.named & (withheld.top1 == False)).mean(), ""),  # noqa: E712
+        "decoy named (withheld, wrong column)": ((withheld.named & ~top1).mean(), ""),
         "no verdict (withheld)": ((~withheld.named).mean(), ""),
         "localisation IoU (withheld, mean)": (withheld.iou.mean(), ""),
         "mean |shrink − oracle| (correct verdicts)": ((correct.shrink - correct.oracle_shrink).abs().mean(), "≤ 0.15"),
@@ -388,20 +432,24 @@ def summarise(rows: pd.DataFrame) -> str:
     lines = [f"# svrqp gap — validation suite ({len(withheld)} withheld, {int((rows.kind == 'null').sum())} null, "
              f"{int((rows.kind == 'unmeasured').sum())} unmeasured scenarios)", "",
              f"svrqp {svrqp.__version__}, Python {platform.python_version()}, {platform.machine()}, "
-             f"generated by `benchmarks/gap_suite.py`.", "", "| metric | value | target |", "|---|---|---|"]
+             f"{os.cpu_count()} CPUs visible; generated by `benchmarks/gap_suite.py` (method and labels in its "
+             "docstring).", "", "| metric | value | target |", "|---|---|---|"]
     lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
     lines += ["", "## By family and withheld effect", "",
-              "| family | kind | effect | n | top-1 | top-3 | named | decoy | IoU | mean abs shrink err |", "|---|---|---|---|---|---|---|---|---|---|"]
+              "| family | kind | effect | n | top-1 | top-3 | named | decoy | IoU | mean abs shrink err |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for (family, kind, effect), part in rows.groupby(["family", "kind", rows.effect.fillna("–")], sort=True):
-        ok = part[part.top1 == True]  # noqa: E712
+        ok = part[part.top1 == True]  # noqa: E712  (object column: True/False/None)
         err = (ok.shrink - ok.oracle_shrink).abs().mean() if len(ok) else float("nan")
         decoy = (part.named & (part.top1 == False)).mean() if kind == "withheld" else float("nan")  # noqa: E712
         lines.append(f"| {family} | {kind} | {effect} | {len(part)} | {_fmt(part.top1)} | {_fmt(part.top3)} | "
                      f"{part.named.mean():.2f} | {decoy:.2f} | {_fmt(part.iou)} | {err:.3f} |")
-    lines += ["", "## By signal-to-noise ratio (withheld)", "", "| SNR | n | top-1 | named | decoy |", "|---|---|---|---|---|"]
+    lines += ["", "## By signal-to-noise ratio (withheld)", "", "| SNR | n | top-1 | named | decoy |",
+              "|---|---|---|---|---|"]
     for snr, part in withheld.groupby("snr"):
-        lines.append(f"| {snr:g} | {len(part)} | {part.top1.mean():.2f} | {part.named.mean():.2f} | "
-                     f"{(part.named & (part.top1 == False)).mean():.2f} |")  # noqa: E712
+        ok = part.top1.astype(bool)
+        lines.append(f"| {snr:g} | {len(part)} | {ok.mean():.2f} | {part.named.mean():.2f} | "
+                     f"{(part.named & ~ok).mean():.2f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -35,6 +35,11 @@ MIN_SHIFT_FRACTION = 0.1
 """A surrogate rotates a group by at least this fraction of its length (and at most 1 − it)."""
 
 
+def holds_out_groups(groups: np.ndarray) -> bool:
+    """Whether :func:`blocked_folds` holds out whole groups (enough of them) or blocks within groups."""
+    return len(group_slices(groups)) >= MIN_GROUPS_FOR_GROUP_FOLDS
+
+
 def blocked_folds(groups: np.ndarray, n_folds: int = N_FOLDS) -> list[np.ndarray]:
     """Test-row indices of each cross-validation fold, blocked by group.
 
@@ -53,7 +58,7 @@ def blocked_folds(groups: np.ndarray, n_folds: int = N_FOLDS) -> list[np.ndarray
     slices = group_slices(groups)
     n = len(groups)
     fold_of = np.empty(n, dtype=int)
-    if len(slices) >= MIN_GROUPS_FOR_GROUP_FOLDS:
+    if holds_out_groups(groups):
         k = min(n_folds, len(slices))
         load = np.zeros(k)
         # Largest groups first, each to the lightest fold: balanced and deterministic.

@@ -14,9 +14,10 @@
 6. **Report** — :class:`svrqp.gap.report.GapReport`.
 
 The discrepancy models of steps 4–5 use the base regressors "intercept + the model's
-features (+ its prediction, for a non-linear model)" (features mode) or "intercept + the
-prediction" (prediction mode), standardised on the real rows (:func:`base_design`), so an
-effect gets credit only for what a linear recalibration of the model itself cannot do. Each cause's shrink is for that effect alone added to this base.
+features (raw and smoothed, + its prediction for a non-linear model)" in features mode, so an
+effect gets credit only for what a linear recalibration of the model itself cannot do, and the
+offsets alone in prediction mode; offsets are per group when there are too few groups to hold
+any out (:func:`base_design`). Each cause's shrink is for that effect alone added to this base.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import pandas as pd
 from svrqp.gap import attribute as attr
 from svrqp.gap.attribute import Attribution, Evidence, attribute, build_banks
 from svrqp.gap.baseline import Baseline, fit_baseline
-from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.blocks import blocked_folds, holds_out_groups
 from svrqp.gap.figures import Series, axis_label
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.localise import Region, localise
@@ -51,19 +52,36 @@ def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
     inputs biases any recalibration towards zero in the directions where the inputs are
     nearly collinear (errors in variables), and a second, independent reading of a modelled
     temperature — or its own filtered version — would then "explain" that bias without
-    being an unmodelled effect. Prediction mode: the prediction (a simulation carries no
-    sensor noise). Columns are standardised on the real rows; constant ones are dropped.
+    being an unmodelled effect.
+
+    Prediction mode: the offsets alone. Nothing is fitted to a simulation; the discrepancy
+    model explains the gap itself. Refitting the prediction's gain would let a candidate
+    "explain" the withheld effect by correcting the dynamics of another simulated effect that
+    shares its driver (spindle and headstock heating both follow the speed).
+
+    Offsets: one intercept when the real rows hold enough groups for cross-validation to hold
+    out whole groups (:func:`svrqp.gap.blocks.holds_out_groups`) — an offset between groups is
+    then part of the gap a candidate may explain; otherwise one intercept per group: with two
+    or three groups an offset between them cannot be told apart from any candidate's group
+    means, and circular-shift surrogates (which keep each group's level) could never show
+    otherwise.
+
+    Columns are standardised on the real rows; constant ones are dropped.
     """
     real = data.is_real
-    if data.prediction is not None:
-        columns = baseline.y_hat[real, None]
+    groups = data.groups[real]
+    if holds_out_groups(groups):
+        offsets = np.ones((int(real.sum()), 1))
     else:
-        inputs = data.X if baseline.kind == "mlr" else np.column_stack([data.X, baseline.y_hat])
-        columns = np.column_stack([inputs, smooth(inputs, data.groups)])[real]
+        offsets = (groups[:, None] == np.unique(groups)[None, :]).astype(float)
+    if data.prediction is not None:
+        return offsets
+    inputs = data.X if baseline.kind == "mlr" else np.column_stack([data.X, baseline.y_hat])
+    columns = np.column_stack([inputs, smooth(inputs, data.groups)])[real]
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
     varying = scale > 1e-12 * (1 + np.abs(columns).max(axis=0))
-    return np.column_stack([np.ones(real.sum()), centred[:, varying] / scale[varying]])
+    return np.column_stack([offsets, centred[:, varying] / scale[varying]])
 
 
 def diagnose(
