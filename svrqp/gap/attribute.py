@@ -196,7 +196,7 @@ def build_banks(data: GapData, taus: np.ndarray) -> list[CandidateBank]:
 
 @dataclass(frozen=True)
 class TestOutcome:
-    """Result of one surrogate test.
+    r"""Result of one surrogate test.
 
     Attributes
     ----------
@@ -263,6 +263,7 @@ class SurrogateTest:
         self.gains = cv.gain(bank.Z[:, None, :], partner)[0]
         self.variant = int(np.argmax(self.gains))
         self.observed = float(self.gains[self.variant])
+        self._signature = bank.Z[:, self.variant] if bank.partner is None else bank.partner
         self._hits = np.zeros(0, dtype=bool)
 
     @property
@@ -281,7 +282,7 @@ class SurrogateTest:
         chunk = max(1, _CHUNK_ELEMENTS // (n * v))
         for start in range(0, count, chunk):
             size = min(chunk, count - start)
-            rows = circular_shifts(self.groups, size, self.rng).T  # (n, size): surrogate s reads rows[:, s]
+            rows = circular_shifts(self.groups, size, self.rng, self._signature).T  # surrogate s reads rows[:, s]
             partner = None if self.bank.partner is None else self.bank.partner[rows]
             surrogate = self.cv.gain(self.bank.Z[rows], partner).max(axis=1)
             self._hits = np.concatenate([self._hits, surrogate >= self.observed])

@@ -5,11 +5,12 @@ single rows:
 
 * :func:`blocked_folds` — cross-validation folds made of whole groups (runs) when there are
   enough of them, otherwise of contiguous blocks interleaved along each group (block ``j``
-  of every group goes to fold ``j mod K``), so every fold sees every phase of a run while
-  test rows stay in blocks much longer than the correlation length;
+  of group ``g`` goes to fold ``(j + g) mod K``), so every fold sees every phase of a run
+  while test rows stay in blocks much longer than the correlation length;
 * :func:`circular_shifts` — surrogate row orders for significance tests: each group is
   rotated by its own random offset, which keeps a series' autocorrelation and breaks only
-  its alignment with the other series;
+  its alignment with the other series (offsets that would rotate a periodic candidate onto
+  itself are avoided);
 * :func:`block_bootstrap` — moving-block bootstrap resamples drawn within each group.
 
 All functions take the group code of each row, with rows sorted so that a group is one
@@ -33,6 +34,9 @@ BLOCKS_PER_FOLD = 4
 
 MIN_SHIFT_FRACTION = 0.1
 """A surrogate rotates a group by at least this fraction of its length (and at most 1 − it)."""
+
+MAX_SELF_CORRELATION = 0.5
+"""A surrogate never rotates a candidate onto a copy of itself correlating this much or more."""
 
 
 def holds_out_groups(groups: np.ndarray) -> bool:
@@ -68,16 +72,29 @@ def blocked_folds(groups: np.ndarray, n_folds: int = N_FOLDS) -> list[np.ndarray
             load[f] += rows.stop - rows.start
     else:
         k = n_folds
-        for rows in slices:
+        for g, rows in enumerate(slices):
             m = rows.stop - rows.start
             n_blocks = min(m, k * BLOCKS_PER_FOLD)
             block = np.minimum((np.arange(m) * n_blocks) // m, n_blocks - 1)
-            fold_of[rows] = block % k
+            # Rotated per group: the same phase of different runs (a start-up) is never held
+            # out from all of them at once.
+            fold_of[rows] = (block + g) % k
     return [np.flatnonzero(fold_of == f) for f in range(k) if np.any(fold_of == f)]
 
 
-def circular_shifts(groups: np.ndarray, n_surrogates: int, rng: np.random.Generator) -> np.ndarray:
+def circular_shifts(
+    groups: np.ndarray, n_surrogates: int, rng: np.random.Generator, signature: np.ndarray | None = None
+) -> np.ndarray:
     """Row orders that rotate every group by an independent random offset.
+
+    Offsets are drawn uniformly among those at least :data:`MIN_SHIFT_FRACTION` of the group
+    length away from no shift. With a ``signature`` (the candidate column being tested), offsets
+    at which the rotated signature would correlate with itself by :data:`MAX_SELF_CORRELATION`
+    or more are left out as well: a periodic candidate (a chiller cycling every 40 min) rotated
+    by whole periods is a copy of itself, not a surrogate. The choice depends on the candidate
+    alone, never on the residual, so under "no relation" every surrogate statistic still has
+    the distribution of the observed one. When fewer than a fifth of the offsets would remain,
+    the self-correlation rule is dropped for that group.
 
     Parameters
     ----------
@@ -87,6 +104,8 @@ def circular_shifts(groups: np.ndarray, n_surrogates: int, rng: np.random.Genera
         Number of surrogate orders.
     rng : numpy.random.Generator
         Source of the offsets.
+    signature : ndarray, shape (n,), optional
+        Column whose self-alignment is avoided.
 
     Returns
     -------
@@ -98,10 +117,22 @@ def circular_shifts(groups: np.ndarray, n_surrogates: int, rng: np.random.Genera
     for rows in group_slices(groups):
         m = rows.stop - rows.start
         low = max(1, int(np.ceil(MIN_SHIFT_FRACTION * m)))
-        high = max(low + 1, m - low + 1)
-        shift = rng.integers(low, high, size=n_surrogates)
+        allowed = np.arange(low, max(low + 1, m - low + 1))
+        if signature is not None:
+            kept = allowed[circular_autocorrelation(signature[rows])[allowed % m] < MAX_SELF_CORRELATION]
+            if kept.size >= allowed.size / 5:
+                allowed = kept
+        shift = rng.choice(allowed, size=n_surrogates)
         index[:, rows] = rows.start + (np.arange(m)[None, :] + shift[:, None]) % m
     return index
+
+
+def circular_autocorrelation(x: np.ndarray) -> np.ndarray:
+    """Correlation of ``x`` with itself rotated by every lag 0 … m−1 (by FFT)."""
+    centred = x - x.mean()
+    power = np.abs(np.fft.rfft(centred)) ** 2
+    acov = np.fft.irfft(power, n=x.size)
+    return acov / acov[0] if acov[0] > 0 else np.zeros(x.size)
 
 
 def block_length(residual: np.ndarray, groups: np.ndarray) -> int:

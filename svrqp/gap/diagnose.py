@@ -155,7 +155,7 @@ def diagnose(
     attribution = attribute(r, B, banks, folds, groups, gap.train_rmse, rng)
     report_progress("quantifying", 0.85)
     causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
-    detected = gap_detected(gap, data.prediction is not None)
+    detected = gap_detected(gap)
     verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected)
     report_progress("reporting", 0.98)
 
@@ -233,9 +233,9 @@ def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[st
 def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected) -> tuple[Verdict, GateResult | None]:
     train_groups = data.groups[data.is_train]
     if not detected:
-        reference = "the noise" if data.prediction is not None else "the train rows' out-of-sample error"
-        reason = (f"No gap beyond chance: the real-row RMSE {gap.real_rmse:.3g} is not significantly above "
-                  f"{reference} (train {gap.train_rmse:.3g}, noise {gap.noise_rmse:.3g}); no cause is named.")
+        reason = (f"No gap beyond chance: the real-row RMSE {gap.real_rmse:.3g} is not significantly above the "
+                  f"train rows' out-of-sample error ({gap.train_rmse:.3g}) nor the noise ({gap.noise_rmse:.3g}); "
+                  "no cause is named.")
         return Verdict(column=None, reason=reason), None
     if attribution.verdict is None:
         if attribution.accepted:  # strong evidence, but for several indistinguishable candidates

@@ -24,16 +24,15 @@ Excess over noise
 
         \hat\sigma^2 = \frac{\sum_g \sum_k (r_{g,k} - r_{g,k-1})^2}{2 \sum_g (n_g - 1)},
 
-    which a smooth error leaves almost untouched. It is the gate in prediction mode, where the
-    train rows carry the unmodelled effect as well and are no reference (coloured noise makes
-    :math:`\hat\sigma^2` too small, so this gate errs towards "gap"; the surrogate tests
-    remain the guard).
+    which a smooth error leaves almost untouched (coloured noise makes :math:`\hat\sigma^2`
+    too small, so this test errs towards "gap"; the surrogate tests of the attribution remain
+    the guard against naming a cause).
 
 Decision
-    Features mode: a gap exists when the real-row error exceeds the train reference
-    (:math:`p_\mathrm{excess} < \alpha`). Prediction mode: when it exceeds the train rows' or
-    the noise (:math:`\min(p_\mathrm{excess}, p_\mathrm{noise}) < \alpha`). No cause is named
-    without a gap.
+    A gap exists when the real-row error exceeds the train rows' out-of-sample error or the
+    noise level (:math:`\min(p_\mathrm{excess}, p_\mathrm{noise}) < \alpha`): an unmodelled
+    effect that was as active on the train rows leaves the real rows no worse than the train
+    rows, but still well above the noise. No cause is named without a gap.
 
 Whiteness
     The Ljung–Box statistic of the real-row residual, pooled over groups,
@@ -184,8 +183,6 @@ def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_gro
     )
 
 
-def gap_detected(result: GateResult, prediction_mode: bool) -> bool:
+def gap_detected(result: GateResult) -> bool:
     """Whether the gate finds a gap beyond chance (see "Decision" in the module docstring)."""
-    if prediction_mode:
-        return min(result.p_excess, result.p_noise) < ALPHA
-    return result.p_excess < ALPHA
+    return min(result.p_excess, result.p_noise) < ALPHA

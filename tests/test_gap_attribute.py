@@ -1,0 +1,85 @@
+"""Attribution end to end on the named closed-form problems (svrqp.gap.attribute via diagnose).
+
+Each problem has a known answer: the unmodelled air effect through a 60 min lag (decoy: the
+coolant, which follows the air), a thermal-gradient effect (the rate of the modelled spindle
+sensor), and a null problem where nothing is missing.
+"""
+
+import numpy as np
+import pytest
+
+from gap_problems import CANDIDATES, air_lag_problem, null_problem, spindle_rate_problem, thermal_runs
+from svrqp.gap import diagnose
+from svrqp.gap.attribute import CandidateBank, SurrogateTest, run_tests
+from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
+
+ARGS = dict(target="error_um", train="run == 'r0'", features=["spindle_C"], order="time_min", group="run")
+
+
+@pytest.fixture(scope="module")
+def air_lag_report():
+    return diagnose(air_lag_problem(), candidates=CANDIDATES, **ARGS)
+
+
+def test_air_lag_is_named_with_its_transform(air_lag_report):
+    verdict = air_lag_report.verdict
+    assert verdict.column == "air_C"
+    assert verdict.transform == "lag"
+    assert 20.0 <= verdict.tau <= 150.0  # true 60 min, searched on a geometric grid
+    assert air_lag_report.causes[0].column == "air_C"
+
+
+def test_air_lag_verdict_is_significant_and_shrinks_the_error(air_lag_report):
+    top = air_lag_report.causes[0]
+    assert top.significant and top.p_value < 0.05
+    assert air_lag_report.verdict.shrink > 0.5
+    assert air_lag_report.verdict.shrink_ci[0] <= air_lag_report.verdict.shrink <= air_lag_report.verdict.shrink_ci[1]
+    assert air_lag_report.gap_detected
+
+
+def test_a_modelled_feature_can_carry_an_unmodelled_rate():
+    report = diagnose(spindle_rate_problem(), candidates=[*CANDIDATES, "spindle_C"], **ARGS)
+    assert report.verdict.column == "spindle_C"
+    assert report.verdict.transform in {"rate", "lag"}  # a short lag is a smoothed rate
+    levels = [c for c in report.causes if c.column == "spindle_C"]
+    assert all(c.transform != "level" for c in levels)  # its level is already modelled
+
+
+def test_null_problem_names_nothing():
+    report = diagnose(null_problem(), candidates=[*CANDIDATES, "spindle_C"], **ARGS)
+    assert report.verdict.column is None
+    assert not any(c.significant for c in report.causes)
+
+
+def test_identical_decoy_cannot_be_told_apart():
+    df = air_lag_problem()
+    df["air_copy_C"] = df["air_C"] + np.random.default_rng(0).normal(scale=0.002, size=len(df))
+    report = diagnose(df, candidates=["air_C", "air_copy_C", "nut_C"], **ARGS)
+    assert report.verdict.column is None
+    assert set(report.verdict.ambiguous_with) == {"air_C", "air_copy_C"}
+    assert "cannot be told apart" in (report.causes[0].note or "")
+
+
+def test_surrogate_p_value_is_small_for_a_real_effect_and_not_for_noise():
+    rng = np.random.default_rng(5)
+    groups = np.repeat([0, 1, 2, 3], 150)
+    x = np.cumsum(rng.normal(size=600))
+    noise = rng.normal(size=600)
+    B = np.ones((600, 1))
+    folds = blocked_folds(groups)
+    bank = CandidateBank("x", "level", None, ((x - x.mean()) / x.std())[:, None])
+    real = run_tests([SurrogateTest(CrossValidatedDiscrepancy(x + noise, B, folds), bank, groups, rng)], 499,
+                     lambda p: p < 0.0)[0]
+    null = run_tests([SurrogateTest(CrossValidatedDiscrepancy(noise, B, folds), bank, groups, rng)], 499,
+                     lambda p: p < 0.0)[0]
+    assert real.p_value <= 1 / 500 + 1e-12
+    assert null.p_value > 0.05
+
+
+def test_same_seed_gives_the_same_report():
+    df = thermal_runs("air_level", b=1.0, runs=3, seed=7)
+    first = diagnose(df, candidates=CANDIDATES, seed=3, **ARGS).to_dict()
+    second = diagnose(df, candidates=CANDIDATES, seed=3, **ARGS).to_dict()
+    first.pop("runtime_s"), second.pop("runtime_s")
+    assert first == second

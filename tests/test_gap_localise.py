@@ -1,0 +1,62 @@
+"""Where the real-row error concentrates (svrqp.gap.localise): honest 1-D error trees."""
+
+import numpy as np
+import pytest
+
+from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.localise import Region, localise, regions_on
+
+N_RUN = 300
+T = np.tile(np.arange(N_RUN, dtype=float), 2)  # two runs of 300 min
+GROUPS = np.repeat([0, 1], N_RUN)
+
+
+def _transient_residual(seed=0):
+    """Noise 0.2 everywhere plus a start-up transient 3·exp(-t/15) in the first minutes of each run."""
+    rng = np.random.default_rng(seed)
+    return 3.0 * np.exp(-T / 15.0) + 0.2 * rng.normal(size=T.size)
+
+
+def test_a_start_up_transient_is_found_at_the_start():
+    e = _transient_residual()
+    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS))
+    first = where[0]
+    assert first.column == "time_min"
+    assert first.low == 0.0 and first.high <= 40.0
+    assert first.share > 0.7
+
+
+def test_region_numbers_are_computed_on_every_real_row():
+    e = _transient_residual()
+    first = localise(e, "time_min", T, {}, blocked_folds(GROUPS))[0]
+    inside = (T >= first.low) & (T <= first.high)
+    assert first.n == inside.sum()
+    assert first.rmse == pytest.approx(np.sqrt(np.mean(e[inside] ** 2)))
+    assert first.share == pytest.approx(np.sum(e[inside] ** 2) / np.sum(e**2))
+
+
+def test_uniform_error_is_reported_as_the_whole_range():
+    e = np.random.default_rng(1).normal(size=T.size)
+    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS))
+    assert any(r.column == "time_min" for r in where)
+    spans = [r for r in where if r.column == "time_min"]
+    # either nothing stands out (one region, everything) or what stands out is weak
+    assert len(spans) == 1 and spans[0].share == pytest.approx(1.0) or all(r.enrichment < 1.6 for r in spans)
+
+
+def test_a_candidate_region_is_reported_when_error_follows_it():
+    e = _transient_residual()
+    hot = np.where(T < 20, 40.0, 25.0) + np.random.default_rng(2).normal(scale=0.5, size=T.size)
+    where = localise(e, "time_min", T, {"spindle_C": hot}, blocked_folds(GROUPS))
+    spindle = [r for r in where if r.column == "spindle_C"]
+    assert spindle and spindle[0].low > 35.0
+
+
+def test_regions_are_scored_on_held_out_rows():
+    # with an error that depends on nothing, held-out enrichment hovers around 1
+    rng = np.random.default_rng(3)
+    e = rng.normal(size=T.size)
+    fit_rows = np.arange(T.size) % 2 == 0
+    for region in regions_on("time_min", T, e, fit_rows):
+        assert isinstance(region, Region)
+        assert region.enrichment == pytest.approx(1.0, abs=0.6)

@@ -1,0 +1,103 @@
+"""The gap report: schema-valid JSON, no silent overwrite, HTML and Markdown (svrqp.gap.report)."""
+
+import dataclasses
+import json
+import math
+
+import jsonschema
+import pytest
+
+from gap_problems import CANDIDATES, air_lag_problem, null_problem
+from svrqp.exceptions import SvrqpError
+from svrqp.gap import diagnose, load_schema
+from svrqp.gap.report import _finite
+
+ARGS = dict(target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
+            order="time_min", group="run")
+
+
+@pytest.fixture(scope="module")
+def report():
+    """Diagnosis of the air-lag problem (a verdict with a lag and a time constant)."""
+    return diagnose(air_lag_problem(), **ARGS)
+
+
+@pytest.fixture(scope="module")
+def null_report():
+    """Diagnosis of the null problem (no verdict)."""
+    return diagnose(null_problem(), **ARGS)
+
+
+@pytest.mark.parametrize("which", ["report", "null_report"])
+def test_json_is_valid_against_the_shipped_schema(which, request):
+    document = json.loads(request.getfixturevalue(which).to_json())
+    jsonschema.validate(document, load_schema())
+    assert document["schema"] == "svrqp.gap/1"
+    for key in ("target", "gap", "where", "causes", "verdict"):
+        assert key in document
+
+
+def test_contract_fields_of_a_verdict(report):
+    document = json.loads(report.to_json())
+    verdict = document["verdict"]
+    assert verdict["column"] == "air_C" and verdict["transform"] == "lag" and verdict["tau"] > 0
+    top = document["causes"][0]
+    assert top["shrink"] == pytest.approx(1 - top["rmse_after"] / top["rmse_before"])
+    assert document["gap"]["real_rmse"] == pytest.approx(top["rmse_before"])
+    assert all(0 <= region["share"] <= 1 for region in document["where"])
+
+
+def test_null_verdict_is_a_null_column(null_report):
+    verdict = json.loads(null_report.to_json())["verdict"]
+    assert verdict["column"] is None and verdict["shrink"] is None
+
+
+def test_schema_rejects_a_named_verdict_without_a_transform():
+    document = {"schema": "svrqp.gap/1", "target": "e", "gap": {"train_rmse": 1, "real_rmse": 2}, "where": [],
+                "causes": [], "verdict": {"column": "T9"}}
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(document, load_schema())
+
+
+def test_non_finite_numbers_become_null():
+    assert _finite({"a": float("nan"), "b": [1.0, float("inf")], "c": (2, 3)}) == {"a": None, "b": [1.0, None], "c": [2, 3]}
+
+
+def test_a_report_that_breaks_the_schema_is_never_written(report, tmp_path):
+    broken = dataclasses.replace(report, n_rows=-1)  # not a count
+    with pytest.raises(SvrqpError, match="schema"):
+        broken.write_json(tmp_path / "out.json")
+    assert not (tmp_path / "out.json").exists()
+
+
+def test_write_json_refuses_to_overwrite_without_force(report, tmp_path):
+    path = tmp_path / "gap.json"
+    report.write_json(path)
+    with pytest.raises(FileExistsError, match="force"):
+        report.write_json(path)
+    report.write_json(path, force=True)
+    assert json.loads(path.read_text())["verdict"]["column"] == "air_C"
+
+
+def test_html_is_self_contained_with_two_figures(report, tmp_path):
+    path = report.to_html(tmp_path / "gap.html")
+    text = path.read_text(encoding="utf-8")
+    assert text.count("data:image/png;base64,") == 2  # gap plot and before/after plot
+    assert report.summary.split(";")[0] in text.replace("&#x27;", "'")
+    assert "<table>" in text
+
+
+def test_markdown_writes_figures_beside_it(report, tmp_path):
+    text = report.to_markdown(tmp_path / "gap.md")
+    assert (tmp_path / "gap_gap.png").stat().st_size > 1000
+    assert (tmp_path / "gap_before_after.png").exists()
+    assert "| rank | column | transform |" in text
+    with pytest.raises(FileExistsError):
+        report.to_markdown(tmp_path / "gap.md")
+
+
+def test_summary_is_one_sentence(report, null_report):
+    for text in (report.summary, null_report.summary):
+        assert text.count(". ") == 0 and text.endswith(".")
+    assert "air_C" in report.summary and "shrinks the error" in report.summary
+    assert math.isfinite(report.runtime_s) and report.runtime_s > 0
