@@ -62,7 +62,6 @@ to rounding.
 from __future__ import annotations
 
 import time
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -275,8 +274,10 @@ def _states(beta: NDArray[np.float64], C: float, threshold: float) -> NDArray[np
 
 
 def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64], C: float,
-              epsilon: float, beta: NDArray[np.float64], *, threshold: float = 1e-6, kkt_tol: float = 1e-9,
-              max_steps: int = 200, fast_steps: int = 8) -> CrossoverResult:
+              epsilon: float, beta: NDArray[np.float64], *,
+              products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]] | None = None,
+              threshold: float = 1e-6, kkt_tol: float = 1e-9, max_steps: int = 200,
+              fast_steps: int = 8) -> CrossoverResult:
     """Active-set steps from an approximate ``beta`` to the exact optimum (module docstring).
 
     First up to ``fast_steps`` primal–dual active-set steps (every state updated at once: a few
@@ -293,6 +294,9 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     beta
         Starting coefficients (an interior-point solution): states within ``threshold``·C of a bound
         or of zero are taken as active.
+    products
+        ``products(idx, v)`` returns :math:`K_{:, idx} v`; defaults to ``columns(idx) @ v``. A linear
+        kernel passes :math:`X (X_{idx}^\\top v)`, so the many bounded columns are never formed.
     kkt_tol
         Slack on the tube conditions, relative to :math:`1 + \\max|y|`.
     max_steps
@@ -302,24 +306,32 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     """
     beta = np.asarray(beta, dtype=float)
     slack = kkt_tol * (1.0 + float(np.max(np.abs(y))))
-    fast = _primal_dual_active_set(columns, y, C, epsilon, _states(beta, C, threshold), slack, fast_steps)
+    kernel = _KernelAccess(columns, products or (lambda idx, v: columns(idx) @ v), y.size)
+    fast = _primal_dual_active_set(kernel, y, C, epsilon, _states(beta, C, threshold), slack, fast_steps)
     if fast.exact:
         return fast
-    careful = _feasible_active_set(columns, y, C, epsilon, beta, _states(beta, C, threshold), slack, max_steps)
+    careful = _feasible_active_set(kernel, y, C, epsilon, beta, _states(beta, C, threshold), slack, max_steps)
     careful.steps += fast.steps
     return careful
 
 
-def _free_set_solution(columns, y, C, epsilon, states):
-    """The equality-constrained optimum on the free set (module docstring) and the kernel blocks used."""
+@dataclass(frozen=True)
+class _KernelAccess:
+    columns: Callable[[NDArray[np.intp]], NDArray[np.float64]]
+    products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]]
+    n: int
+
+
+def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states):
+    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, and K_{:,bounded} beta_bounded."""
     free = np.flatnonzero(np.abs(states) == 1)
     bounded = np.flatnonzero(np.abs(states) == 2)
     fixed = np.sign(states[bounded]) * C
-    K_free = columns(free) if free.size else np.zeros((y.size, 0))
-    K_bounded = columns(bounded) if bounded.size else np.zeros((y.size, 0))
-    rhs = y[free] - epsilon * states[free] - K_bounded[free] @ fixed
+    K_free = kernel.columns(free) if free.size else np.zeros((kernel.n, 0))
+    bounded_term = kernel.products(bounded, fixed) if bounded.size else np.zeros(kernel.n)
+    rhs = y[free] - epsilon * states[free] - bounded_term[free]
     target, b = _bordered_solve(K_free[free], rhs, -float(fixed.sum()))
-    return free, bounded, fixed, K_free, K_bounded, target, b
+    return free, fixed, K_free, bounded_term, target, b
 
 
 def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float):
@@ -330,22 +342,22 @@ def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: f
     return positive, negative
 
 
-def _residuals(y, K_free, beta_free, K_bounded, fixed, states, epsilon, b, free):
-    rho = y - K_free @ beta_free - K_bounded @ fixed
+def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
+    rho = y - K_free @ beta_free - bounded_term
     if free.size == 0:
         b = _midpoint_bias(rho, states, epsilon)
     return rho - b, b
 
 
-def _primal_dual_active_set(columns, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
+def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
     """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result."""
     beta, b = np.zeros(y.size), 0.0
     for step in range(1, max_steps + 1):
-        free, bounded, fixed, K_free, K_bounded, target, b = _free_set_solution(columns, y, C, epsilon, states)
+        free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states)
         beta = np.zeros(y.size)
-        beta[bounded] = fixed
+        beta[np.abs(states) == 2] = fixed
         beta[free] = target
-        rho, b = _residuals(y, K_free, target, K_bounded, fixed, states, epsilon, b, free)
+        rho, b = _residuals(y, K_free, target, bounded_term, states, epsilon, b, free)
         new_states = states.copy()
         positive, negative = states == 1, states == -1
         new_states[(positive & (beta <= 0)) | (negative & (beta >= 0))] = 0
@@ -360,12 +372,12 @@ def _primal_dual_active_set(columns, y, C, epsilon, states, slack, max_steps) ->
     return CrossoverResult(beta, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
 
 
-def _feasible_active_set(columns, y, C, epsilon, beta, states, slack, max_steps) -> CrossoverResult:
+def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) -> CrossoverResult:
     """Move towards the free-set optimum as far as signs and box allow; free KKT violators after a full step."""
     current = np.where(np.abs(states) == 2, np.sign(states) * C, np.where(states == 0, 0.0, beta))
     b = 0.0
     for step in range(1, max_steps + 1):
-        free, bounded, fixed, K_free, K_bounded, target, b = _free_set_solution(columns, y, C, epsilon, states)
+        free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states)
         length, blocking = _step_to_sign_or_box(current[free], target - current[free], states[free], C)
         current[free] += length * (target - current[free])
         if length < 1.0:
@@ -374,7 +386,7 @@ def _feasible_active_set(columns, y, C, epsilon, beta, states, slack, max_steps)
             states[hit] = np.where(at_bound, 2 * states[hit], 0)
             current[hit] = np.where(at_bound, np.sign(states[hit]) * C, 0.0)
             continue
-        rho, b = _residuals(y, K_free, current[free], K_bounded, fixed, states, epsilon, b, free)
+        rho, b = _residuals(y, K_free, current[free], bounded_term, states, epsilon, b, free)
         entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
         if not (entering_positive.any() or entering_negative.any()):
             return CrossoverResult(current, b, step, True, int(free.size))
@@ -405,27 +417,37 @@ def _midpoint_bias(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: 
     return float(np.mean(finite)) if finite else 0.0
 
 
+#: Below this ratio of the smallest to the largest squared Cholesky pivot, K_FF counts as singular.
+SINGULAR_PIVOT_RATIO = 1e-12
+
+
 def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: float
                     ) -> tuple[NDArray[np.float64], float]:
-    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}` (Cholesky + Schur, LU if K_FF is singular)."""
+    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}`.
+
+    Cholesky of :math:`K_{FF}` and the Schur complement for b; when :math:`K_{FF}` is singular
+    (a linear kernel with more free points than features, or coinciding points) the system has
+    many solutions and the minimum-norm one is taken (least squares, which is exact for a
+    consistent system); the crossover re-checks every KKT condition either way.
+    """
     m = rhs.size
     if m == 0:
         return np.zeros(0), 0.0  # no free SV: the caller sets b by the midpoint rule
     try:
         factor = scipy.linalg.cho_factor(K_FF, lower=True, check_finite=False)
-        solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]), check_finite=False)
-        mu, nu = solution[:, 0], solution[:, 1]
-        b = (mu.sum() - total) / nu.sum()
-        return mu - b * nu, float(b)
+        pivots = np.abs(np.diag(factor[0])) ** 2
+        if pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
+            solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]), check_finite=False)
+            mu, nu = solution[:, 0], solution[:, 1]
+            b = (mu.sum() - total) / nu.sum()
+            return mu - b * nu, float(b)
     except np.linalg.LinAlgError:
-        M = np.zeros((m + 1, m + 1))
-        M[:m, :m] = K_FF
-        M[:m, m] = M[m, :m] = 1.0
-        with warnings.catch_warnings():
-            # An ill-conditioned K_FF can only cost crossover steps: every KKT condition is re-checked.
-            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
-            x = scipy.linalg.solve(M, np.concatenate([rhs, [total]]), check_finite=False)
-        return x[:m], float(x[m])
+        pass
+    M = np.zeros((m + 1, m + 1))
+    M[:m, :m] = K_FF
+    M[:m, m] = M[m, :m] = 1.0
+    x = scipy.linalg.lstsq(M, np.concatenate([rhs, [total]]), cond=SINGULAR_PIVOT_RATIO, check_finite=False)[0]
+    return x[:m], float(x[m])
 
 
 @dataclass
