@@ -7,8 +7,14 @@ sensor), and a null problem where nothing is missing.
 
 import numpy as np
 import pytest
+from gap_problems import (
+    CANDIDATES,
+    air_lag_problem,
+    null_problem,
+    spindle_rate_problem,
+    thermal_runs,
+)
 
-from gap_problems import CANDIDATES, air_lag_problem, null_problem, spindle_rate_problem, thermal_runs
 from svrqp.gap import diagnose
 from svrqp.gap.attribute import CandidateBank, SurrogateTest, run_tests
 from svrqp.gap.blocks import blocked_folds

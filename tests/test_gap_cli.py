@@ -3,8 +3,8 @@
 import json
 
 import pytest
-
 from gap_problems import air_lag_problem
+
 from svrqp.cli import main
 
 

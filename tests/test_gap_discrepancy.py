@@ -7,7 +7,12 @@ fit (numpy.linalg.lstsq) on each fold's training rows, scored on its test rows.
 import numpy as np
 import pytest
 
-from svrqp.gap.blocks import block_bootstrap, blocked_folds, circular_shifts, lag1_autocorrelation
+from svrqp.gap.blocks import (
+    block_bootstrap,
+    blocked_folds,
+    circular_shifts,
+    lag1_autocorrelation,
+)
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 
 N = 600
@@ -50,7 +55,7 @@ def test_sse_equals_fold_by_fold_least_squares(groups):
 
 
 def test_gain_is_largest_for_the_true_column():
-    r, B, Z, partner = _problem()
+    r, B, Z, _ = _problem()
     gains = CrossValidatedDiscrepancy(r, B, blocked_folds(GROUPS_MANY)).gain(Z)
     assert np.unravel_index(np.argmax(gains), gains.shape) == (1, 2)
 

@@ -5,8 +5,14 @@ import pytest
 from scipy import stats
 from scipy.signal import lfilter
 
-from svrqp.gap.gate import (effective_size, gap_detected, gate, ljung_box_pvalue, noise_pvalue,
-                            successive_difference_variance)
+from svrqp.gap.gate import (
+    effective_size,
+    gap_detected,
+    gate,
+    ljung_box_pvalue,
+    noise_pvalue,
+    successive_difference_variance,
+)
 
 RNG_SEED = 11
 ONE_GROUP = np.zeros(2000, int)

@@ -3,8 +3,8 @@
 import numpy as np
 import pandas as pd
 import pytest
-
 from gap_problems import CANDIDATES, null_problem
+
 from svrqp.exceptions import ProblemError
 from svrqp.gap.prepare import prepare
 

@@ -2,12 +2,17 @@
 
 import numpy as np
 import pytest
-
 from gap_problems import CANDIDATES, air_lag_problem, first_order_lag
+
 from svrqp.gap.baseline import fit_baseline
 from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.prepare import prepare
-from svrqp.gap.quantify import estimate_shrink, nested_errors, refit_shrink, shrink_interval
+from svrqp.gap.quantify import (
+    estimate_shrink,
+    nested_errors,
+    refit_shrink,
+    shrink_interval,
+)
 
 N = 800
 GROUPS = np.repeat(np.arange(4), 200)

@@ -6,8 +6,8 @@ import math
 
 import jsonschema
 import pytest
-
 from gap_problems import CANDIDATES, air_lag_problem, null_problem
+
 from svrqp.exceptions import SvrqpError
 from svrqp.gap import diagnose, load_schema
 from svrqp.gap.report import _finite

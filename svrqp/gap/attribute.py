@@ -3,7 +3,8 @@ r"""Which candidate, in which transform, explains the gap — with the error rat
 The test statistic
     For a candidate :math:`c` and transform :math:`t` (:mod:`svrqp.gap.transforms`) the
     discrepancy model of :mod:`svrqp.gap.discrepancy` adds the columns :math:`Z_{c,t}` to
-    the base :math:`B` (intercept + the model's features, or the prediction). Its gain is the
+    the base :math:`B` (offsets and the model's own inputs, :func:`svrqp.gap.diagnose.base_design`).
+    Its gain is the
     relative drop of the out-of-sample squared error, blocked by group,
 
     .. math::
@@ -30,9 +31,8 @@ Significance by surrogates that keep autocorrelation
     :math:`2m/\alpha` draws for :math:`m` tests, so that the smallest attainable p-value
     passes Benjamini–Hochberg's first threshold :math:`\alpha/m`.
 
-    A caveat of circular shifts: a strictly periodic candidate (a chiller cycling at a fixed
-    period) matches itself at shifts of whole periods, which costs power; with several groups
-    of different phase this matters less.
+    A periodic candidate (a chiller cycling at a fixed period) would match itself at shifts
+    of whole periods; :func:`~svrqp.gap.blocks.circular_shifts` avoids such shifts.
 
 Multiple testing and effect floor
     Benjamini–Hochberg over all candidate × transform tests of a round (:data:`ALPHA`).
@@ -52,8 +52,10 @@ Confounding
     temperature). The strongest candidate :math:`a` is checked against every rival :math:`b`
     — another column with significant evidence, or with at least
     :data:`RIVAL_GAIN_FRACTION` of :math:`a`'s gain — on the evidence where they decorrelate:
-    conditional tests with the other already in the base, :math:`p(a\,|\,b)` and
-    :math:`p(b\,|\,a)`.
+    conditional tests with the other already in the base. ":math:`a|b`" below means that
+    :math:`a` carries information beyond :math:`b`: significant *and* a gain of at least
+    :data:`MIN_GAIN` over the base holding :math:`b` (with a misspecified model, leftover
+    structure makes tiny conditional gains significant; they are no evidence of a cause).
 
     * :math:`a|b` significant, :math:`b|a` not — :math:`a` stands; :math:`b` is "explained by a";
     * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a` if :math:`b`
@@ -214,9 +216,6 @@ class TestOutcome:
         Surrogates drawn.
     remaining_rmse : float
         Out-of-sample RMSE left with the best variant added.
-    gap_share : float
-        Out-of-sample squared error explained beyond the base, as a share of the gap
-        :math:`\sum r^2`.
     """
 
     bank: CandidateBank
@@ -226,7 +225,6 @@ class TestOutcome:
     p_value: float
     n_surrogates: int
     remaining_rmse: float
-    gap_share: float
 
     @property
     def column(self) -> str:
@@ -297,9 +295,7 @@ class SurrogateTest:
     def outcome(self) -> TestOutcome:
         """The test's result."""
         remaining = float(np.sqrt(self.cv.sse_base * (1 - self.observed) / self.cv.n))
-        share = self.observed * self.cv.sse_base / self.cv.ss_residual if self.cv.ss_residual > 0 else 0.0
-        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining,
-                           share)
+        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining)
 
 
 def run_tests(
@@ -406,15 +402,20 @@ def _best_by_column(evidence: list[Evidence], passing_only: bool) -> dict[str, E
 
 
 class _Conditional:
-    """Conditional surrogate tests ``p(bank | given blocks)`` on a fixed residual and folds."""
+    """Conditional surrogate tests of a bank given blocks already in the base."""
 
     def __init__(self, r, B, folds, groups, rng):
         self.r, self.B, self.folds, self.groups, self.rng = r, B, folds, groups, rng
 
-    def p(self, bank: CandidateBank, given: list[np.ndarray]) -> float:
+    def test(self, bank: CandidateBank, given: list[np.ndarray]) -> TestOutcome:
         cv = CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
-        test = SurrogateTest(cv, bank, self.groups, self.rng)
-        return run_tests([test], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0].p_value
+        return run_tests([SurrogateTest(cv, bank, self.groups, self.rng)], PAIRWISE_SURROGATES,
+                         lambda p: p < ALPHA)[0]
+
+    def adds(self, bank: CandidateBank, given: list[np.ndarray]) -> bool:
+        """Whether ``bank`` carries information beyond ``given``: significant and above the relative floor."""
+        outcome = self.test(bank, given)
+        return outcome.p_value < ALPHA and outcome.gain >= MIN_GAIN
 
 
 def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given: list[np.ndarray]) -> Evidence:
@@ -425,7 +426,7 @@ def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given
     level = next((e for e in ranked if e.test.transform == "level"), None)
     if best.test.transform == "lag" and best.test.bank.partner is not None and level is not None:
         lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z)
-        if cond.p(lag_only, [*given, level.test.bank.block(0)]) >= ALPHA:
+        if not cond.adds(lag_only, [*given, level.test.bank.block(0)]):
             return level
     return best
 
@@ -489,8 +490,8 @@ def attribute(
             break
         rival = chosen(pending.pop(0))
         a, b = champion.test, rival.test
-        a_beyond_b = cond.p(a.bank, [b.bank.block(b.variant)]) < ALPHA
-        b_beyond_a = cond.p(b.bank, [a.bank.block(a.variant)]) < ALPHA
+        a_beyond_b = cond.adds(a.bank, [b.bank.block(b.variant)])
+        b_beyond_a = cond.adds(b.bank, [a.bank.block(a.variant)])
         if b_beyond_a and not a_beyond_b and b.column in passing:
             # The rival explains the champion away: it takes over and faces the others again.
             result.notes[a.column] = f"explained by {b.column}"

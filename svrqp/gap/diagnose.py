@@ -13,11 +13,11 @@
    (:mod:`svrqp.gap.quantify`).
 6. **Report** — :class:`svrqp.gap.report.GapReport`.
 
-The discrepancy models of steps 4–5 use the base regressors "intercept + the model's
-features (raw and smoothed, + its prediction for a non-linear model)" in features mode, so an
-effect gets credit only for what a linear recalibration of the model itself cannot do, and the
-offsets alone in prediction mode; offsets are per group when there are too few groups to hold
-any out (:func:`base_design`). Each cause's shrink is for that effect alone added to this base.
+The discrepancy models of steps 4–5 use the base regressors "offsets + the model's features
+(raw and smoothed, + its prediction for a non-linear model)" in features mode, so an effect
+gets credit only for what a linear recalibration of the model itself cannot do, and the
+offsets alone in prediction mode (:func:`recalibration_inputs`, :func:`base_design`). Each
+cause's shrink is for that effect alone added to this base.
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ from svrqp.gap.transforms import smooth, tau_grid
 Progress = Callable[[str, float], None]
 
 
-def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
-    """Base regressors of the discrepancy models on the real rows (intercept first).
+def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
+    """The model's own inputs in the discrepancy base, on the real rows (may have no column).
 
     Features mode: the features, and for a non-linear model also its prediction (a linear
     model's prediction is already in the span of its features), each also smoothed
@@ -54,34 +54,41 @@ def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
     temperature — or its own filtered version — would then "explain" that bias without
     being an unmodelled effect.
 
-    Prediction mode: the offsets alone. Nothing is fitted to a simulation; the discrepancy
-    model explains the gap itself. Refitting the prediction's gain would let a candidate
-    "explain" the withheld effect by correcting the dynamics of another simulated effect that
-    shares its driver (spindle and headstock heating both follow the speed).
-
-    Offsets: one intercept when the real rows hold enough groups for cross-validation to hold
-    out whole groups (:func:`svrqp.gap.blocks.holds_out_groups`) — an offset between groups is
-    then part of the gap a candidate may explain; otherwise one intercept per group: with two
-    or three groups an offset between them cannot be told apart from any candidate's group
-    means, and circular-shift surrogates (which keep each group's level) could never show
-    otherwise.
+    Prediction mode: none. Nothing is fitted to a simulation; the discrepancy model explains
+    the gap itself. Refitting the prediction's gain would let a candidate "explain" the
+    withheld effect by correcting the dynamics of another simulated effect that shares its
+    driver (spindle and headstock heating both follow the speed).
 
     Columns are standardised on the real rows; constant ones are dropped.
     """
     real = data.is_real
-    groups = data.groups[real]
-    if holds_out_groups(groups):
-        offsets = np.ones((int(real.sum()), 1))
-    else:
-        offsets = (groups[:, None] == np.unique(groups)[None, :]).astype(float)
     if data.prediction is not None:
-        return offsets
+        return np.zeros((int(real.sum()), 0))
     inputs = data.X if baseline.kind == "mlr" else np.column_stack([data.X, baseline.y_hat])
     columns = np.column_stack([inputs, smooth(inputs, data.groups)])[real]
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
     varying = scale > 1e-12 * (1 + np.abs(columns).max(axis=0))
-    return np.column_stack([offsets, centred[:, varying] / scale[varying]])
+    return centred[:, varying] / scale[varying]
+
+
+def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
+    """Base regressors of the discrepancy models (offsets first, then :func:`recalibration_inputs`).
+
+    Offsets: one intercept when the real rows hold enough groups for cross-validation to hold
+    out whole groups (:func:`svrqp.gap.blocks.holds_out_groups`) — an offset between groups is
+    then part of the gap a candidate may explain, and differences between groups are often the
+    best evidence (an error that scales with each run's feed); otherwise one intercept per
+    group, fitted on the other blocks of the same group: with two or three groups an offset
+    between them cannot be told apart from any candidate's group means, and circular-shift
+    surrogates (which keep each group's level) could never show otherwise.
+    """
+    groups = data.groups[data.is_real]
+    if holds_out_groups(groups):
+        offsets = np.ones((groups.size, 1))
+    else:
+        offsets = (groups[:, None] == np.unique(groups)[None, :]).astype(float)
+    return np.column_stack([offsets, recalibration_inputs(data, baseline)])
 
 
 def diagnose(
@@ -151,8 +158,7 @@ def diagnose(
     report_progress("localising", 0.15)
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
     report_progress("testing candidates", 0.2)
-    banks = build_banks(data, taus)
-    attribution = attribute(r, B, banks, folds, groups, gap.train_rmse, rng)
+    attribution = attribute(r, B, build_banks(data, taus), folds, groups, gap.train_rmse, rng)
     report_progress("quantifying", 0.85)
     causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
     detected = gap_detected(gap)
@@ -182,7 +188,7 @@ def diagnose(
         verdict=verdict,
         residual_gate=residual_gate,
         remaining=[e.test.column for e in attribution.accepted[1:]] if verdict.column else [],
-        summary=_summary(data, gap, where, verdict, attribution),
+        summary=_summary(data, gap, detected, where, verdict),
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
             "max_surrogates": attr.MAX_SURROGATES, "n_folds": len(folds), "taus": taus.tolist(), "seed": seed,
@@ -214,16 +220,15 @@ def _best(evidence: list[Evidence], column: str) -> Evidence:
 
 
 def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[str, np.ndarray]]:
+    """The causes table: one row per column, each shrink for that effect alone added to the base."""
     causes, errors_after = [], {}
     for ev in _representatives(attribution):
         shrink = estimate_shrink(r, B, ev.test.bank.Z, ev.test.bank.partner, folds, groups, rng)
         errors_after[ev.test.column] = shrink.errors
-        tau = None
-        if ev.test.transform == "lag":
-            tau = ev.test.tau
         causes.append(Cause(
-            column=ev.test.column, transform=ev.test.transform, tau=tau, p_value=ev.q_value, p_raw=ev.test.p_value,
-            gain=ev.test.gain, gap_share=ev.test.gap_share, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
+            column=ev.test.column, transform=ev.test.transform, tau=ev.test.tau, p_value=ev.q_value,
+            p_raw=ev.test.p_value,
+            gain=ev.test.gain, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
             shrink=shrink.shrink, shrink_ci=(shrink.ci_low, shrink.ci_high), round=ev.round,
             note=attribution.notes.get(ev.test.column),
         ))
@@ -267,7 +272,8 @@ def _tau_text(tau: float | None, order_name: str) -> str:
     return f" (τ = {tau:.3g} {unit})"
 
 
-def _summary(data: GapData, gap: GateResult, where: list[Region], verdict: Verdict, attribution: Attribution) -> str:
+def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region], verdict: Verdict) -> str:
+    """The gap in one sentence: how large, where, and what explains it."""
     unit = axis_label(data.target).rpartition("(")[2].rstrip(")")
     text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is {gap.real_rmse:.3g} {unit} RMS "
             f"against {gap.train_rmse:.3g} {unit} on the train rows")
@@ -277,6 +283,8 @@ def _summary(data: GapData, gap: GateResult, where: list[Region], verdict: Verdi
     if verdict.column is not None:
         text += (f", and the {verdict.transform} of {verdict.column}{_tau_text(verdict.tau, data.order_name)} "
                  f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample.")
+    elif not detected:
+        text += "; it is not beyond the train rows' error or the noise, so no cause is named."
     elif verdict.ambiguous_with:
         text += f"; {' and '.join(verdict.ambiguous_with)} explain it equally well and cannot be told apart."
     else:

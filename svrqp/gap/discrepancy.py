@@ -97,14 +97,11 @@ class CrossValidatedDiscrepancy:
         Out-of-sample errors of the base model alone (caller's row order).
     sse_base : float
         Their sum of squares.
-    ss_residual : float
-        Sum of squares of ``r`` itself (the gap before any discrepancy model).
     """
 
     def __init__(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray]):
         self.n = len(r)
         self.p = B.shape[1]
-        self.ss_residual = float(r @ r)
         # Rows are kept sorted by fold so each fold's test rows are one slice (no copies).
         self._perm = np.concatenate(folds)
         self._Br = np.column_stack([B, r])[self._perm]
@@ -152,7 +149,7 @@ class CrossValidatedDiscrepancy:
         -------
         ndarray, shape (q, v)
         """
-        n, q, v = Z.shape
+        _, q, v = Z.shape
         Zs = np.ascontiguousarray(Z[self._perm])
         Xs = None if partner is None else np.ascontiguousarray(partner[self._perm])
         test_z = [self._sums(Zs, k) for k in range(len(self._folds))]

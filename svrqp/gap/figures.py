@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from svrqp.gap.transforms import group_slices  # noqa: E402
+from svrqp.gap.transforms import group_slices
 
 UNITS = {"um": "µm", "mm": "mm", "min": "min", "s": "s", "h": "h", "C": "°C", "K": "K", "rpm": "rpm", "pct": "%"}
 """Column-name suffixes read as units (``error_um`` → µm)."""

@@ -43,7 +43,6 @@ class Cause:
     p_value: float
     p_raw: float
     gain: float
-    gap_share: float
     significant: bool
     rmse_before: float
     rmse_after: float
@@ -187,9 +186,8 @@ class GapReport:
         unit = axis_label(self.target)
         where = (["column", "low", "high", f"RMSE {unit}", "share", "n"],
                  [[r.column, _num(r.low), _num(r.high), _num(r.rmse), f"{r.share:.0%}", str(r.n)] for r in self.where])
-        causes = (["rank", "column", "transform", "τ", "p (BH)", "share of gap", f"RMSE after {unit}", "shrink (95 % CI)",
-                   "note"],
-                  [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), f"{c.gap_share:.0%}", _num(c.rmse_after),
+        causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"RMSE after {unit}", "shrink (95 % CI)", "note"],
+                  [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.gain), _num(c.rmse_after),
                     f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})", c.note or ("significant" if c.significant else "")]
                    for i, c in enumerate(self.causes)])
         g = self.gap

@@ -1,0 +1,47 @@
+"""A fixed handful of the withheld-effect suite (benchmarks/gap_suite.py) with asserted verdicts.
+
+One scenario per kind, each from :mod:`svrqp.machine`: a withheld node sensor (features mode), a
+withheld effect in prediction mode, a gantry effect along a time axis of 15 Hz samples, a null
+scenario and an effect that no candidate measures (the right answer is no verdict).
+"""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+SUITE_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "gap_suite.py"
+
+
+@pytest.fixture(scope="module")
+def suite():
+    """The benchmark module, imported from its file (benchmarks/ is not a package)."""
+    spec = importlib.util.spec_from_file_location("gap_suite", SUITE_PATH)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["gap_suite"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _scenario(suite, name):
+    return next(s for s in suite.scenarios() if s.name == name)
+
+
+@pytest.mark.parametrize("name", ["tf-bed_C-1", "tp-nut_heating-2", "gp-servo_lag-0"])
+def test_withheld_effect_is_named(suite, name):
+    row = suite.evaluate(_scenario(suite, name))
+    assert row["top1"], f"{name}: verdict {row['verdict']!r}, truth {row['truth']!r}"
+    assert abs(row["shrink"] - row["oracle_shrink"]) < 0.15
+
+
+@pytest.mark.parametrize("name", ["tp-null-1", "gu-ripple-0"])
+def test_nothing_is_named_without_a_measured_cause(suite, name):
+    row = suite.evaluate(_scenario(suite, name))
+    assert not row["named"], f"{name}: named {row['verdict']!r}"
+
+
+def test_labels_come_from_the_simulator(suite):
+    case = suite.case_for(_scenario(suite, "tp-nut_heating-2"))
+    assert case.truth[0] == "nut_C" and "axis_duty_pct" in case.truth
+    assert "nut_C" in case.candidates and not set(case.truth[1:]) & set(case.candidates)
