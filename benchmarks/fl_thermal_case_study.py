@@ -1,0 +1,378 @@
+"""Real-data case study of the gap diagnosis on FL_THERMAL, and the S0 story on ``miao2013``.
+
+FL_THERMAL (measured, MIT licence, CAIVIAC/FL_THERMAL) holds 46 h of a CNC spindle: five
+displacement channels and sixteen temperatures, sampled every 15 s, through four-hour run/stop
+cycles at 1250, 2500, 3750, 5000 and 3500 rpm and a final mixed-speed run. The study
+
+1. **chooses the model on the lower-speed cycles only** (1250/2500/3750 rpm, each cycle = its
+   run and the stop after it): for every channel and every pair of temperatures a
+   :class:`svrqp.linear_models.LinearLS` is scored by leave-one-cycle-out RMSE; each channel
+   keeps its best pair, and the channel with the highest cross-validated R² is taken. Nothing
+   of the assessment rows is looked at. The model is then fitted on those cycles and assessed
+   on the 5000 rpm cycle and the final mixed-speed run; :func:`svrqp.gap.diagnose` gets the
+   other fourteen temperatures and ``speed_rpm`` as candidates (order ``time_min``, group =
+   cycle, so that the lag filters carry the thermal state from a run into the stop after it);
+2. **withholds a driver that matters**: the better of the two model sensors (lower
+   leave-one-cycle-out RMSE alone) is dropped, the model refitted on the other, and the
+   diagnosis run with the dropped sensor among the candidates. The shrink it reports is
+   compared with an *independent* refit: LinearLS with the named effect (computed here, not
+   by the engine) added as input, fitted on the same rows, RMSE on the real rows;
+3. **reproduces the S0 story on miao2013** (simulated): MLR on ``T7_C``, ``T9_C`` fitted on
+   batch ``x1``, diagnosed on ``x2`` + ``x3`` with ``T1_C`` … ``T6_C``, ``T8_C`` as candidates,
+   and compares the answer with the simulator's truth (the ``effect_*_um`` columns).
+
+The rows are subsampled in time (every ``--every``-th row; default 4 = one per minute) to keep
+the run short. The 3500 rpm cycle is neither train nor assessment and is left out.
+
+Run: ``python benchmarks/fl_thermal_case_study.py [DATA_CSV]`` — writes
+``benchmarks/results/fl_thermal_case_study.md`` and its PNG figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from svrqp import datasets  # noqa: E402
+from svrqp.gap import GapReport, diagnose  # noqa: E402
+from svrqp.linear_models import LinearLS  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"
+RESULTS = REPO / "benchmarks" / "results"
+STEM = "fl_thermal_case_study"
+
+TRAIN_CYCLES = ("1250", "2500", "3750")
+ASSESS_CYCLES = ("5000", "mixed")
+CHANNELS = [f"ch{i}_um" for i in range(1, 6)]
+TEMPERATURES = [f"t{i}_C" for i in range(1, 17)]
+MIAO_FEATURES = ["T7_C", "T9_C"]
+MIAO_CANDIDATES = ["T1_C", "T2_C", "T3_C", "T4_C", "T5_C", "T6_C", "T8_C"]
+TOP_CAUSES = 5
+
+
+# -- data -------------------------------------------------------------------------------
+
+def cycle_labels(table: pd.DataFrame) -> pd.Series:
+    """Cycle of each row: a run and the stop after it share the run's speed; the mixed-speed tail is ``mixed``.
+
+    The mixed-speed run is the sequence of runs that follow one another without a stop
+    (500 → 1500 → 2500 → 4500 rpm) and the short stop that ends the record.
+    """
+    phases = table.groupby("segment")["phase"].first()
+    labels, current = {}, "1250"  # the half-minute idle before the first run joins the first cycle
+    for segment, phase in phases.items():
+        kind, _, speed = phase.partition("_")
+        back_to_back = phases.get(segment - 1, "").startswith("run") or phases.get(segment + 1, "").startswith("run")
+        if kind == "run":
+            current = "mixed" if (back_to_back or current == "mixed") else speed
+        labels[segment] = current
+    return table["segment"].map(labels)
+
+
+def load_fl(path: Path, every: int) -> pd.DataFrame:
+    """FL_THERMAL with a ``cycle`` column, the train and assessment cycles only, every ``every``-th row."""
+    table = datasets.load_fl_thermal(path)
+    table["cycle"] = cycle_labels(table)
+    table = table.iloc[::every]
+    return table[table["cycle"].isin(TRAIN_CYCLES + ASSESS_CYCLES)].reset_index(drop=True)
+
+
+# -- model choice on the train cycles -------------------------------------------------------
+
+def cv_rmse(train: pd.DataFrame, target: str, features: list[str]) -> float:
+    """Leave-one-cycle-out RMSE of LinearLS on the train cycles."""
+    squared = []
+    for held in TRAIN_CYCLES:
+        fit_rows, test_rows = train[train["cycle"] != held], train[train["cycle"] == held]
+        model = LinearLS().fit(fit_rows[features].to_numpy(), fit_rows[target].to_numpy())
+        squared.append((test_rows[target].to_numpy() - model.predict(test_rows[features].to_numpy())) ** 2)
+    return float(np.sqrt(np.mean(np.concatenate(squared))))
+
+
+def choose_model(train: pd.DataFrame) -> tuple[str, list[str], pd.DataFrame]:
+    """Best temperature pair per channel by CV RMSE; the channel with the highest CV R² wins."""
+    rows = []
+    for channel in CHANNELS:
+        scores = {pair: cv_rmse(train, channel, list(pair)) for pair in itertools.combinations(TEMPERATURES, 2)}
+        pair = min(scores, key=scores.get)
+        rows.append({"channel": channel, "pair": pair, "cv_rmse_um": scores[pair],
+                     "std_um": float(train[channel].std(ddof=0)),
+                     "cv_r2": 1 - scores[pair] ** 2 / float(train[channel].var(ddof=0))})
+    table = pd.DataFrame(rows)
+    best = table.loc[table["cv_r2"].idxmax()]
+    return best["channel"], list(best["pair"]), table
+
+
+# -- the independent refit -----------------------------------------------------------------
+
+def effect_inputs(table: pd.DataFrame, column: str, transform: str, tau: float | None, group: str,
+                  order: str) -> np.ndarray:
+    """The named effect as model inputs, computed here from its definition (not by the engine).
+
+    ``level``: the reading; ``rate``: its time derivative (per group, :func:`numpy.gradient`);
+    ``lag``: the reading and its first-order low-pass with time constant ``tau`` (restarted in
+    equilibrium at each group start), which span the reading and the lag term.
+    """
+    out = []
+    for _, part in table.groupby(group, sort=False):
+        x, t = part[column].to_numpy(float), part[order].to_numpy(float)
+        if transform == "level":
+            out.append(x[:, None])
+        elif transform == "rate":
+            out.append(np.gradient(x, t)[:, None])
+        elif transform == "lag":
+            filtered = np.empty_like(x)
+            filtered[0] = x[0]
+            decay = np.exp(-np.diff(t) / tau)
+            for k in range(1, x.size):
+                filtered[k] = decay[k - 1] * filtered[k - 1] + (1 - decay[k - 1]) * x[k]
+            out.append(np.column_stack([x, filtered]))
+        else:
+            raise ValueError(f"unknown transform {transform!r}")
+    return np.vstack(out)
+
+
+def refit_rmse(table: pd.DataFrame, is_train: np.ndarray, target: str, inputs: np.ndarray) -> float:
+    """RMSE on the non-train rows of LinearLS fitted on the train rows."""
+    model = LinearLS().fit(inputs[is_train], table[target].to_numpy()[is_train])
+    residual = table[target].to_numpy() - model.predict(inputs)
+    return float(np.sqrt(np.mean(residual[~is_train] ** 2)))
+
+
+def independent_refit(table, is_train, target, features, report: GapReport, group, order) -> dict[str, float]:
+    """Real-row RMSE of the model, and of the model refitted with the verdict's effect added."""
+    base = table[features].to_numpy(float)
+    before = refit_rmse(table, is_train, target, base)
+    if report.verdict.column is None:
+        return {"rmse_before": before, "rmse_after": float("nan"), "shrink": float("nan")}
+    v = report.verdict
+    effect = effect_inputs(table, v.column, v.transform, v.tau, group, order)
+    after = refit_rmse(table, is_train, target, np.column_stack([base, effect]))
+    return {"rmse_before": before, "rmse_after": after, "shrink": 1 - after / before}
+
+
+# -- reporting helpers -------------------------------------------------------------------------
+
+def md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
+
+
+def pct(x: float | None) -> str:
+    return "–" if x is None or not np.isfinite(x) else f"{x:.0%}"
+
+
+def effect_text(column: str | None, transform: str | None, tau: float | None) -> str:
+    if column is None:
+        return "no cause"
+    return f"{transform} of `{column}`" + (f" (τ = {tau:.3g} min)" if tau is not None else "")
+
+
+def report_section(title: str, report: GapReport) -> list[str]:
+    """Gap, where, top causes and verdict of one diagnosis as Markdown."""
+    g, v = report.gap, report.verdict
+    causes = [[str(i + 1), f"`{c.column}`", c.transform, "–" if c.tau is None else f"{c.tau:.3g}",
+               f"{c.p_value:.2g}", f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
+               "yes" if c.significant else "no"] for i, c in enumerate(report.causes[:TOP_CAUSES])]
+    where = [[f"`{r.column}`", f"{r.low:.4g}", f"{r.high:.4g}", f"{r.rmse:.3g}", f"{r.share:.0%}", str(r.n)]
+             for r in report.where]
+    return [
+        f"### {title}", "",
+        f"Model: MLR on {', '.join(f'`{f}`' for f in report.features)} → `{report.target}`; "
+        f"{report.n_train} train rows, {report.n_real} real rows, {len(report.candidates)} candidates; "
+        f"diagnosis took {report.runtime_s:.1f} s.", "",
+        md_table(["train RMSE (μm)", "real RMSE (μm)", "ratio", "p (excess)", "gap"],
+                 [[f"{g.train_rmse:.3g}", f"{g.real_rmse:.3g}", f"{g.ratio:.3g}", f"{g.p_excess:.2g}",
+                   "detected" if report.gap_detected else "not detected"]]), "",
+        "Where the squared error concentrates:", "",
+        md_table(["column", "low", "high", "RMSE (μm)", "share", "rows"], where) if where else "(no region)", "",
+        f"Top {min(TOP_CAUSES, len(report.causes))} causes (shrink = out-of-sample, 95 % CI):", "",
+        md_table(["rank", "column", "transform", "τ (min)", "q (BH)", "shrink", "significant"], causes), "",
+        f"**Verdict:** {v.reason}", "",
+    ]
+
+
+# -- figures --------------------------------------------------------------------------------------
+
+def fl_figure(table: pd.DataFrame, is_train: np.ndarray, target: str, fits: dict[str, list[str]], path: Path) -> None:
+    """Measured channel and the LinearLS models over time, assessment cycles shaded."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    t, y = table["time_min"].to_numpy(), table[target].to_numpy()
+    top.plot(t, y, ".", ms=1.5, color="k", label=f"measured {target}")
+    for label, features in fits.items():
+        model = LinearLS().fit(table.loc[is_train, features].to_numpy(), y[is_train])
+        y_hat = model.predict(table[features].to_numpy())
+        top.plot(t, y_hat, ".", ms=1, label=label)
+        bottom.plot(t, y - y_hat, ".", ms=1, label=label)
+    for ax in (top, bottom):
+        for cycle in ASSESS_CYCLES:
+            span = table.loc[table["cycle"] == cycle, "time_min"]
+            ax.axvspan(span.min(), span.max(), color="0.9", zorder=0)
+    top.set_ylabel("displacement (μm)")
+    bottom.set_ylabel("residual (μm)")
+    bottom.set_xlabel("time (min); shaded = assessment rows (5000 rpm cycle, mixed-speed run)")
+    top.legend(loc="upper left", fontsize=8, markerscale=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def miao_figure(table: pd.DataFrame, report: GapReport, path: Path) -> None:
+    """MLR residual per batch against time, with the ambient-drift effect (truth) and the where regions."""
+    model = LinearLS().fit(table.loc[table["batch"] == "x1", MIAO_FEATURES].to_numpy(),
+                           table.loc[table["batch"] == "x1", "error_um"].to_numpy())
+    residual = table["error_um"].to_numpy() - model.predict(table[MIAO_FEATURES].to_numpy())
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for batch, part in table.groupby("batch"):
+        line, = ax.plot(part["time_min"], residual[part.index], lw=1, label=f"residual {batch}")
+        drift = part["effect_ambient_drift_um"]
+        ax.plot(part["time_min"], drift - drift.iloc[0], "--", lw=1, color=line.get_color(),
+                label=f"ambient drift effect {batch} (truth, from start)")
+    for r in report.where:
+        if r.column == "time_min":
+            ax.axvspan(r.low, r.high, color="0.9", zorder=0)
+    ax.set_xlabel("time since batch start (min); shaded = reported 'where' regions")
+    ax.set_ylabel("error (μm)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# -- the three studies ----------------------------------------------------------------------------
+
+def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
+    table = load_fl(path, every)
+    is_train = table["cycle"].isin(TRAIN_CYCLES).to_numpy()
+    train_query = "cycle in " + repr(list(TRAIN_CYCLES))
+    channel, pair, choice = choose_model(table[is_train])
+    alone = {s: cv_rmse(table[is_train], channel, [s]) for s in pair}
+    dropped = min(alone, key=alone.get)
+    kept = [s for s in pair if s != dropped]
+    others = [s for s in TEMPERATURES if s not in pair]
+
+    full = diagnose(table, target=channel, train=train_query, features=pair, candidates=others + ["speed_rpm"],
+                    order="time_min", group="cycle", model="mlr", seed=seed)
+    withheld = diagnose(table, target=channel, train=train_query, features=kept,
+                        candidates=others + [dropped, "speed_rpm"], order="time_min", group="cycle",
+                        model="mlr", seed=seed)
+    refit = independent_refit(table, is_train, channel, kept, withheld, "cycle", "time_min")
+    truth_refit = refit_rmse(table, is_train, channel, table[pair].to_numpy(float))
+    fl_figure(table, is_train, channel, {f"MLR on {', '.join(pair)}": pair, f"MLR on {kept[0]} ({dropped} withheld)": kept},
+              RESULTS / f"{STEM}_fl.png")
+
+    rank = next((i + 1 for i, c in enumerate(withheld.causes) if c.column == dropped), None)
+    v = withheld.verdict
+    named = v.column == dropped
+    choice_rows = [[f"`{r.channel}`", ", ".join(f"`{s}`" for s in r.pair), f"{r.std_um:.3g}", f"{r.cv_rmse_um:.3g}",
+                    f"{r.cv_r2:.3f}"] for r in choice.itertuples()]
+    lines = [
+        "## FL_THERMAL (measured)", "",
+        f"Rows: every {every}th sample ({every * 0.25:g} min apart); train = cycles {', '.join(TRAIN_CYCLES)} rpm "
+        f"({int(is_train.sum())} rows), real = the 5000 rpm cycle and the mixed-speed run ({int((~is_train).sum())} rows); "
+        "group = cycle (a run and the stop after it).", "",
+        "### Model choice (train cycles only, leave-one-cycle-out)", "",
+        md_table(["channel", "best pair", "std on train (μm)", "CV RMSE (μm)", "CV R²"], choice_rows), "",
+        f"Chosen: `{channel}` from {' and '.join(f'`{s}`' for s in pair)} (highest CV R²). "
+        f"Alone, `{pair[0]}` scores {alone[pair[0]]:.3g} μm and `{pair[1]}` {alone[pair[1]]:.3g} μm CV RMSE, "
+        f"so `{dropped}` is the better sensor and is the one withheld in part 2.", "",
+        f"![FL_THERMAL models]({STEM}_fl.png)", "",
+        *report_section("1. Model on the chosen pair", full),
+        *report_section(f"2. `{dropped}` withheld", withheld),
+        "**Does the diagnosis name the withheld sensor?** " + (
+            f"Yes: the verdict names `{dropped}` ({effect_text(v.column, v.transform, v.tau)})." if named else
+            f"No: the verdict is {effect_text(v.column, v.transform, v.tau)}; `{dropped}` ranks "
+            + (f"{rank} of {len(withheld.causes)} in the causes table." if rank else "nowhere in the causes table.")), "",
+        md_table(["quantity", "real-row RMSE (μm)", "shrink"],
+                 [["model without the withheld sensor (independent LinearLS)", f"{refit['rmse_before']:.3g}", "–"],
+                  ["engine: out-of-sample discrepancy model (verdict)",
+                   "–" if v.rmse_after is None else f"{v.rmse_after:.3g}", pct(v.shrink)],
+                  ["engine: refit of the model family with the effect", "–", pct(v.refit_shrink)],
+                  [f"independent: LinearLS + {effect_text(v.column, v.transform, v.tau)}", f"{refit['rmse_after']:.3g}",
+                   pct(refit["shrink"])],
+                  [f"independent: LinearLS on the original pair (withheld sensor back, raw)", f"{truth_refit:.3g}",
+                   pct(1 - truth_refit / refit["rmse_before"])]]), "",
+    ]
+    numbers = {"channel": channel, "pair": pair, "dropped": dropped, "named": named, "verdict_full": full.verdict.column,
+               "verdict_withheld": v.column, "engine_shrink": v.shrink, "engine_refit": v.refit_shrink,
+               "independent_shrink": refit["shrink"]}
+    return lines, numbers
+
+
+def run_miao(seed: int) -> tuple[list[str], dict]:
+    table = datasets.load("miao2013").reset_index(drop=True)
+    report = diagnose(table, target="error_um", train="batch == 'x1'", features=MIAO_FEATURES,
+                      candidates=MIAO_CANDIDATES, order="time_min", group="batch", model="mlr", seed=seed)
+    miao_figure(table, report, RESULTS / f"{STEM}_miao.png")
+
+    # Truth: which simulated effect the real-row residual follows (R² after per-batch offsets).
+    is_train = (table["batch"] == "x1").to_numpy()
+    model = LinearLS().fit(table.loc[is_train, MIAO_FEATURES].to_numpy(), table.loc[is_train, "error_um"].to_numpy())
+    residual = (table["error_um"] - model.predict(table[MIAO_FEATURES].to_numpy()))[~is_train]
+    real = table[~is_train]
+    demeaned = residual - residual.groupby(real["batch"]).transform("mean")
+    effects = [c for c in table.columns if c.startswith("effect_") and real[c].std() > 0]
+    share = {}
+    for c in effects:
+        e = real[c] - real[c].groupby(real["batch"]).transform("mean")
+        share[c] = float(np.corrcoef(demeaned, e)[0, 1] ** 2)
+    truth_effect = max(share, key=share.get)
+    early = real["time_min"] < 10
+    rms = lambda s: float(np.sqrt(np.mean(s ** 2)))  # noqa: E731
+    by_batch = {b: (rms(residual[(real["batch"] == b) & early]), rms(residual[(real["batch"] == b) & ~early]))
+                for b in ("x2", "x3")}
+    top_where = report.where[0] if report.where else None
+    v = report.verdict
+    lines = [
+        "## miao2013 (simulated, the S0 story)", "",
+        "MLR on `T7_C`, `T9_C` fitted on summer batch `x1`; real rows = `x2` (summer) and `x3` (autumn); "
+        f"candidates {', '.join(f'`{c}`' for c in MIAO_CANDIDATES)}.", "",
+        f"![miao2013 residuals]({STEM}_miao.png)", "",
+        *report_section("Diagnosis", report),
+        "### Against the simulator's truth", "",
+        md_table(["batch", "RMSE first 10 min (μm)", "RMSE after 10 min (μm)"],
+                 [[b, f"{a:.3g}", f"{c:.3g}"] for b, (a, c) in by_batch.items()]), "",
+        md_table(["effect column", "R² with the real-row residual (per-batch means removed)"],
+                 [[f"`{c}`", f"{share[c]:.3f}"] for c in sorted(share, key=share.get, reverse=True)]), "",
+        f"The residual follows `{truth_effect}` most closely; the data card says `T8_C` carries the slow structural "
+        f"temperature behind the ambient drift. The diagnosis names {effect_text(v.column, v.transform, v.tau)}"
+        + (" — the sensor the card points to." if v.column == "T8_C" else " — not the sensor the card points to (`T8_C`).")
+        + (f" Its strongest region is `{top_where.column}` {top_where.low:.4g} … {top_where.high:.4g} "
+           f"({top_where.share:.0%} of the squared error)" if top_where else " It reports no region")
+        + ("; this covers the start-up transient (first 10 min)." if top_where and top_where.column == "time_min"
+           and top_where.low < 10 else "; this is not the start-up transient (first 10 min)."), "",
+    ]
+    return lines, {"verdict": v.column, "truth_effect": truth_effect,
+                   "where": None if top_where is None else (top_where.column, top_where.low, top_where.high)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("data", nargs="?", type=Path, default=DEFAULT_DATA, help="FL_THERMAL data.csv")
+    parser.add_argument("--every", type=int, default=4, help="keep every N-th row (15 s each)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the diagnosis")
+    args = parser.parse_args()
+    started = time.perf_counter()
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    fl_lines, fl_numbers = run_fl(args.data, args.every, args.seed)
+    miao_lines, miao_numbers = run_miao(args.seed)
+    text = "\n".join(["# Case study: the gap diagnosis on real data (FL_THERMAL) and on miao2013", "",
+                      f"Generated by `benchmarks/fl_thermal_case_study.py` (seed {args.seed}, "
+                      f"{time.perf_counter() - started:.0f} s).", "", *fl_lines, *miao_lines])
+    (RESULTS / f"{STEM}.md").write_text(text, encoding="utf-8")
+    print(fl_numbers)
+    print(miao_numbers)
+
+
+if __name__ == "__main__":
+    main()
