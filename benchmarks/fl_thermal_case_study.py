@@ -204,6 +204,13 @@ def report_section(title: str, report: GapReport) -> list[str]:
 
 # -- figures --------------------------------------------------------------------------------------
 
+def rmse_by_cycle(table: pd.DataFrame, is_train: np.ndarray, target: str, features: list[str]) -> dict[str, float]:
+    """RMSE of LinearLS (fitted on the train rows) on each cycle."""
+    model = LinearLS().fit(table.loc[is_train, features].to_numpy(), table.loc[is_train, target].to_numpy())
+    residual = table[target] - model.predict(table[features].to_numpy())
+    return {c: float(np.sqrt(np.mean(residual[table["cycle"] == c] ** 2))) for c in TRAIN_CYCLES + ASSESS_CYCLES}
+
+
 def fl_figure(table: pd.DataFrame, is_train: np.ndarray, target: str, fits: dict[str, list[str]], path: Path) -> None:
     """Measured channel and the LinearLS models over time, assessment cycles shaded."""
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
@@ -286,6 +293,10 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
         f"Chosen: `{channel}` from {' and '.join(f'`{s}`' for s in pair)} (highest CV R²). "
         f"Alone, `{pair[0]}` scores {alone[pair[0]]:.3g} μm and `{pair[1]}` {alone[pair[1]]:.3g} μm CV RMSE, "
         f"so `{dropped}` is the better sensor and is the one withheld in part 2.", "",
+        "RMSE of the two models on each cycle (train cycles in-sample):", "",
+        md_table(["model", *[f"{c} (μm)" for c in TRAIN_CYCLES + ASSESS_CYCLES]],
+                 [[label, *[f"{x:.3g}" for x in rmse_by_cycle(table, is_train, channel, features).values()]]
+                  for label, features in ((f"MLR on {', '.join(pair)}", pair), (f"MLR on {kept[0]}", kept))]), "",
         f"![FL_THERMAL models]({STEM}_fl.png)", "",
         *report_section("1. Model on the chosen pair", full),
         *report_section(f"2. `{dropped}` withheld", withheld),
@@ -302,6 +313,14 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
                    pct(refit["shrink"])],
                   [f"independent: LinearLS on the original pair (withheld sensor back, raw)", f"{truth_refit:.3g}",
                    pct(1 - truth_refit / refit["rmse_before"])]]), "",
+        f"The engine's refit shrink ({pct(v.refit_shrink)}) and the independent refit ({pct(refit['shrink'])}) "
+        + ("agree" if v.refit_shrink is not None and abs(v.refit_shrink - refit["shrink"]) < 0.02 else "differ")
+        + f"; the headline out-of-sample shrink ({pct(v.shrink)}) is that of the discrepancy model fitted on the real "
+        "rows under blocked cross-validation, not of a model refitted on the train rows, and is "
+        + ("larger." if v.shrink is not None and v.shrink > refit["shrink"] else "not larger.")
+        + f" Putting the withheld sensor back as a raw input shrinks the error by {pct(1 - truth_refit / refit['rmse_before'])}, "
+        + ("less than" if truth_refit > refit["rmse_after"] else "at least as much as")
+        + " the named effect does.", "",
     ]
     numbers = {"channel": channel, "pair": pair, "dropped": dropped, "named": named, "verdict_full": full.verdict.column,
                "verdict_withheld": v.column, "engine_shrink": v.shrink, "engine_refit": v.refit_shrink,
@@ -333,6 +352,7 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
                 for b in ("x2", "x3")}
     top_where = report.where[0] if report.where else None
     v = report.verdict
+    t8 = next(((i + 1, c) for i, c in enumerate(report.causes) if c.column == "T8_C"), None)
     lines = [
         "## miao2013 (simulated, the S0 story)", "",
         "MLR on `T7_C`, `T9_C` fitted on summer batch `x1`; real rows = `x2` (summer) and `x3` (autumn); "
@@ -346,7 +366,9 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
                  [[f"`{c}`", f"{share[c]:.3f}"] for c in sorted(share, key=share.get, reverse=True)]), "",
         f"The residual follows `{truth_effect}` most closely; the data card says `T8_C` carries the slow structural "
         f"temperature behind the ambient drift. The diagnosis names {effect_text(v.column, v.transform, v.tau)}"
-        + (" — the sensor the card points to." if v.column == "T8_C" else " — not the sensor the card points to (`T8_C`).")
+        + (" — the sensor the card points to." if v.column == "T8_C" else " — not the sensor the card points to (`T8_C`"
+           + (f", which ranks {t8[0]} of {len(report.causes)} with {effect_text(t8[1].column, t8[1].transform, t8[1].tau)}, "
+              f"shrink {t8[1].shrink:.0%}" if t8 else ", absent from the causes table") + ").")
         + (f" Its strongest region is `{top_where.column}` {top_where.low:.4g} … {top_where.high:.4g} "
            f"({top_where.share:.0%} of the squared error)" if top_where else " It reports no region")
         + ("; this covers the start-up transient (first 10 min)." if top_where and top_where.column == "time_min"
