@@ -38,13 +38,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-from svrqp import datasets  # noqa: E402
-from svrqp.gap import GapReport, diagnose  # noqa: E402
-from svrqp.linear_models import LinearLS  # noqa: E402
+from svrqp import datasets
+from svrqp.gap import GapReport, diagnose
+from svrqp.linear_models import LinearLS
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"
@@ -163,6 +163,10 @@ def independent_refit(table, is_train, target, features, report: GapReport, grou
 
 # -- reporting helpers -------------------------------------------------------------------------
 
+def rms(values: pd.Series) -> float:
+    return float(np.sqrt(np.mean(np.square(values))))
+
+
 def md_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
@@ -188,9 +192,9 @@ def report_section(title: str, report: GapReport) -> list[str]:
              for r in report.where]
     return [
         f"### {title}", "",
-        f"Model: MLR on {', '.join(f'`{f}`' for f in report.features)} → `{report.target}`; "
+        (f"Model: MLR on {', '.join(f'`{f}`' for f in report.features)} → `{report.target}`; "
         f"{report.n_train} train rows, {report.n_real} real rows, {len(report.candidates)} candidates; "
-        f"diagnosis took {report.runtime_s:.1f} s.", "",
+        f"diagnosis took {report.runtime_s:.1f} s."), "",
         md_table(["train RMSE (μm)", "real RMSE (μm)", "ratio", "p (excess)", "gap"],
                  [[f"{g.train_rmse:.3g}", f"{g.real_rmse:.3g}", f"{g.ratio:.3g}", f"{g.p_excess:.2g}",
                    "detected" if report.gap_detected else "not detected"]]), "",
@@ -285,14 +289,14 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
                     f"{r.cv_r2:.3f}"] for r in choice.itertuples()]
     lines = [
         "## FL_THERMAL (measured)", "",
-        f"Rows: every {every}th sample ({every * 0.25:g} min apart); train = cycles {', '.join(TRAIN_CYCLES)} rpm "
+        (f"Rows: every {every}th sample ({every * 0.25:g} min apart); train = cycles {', '.join(TRAIN_CYCLES)} rpm "
         f"({int(is_train.sum())} rows), real = the 5000 rpm cycle and the mixed-speed run ({int((~is_train).sum())} rows); "
-        "group = cycle (a run and the stop after it).", "",
+        "group = cycle (a run and the stop after it)."), "",
         "### Model choice (train cycles only, leave-one-cycle-out)", "",
         md_table(["channel", "best pair", "std on train (μm)", "CV RMSE (μm)", "CV R²"], choice_rows), "",
-        f"Chosen: `{channel}` from {' and '.join(f'`{s}`' for s in pair)} (highest CV R²). "
+        (f"Chosen: `{channel}` from {' and '.join(f'`{s}`' for s in pair)} (highest CV R²). "
         f"Alone, `{pair[0]}` scores {alone[pair[0]]:.3g} μm and `{pair[1]}` {alone[pair[1]]:.3g} μm CV RMSE, "
-        f"so `{dropped}` is the better sensor and is the one withheld in part 2.", "",
+        f"so `{dropped}` is the better sensor and is the one withheld in part 2."), "",
         "RMSE of the two models on each cycle (train cycles in-sample):", "",
         md_table(["model", *[f"{c} (μm)" for c in TRAIN_CYCLES + ASSESS_CYCLES]],
                  [[label, *[f"{x:.3g}" for x in rmse_by_cycle(table, is_train, channel, features).values()]]
@@ -311,7 +315,7 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
                   ["engine: refit of the model family with the effect", "–", pct(v.refit_shrink)],
                   [f"independent: LinearLS + {effect_text(v.column, v.transform, v.tau)}", f"{refit['rmse_after']:.3g}",
                    pct(refit["shrink"])],
-                  [f"independent: LinearLS on the original pair (withheld sensor back, raw)", f"{truth_refit:.3g}",
+                  ["independent: LinearLS on the original pair (withheld sensor back, raw)", f"{truth_refit:.3g}",
                    pct(1 - truth_refit / refit["rmse_before"])]]), "",
         f"The engine's refit shrink ({pct(v.refit_shrink)}) and the independent refit ({pct(refit['shrink'])}) "
         + ("agree" if v.refit_shrink is not None and abs(v.refit_shrink - refit["shrink"]) < 0.02 else "differ")
@@ -347,7 +351,6 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
         share[c] = float(np.corrcoef(demeaned, e)[0, 1] ** 2)
     truth_effect = max(share, key=share.get)
     early = real["time_min"] < 10
-    rms = lambda s: float(np.sqrt(np.mean(s ** 2)))  # noqa: E731
     by_batch = {b: (rms(residual[(real["batch"] == b) & early]), rms(residual[(real["batch"] == b) & ~early]))
                 for b in ("x2", "x3")}
     top_where = report.where[0] if report.where else None
@@ -355,8 +358,8 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
     t8 = next(((i + 1, c) for i, c in enumerate(report.causes) if c.column == "T8_C"), None)
     lines = [
         "## miao2013 (simulated, the S0 story)", "",
-        "MLR on `T7_C`, `T9_C` fitted on summer batch `x1`; real rows = `x2` (summer) and `x3` (autumn); "
-        f"candidates {', '.join(f'`{c}`' for c in MIAO_CANDIDATES)}.", "",
+        ("MLR on `T7_C`, `T9_C` fitted on summer batch `x1`; real rows = `x2` (summer) and `x3` (autumn); "
+        f"candidates {', '.join(f'`{c}`' for c in MIAO_CANDIDATES)}."), "",
         f"![miao2013 residuals]({STEM}_miao.png)", "",
         *report_section("Diagnosis", report),
         "### Against the simulator's truth", "",
@@ -389,8 +392,8 @@ def main() -> None:
     fl_lines, fl_numbers = run_fl(args.data, args.every, args.seed)
     miao_lines, miao_numbers = run_miao(args.seed)
     text = "\n".join(["# Case study: the gap diagnosis on real data (FL_THERMAL) and on miao2013", "",
-                      f"Generated by `benchmarks/fl_thermal_case_study.py` (seed {args.seed}, "
-                      f"{time.perf_counter() - started:.0f} s).", "", *fl_lines, *miao_lines])
+                      (f"Generated by `benchmarks/fl_thermal_case_study.py` (seed {args.seed}, "
+                      f"{time.perf_counter() - started:.0f} s)."), "", *fl_lines, *miao_lines])
     (RESULTS / f"{STEM}.md").write_text(text, encoding="utf-8")
     print(fl_numbers)
     print(miao_numbers)
