@@ -24,8 +24,9 @@ test: $(STAMP)
 	if ls notebooks/*.ipynb >/dev/null 2>&1; then $(PY) -m pytest -q -n 2 --nbmake notebooks; fi
 	if [ -f mkdocs.yml ]; then $(VENV)/bin/mkdocs build --strict --quiet --site-dir $(VENV)/site; fi
 
+# The demo writes only its own files into demo-output/; re-running `make demo` replaces them.
 demo: $(STAMP)
-	$(VENV)/bin/svrqp demo
+	$(VENV)/bin/svrqp demo --force
 
 bench: $(STAMP)
 	$(PY) benchmarks/epsilon_svr_vs_libsvm.py
