@@ -41,8 +41,9 @@ used for the predictor, the corrector and the bias), or for a factored kernel
 in :math:`O(nr^2)`. Generic backends factorise the :math:`(2n+1)`- or :math:`(3n+1)`-dimensional
 KKT matrix of the stacked or split QP with a sparse LDLᵀ that cannot see this structure.
 
-**Crossover** (active-set steps started at the interior point). Each coefficient has a state: at :math:`-C`, free negative, zero, free positive, at :math:`+C`. For the free set
-:math:`F` with signs :math:`s_F` the optimum solves (cf. ``epsilon_svr.polish``)
+**Crossover** (active-set steps started at the interior point). Each coefficient has a state:
+at :math:`-C`, free negative, zero, free positive, at :math:`+C`. For the free set :math:`F` with
+signs :math:`s_F` the optimum solves (cf. ``epsilon_svr.polish``)
 
 .. math::
 
@@ -54,9 +55,11 @@ condition (a zero with :math:`|\rho_i| > \varepsilon`, a bound with :math:`\rho`
 :math:`\pm\varepsilon`). The primal–dual active-set method (Hintermüller, Ito & Kunisch 2002) also
 moves every free coefficient whose solution changed sign or left the box, all at once: a few steps
 from a good start, without a guarantee. The feasible active-set method instead steps towards the
-free-set solution only as far as signs and box allow, fixing the coefficient that blocks: the
-objective never increases, so it cannot cycle. When no state changes, every KKT condition holds
-to rounding.
+free-set solution only as far as signs and box allow, fixing the coefficient that blocks: while
+the free-set systems are nonsingular the objective never increases, so it cannot cycle. When no
+state changes, every KKT condition holds to rounding; when the step limit is reached the caller
+keeps the interior-point solution (a degenerate problem such as a linear kernel with more free
+points than features plus one has singular free-set systems and many optimal :math:`\beta`).
 """
 
 from __future__ import annotations
