@@ -91,14 +91,15 @@ FORMULATIONS: tuple[str, ...] = ("stacked", "split", "primal")
 #: the box, so the threshold must be relative to C.
 SV_TOLERANCE = 1e-6
 
-_DUAL_STATEMENT = (
+DUAL_STATEMENT = (
     r"\max_{\alpha,\alpha^*}\; -\tfrac12 (\alpha^*-\alpha)^\top K (\alpha^*-\alpha)"
     r" - \varepsilon \mathbf 1^\top(\alpha^*+\alpha) + y^\top(\alpha^*-\alpha)"
     r"\quad\text{s.t.}\quad \mathbf 1^\top(\alpha^*-\alpha)=0,\; 0\le\alpha,\alpha^*\le C"
 )
 
 
-def _check_parameters(y: NDArray[np.float64], C: float, epsilon: float) -> None:
+def check_parameters(y: NDArray[np.float64], C: float, epsilon: float) -> None:
+    """Raise :class:`ProblemError` unless ``C > 0``, ``epsilon >= 0`` and ``y`` is a finite 1-D array."""
     if not np.isfinite(C) or C <= 0:
         raise ProblemError(f"C must be a finite positive number, got {C!r}")
     if not np.isfinite(epsilon) or epsilon < 0:
@@ -109,7 +110,7 @@ def _check_parameters(y: NDArray[np.float64], C: float, epsilon: float) -> None:
 
 def dual_stacked(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
     r"""The dual in the stacked variables :math:`z = [\alpha; \alpha^*]` (see the module docstring)."""
-    _check_parameters(y, C, epsilon)
+    check_parameters(y, C, epsilon)
     n = y.shape[0]
     ones = np.ones(n)
     return QuadraticProgram(
@@ -120,14 +121,14 @@ def dual_stacked(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
         lb=np.zeros(2 * n),
         ub=np.full(2 * n, float(C)),
         name="epsilon-SVR dual, stacked form z = [alpha; alpha*]",
-        statement=_DUAL_STATEMENT,
+        statement=DUAL_STATEMENT,
         check_psd=False,  # PSD iff K is; the caller checked K
     )
 
 
 def dual_split(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
     r"""The dual with :math:`\beta = \alpha^* - \alpha` as an equality; P is :math:`\operatorname{diag}(K, 0, 0)`."""
-    _check_parameters(y, C, epsilon)
+    check_parameters(y, C, epsilon)
     n = y.shape[0]
     eye = sp.eye(n, format="csc")
     zeros = sp.csc_matrix((n, n))
@@ -143,14 +144,14 @@ def dual_split(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
         lb=np.concatenate([np.full(n, -float(C)), np.zeros(2 * n)]),
         ub=np.full(3 * n, float(C)),
         name="epsilon-SVR dual, split form x = [beta; alpha; alpha*]",
-        statement=_DUAL_STATEMENT + r",\qquad \beta = \alpha^* - \alpha",
+        statement=DUAL_STATEMENT + r",\qquad \beta = \alpha^* - \alpha",
         check_psd=False,
     )
 
 
 def primal_linear(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
     r"""The linear-kernel primal in :math:`x = [w; b; \xi; \xi^*]` with sparse constraint matrices."""
-    _check_parameters(y, C, epsilon)
+    check_parameters(y, C, epsilon)
     n, d = X.shape
     eye = sp.eye(n, format="csc")
     zeros = sp.csc_matrix((n, n))

@@ -44,7 +44,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError
-from svrqp.formulations.epsilon_svr import _DUAL_STATEMENT, _check_parameters
+from svrqp.formulations.epsilon_svr import DUAL_STATEMENT, check_parameters
 from svrqp.kernel_columns import KernelColumns
 from svrqp.problems import QuadraticProgram
 
@@ -110,7 +110,7 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
 
 def dual_low_rank(L: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
     r"""The factored dual in :math:`x = [\alpha; \alpha^*; w]` (module docstring), with sparse P and A."""
-    _check_parameters(y, C, epsilon)
+    check_parameters(y, C, epsilon)
     n, r = L.shape
     if n != y.shape[0]:
         raise ProblemError(f"L has {n} rows but y has {y.shape[0]} entries")
@@ -127,7 +127,7 @@ def dual_low_rank(L: NDArray[np.float64], y: NDArray[np.float64], C: float, epsi
         lb=np.concatenate([np.zeros(2 * n), np.full(r, -np.inf)]),
         ub=np.concatenate([np.full(2 * n, float(C)), np.full(r, np.inf)]),
         name=f"epsilon-SVR dual, factored kernel K = L L^T (rank {r}), x = [alpha; alpha*; w]",
-        statement=_DUAL_STATEMENT + r",\qquad K \approx LL^\top,\; w = L^\top(\alpha^*-\alpha)",
+        statement=DUAL_STATEMENT + r",\qquad K \approx LL^\top,\; w = L^\top(\alpha^*-\alpha)",
         check_psd=False,  # a 0/1 diagonal
     )
 
