@@ -65,6 +65,20 @@ def test_identical_decoy_cannot_be_told_apart():
     assert report.verdict.column is None
     assert set(report.verdict.ambiguous_with) == {"air_C", "air_copy_C"}
     assert "cannot be told apart" in (report.causes[0].note or "")
+    assert {c.column for c in report.causes if c.ambiguous} == {"air_C", "air_copy_C"}
+    assert "cannot be told apart" in report.summary
+
+
+def test_a_copy_that_decorrelates_is_not_ambiguous():
+    # A second air reading with 1 K of its own noise: the paired loss test separates it.
+    df = air_lag_problem()
+    df["air_copy_C"] = df["air_C"] + np.random.default_rng(0).normal(scale=1.0, size=len(df))
+    report = diagnose(df, candidates=["air_C", "air_copy_C", "nut_C"], **ARGS)
+    assert report.verdict.column == "air_C"
+    assert report.verdict.ambiguous_with == []
+    copy = next(c for c in report.causes if c.column == "air_copy_C")
+    assert not copy.ambiguous and copy.p_paired < 0.05
+    assert "cannot be told apart" not in report.summary
 
 
 def test_surrogate_p_value_is_small_for_a_real_effect_and_not_for_noise():

@@ -22,6 +22,7 @@ cause's shrink is for that effect alone added to this base.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 
@@ -32,6 +33,7 @@ from svrqp.gap import attribute as attr
 from svrqp.gap.attribute import Attribution, Evidence, attribute, build_banks
 from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
+from svrqp.gap.compare import paired_loss_test
 from svrqp.gap.figures import Series, axis_label
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.localise import Region, localise
@@ -161,6 +163,7 @@ def diagnose(
     attribution = attribute(r, B, build_banks(data, taus), folds, groups, gap.train_rmse, rng)
     report_progress("quantifying", 0.85)
     causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
+    causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
     detected = gap_detected(gap)
     verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected)
     report_progress("reporting", 0.98)
@@ -235,6 +238,59 @@ def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[st
     return causes, errors_after
 
 
+def mark_ties(causes: list[Cause], errors_after: dict[str, np.ndarray], undecided: list[str], groups: np.ndarray,
+              rng: np.random.Generator) -> list[Cause]:
+    """Mark the causes that cannot be told apart from the top one.
+
+    A significant cause is tied with the top cause when the paired block-bootstrap test of
+    their out-of-sample losses (:func:`svrqp.gap.compare.paired_loss_test`) finds no
+    difference; the columns the conditional tests could not separate from it (``undecided``)
+    are tied as well. The top cause is marked when anything is tied with it.
+
+    Parameters
+    ----------
+    causes : list of Cause
+        Ranked causes table, best first.
+    errors_after : dict
+        Column → out-of-sample errors on the real rows with that cause added.
+    undecided : list of str
+        Columns the conditional tests could not tell apart from the top cause.
+    groups : ndarray of int
+        Group code per real row.
+    rng : numpy.random.Generator
+        Source of the bootstrap resamples.
+
+    Returns
+    -------
+    list of Cause
+        The table with ``ambiguous`` and ``p_paired`` filled in.
+    """
+    if not causes or not causes[0].significant:
+        return causes
+    top, marked = causes[0], [causes[0]]
+    for cause in causes[1:]:
+        if not (cause.significant or cause.column in undecided):
+            marked.append(cause)
+            continue
+        test = paired_loss_test(errors_after[top.column], errors_after[cause.column], groups, rng)
+        tied = test.tied or cause.column in undecided
+        note = cause.note
+        if test.tied and cause.column not in undecided:
+            note = _joined(note, f"fits as well as {top.column} (paired p = {test.p_value:.2g})")
+        marked.append(dataclasses.replace(cause, ambiguous=tied, p_paired=test.p_value, note=note))
+    tied = [c.column for c in marked[1:] if c.ambiguous and c.column not in undecided]
+    if tied:
+        marked[0] = dataclasses.replace(top, ambiguous=True, note=_joined(top.note, f"fits as well as {_names(tied)}"))
+    elif undecided:
+        marked[0] = dataclasses.replace(top, ambiguous=True)
+    return marked
+
+
+def _joined(note: str | None, text: str) -> str:
+    return text if not note else f"{note}; {text}"
+
+
+
 def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected) -> tuple[Verdict, GateResult | None]:
     train_groups = data.groups[data.is_train]
     if not detected:
@@ -260,9 +316,19 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
               f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
               f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}); refitting the model with it as an "
               f"input shrinks it by {refit:.0%}.")
+    tied = [c.column for c in causes[1:] if c.ambiguous]
+    if tied:
+        reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "
+                   "out-of-sample losses); the verdict stays on it because the conditional tests, on the evidence "
+                   "where the candidates decorrelate, favour it or credit each with its own information.")
     return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, shrink=top.shrink,
                    shrink_ci=top.shrink_ci, refit_shrink=refit, rmse_before=top.rmse_before,
-                   rmse_after=top.rmse_after, p_value=top.p_value), residual_gate
+                   rmse_after=top.rmse_after, p_value=top.p_value, ambiguous_with=tied), residual_gate
+
+
+def _names(columns: list[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return columns[0] if len(columns) == 1 else f"{', '.join(columns[:-1])} and {columns[-1]}"
 
 
 def _tau_text(tau: float | None, order_name: str) -> str:
@@ -282,11 +348,15 @@ def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region]
         text += f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error)"
     if verdict.column is not None:
         text += (f", and the {verdict.transform} of {verdict.column}{_tau_text(verdict.tau, data.order_name)} "
-                 f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample.")
+                 f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample")
+        if verdict.ambiguous_with:
+            verb = "explains" if len(verdict.ambiguous_with) == 1 else "explain"
+            text += f", though {_names(verdict.ambiguous_with)} {verb} it about as well and cannot be told apart from it"
+        text += "."
     elif not detected:
         text += "; it is not beyond the train rows' error or the noise, so no cause is named."
     elif verdict.ambiguous_with:
-        text += f"; {' and '.join(verdict.ambiguous_with)} explain it equally well and cannot be told apart."
+        text += f"; {_names(verdict.ambiguous_with)} explain it equally well and cannot be told apart."
     else:
         text += "; no candidate explains it beyond chance."
     return text

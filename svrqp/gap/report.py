@@ -50,6 +50,8 @@ class Cause:
     shrink_ci: tuple[float, float]
     round: int
     note: str | None = None
+    ambiguous: bool = False
+    p_paired: float | None = None
 
 
 @dataclass(frozen=True)
