@@ -2,7 +2,9 @@
 
 Solvers that touch only some columns of the Gram matrix — the support vectors in an active-set
 crossover, the pivots of a pivoted Cholesky factorisation — use this cache, so the memory is
-O(n · columns used) instead of O(n²).
+O(n · columns used) instead of O(n²). A block of columns is one matrix product with the left
+factor of :func:`svrqp.kernels.left_factor` (formed once for X) and an in-place finish, the same
+code as :func:`svrqp.kernels.gram`.
 """
 
 from __future__ import annotations
@@ -10,7 +12,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.kernels import gram
+from svrqp.exceptions import ProblemError
+from svrqp.kernels import (
+    check_kernel_parameters,
+    finish_in_place,
+    gram,
+    left_factor,
+    right_factor,
+)
 
 
 class KernelColumns:
@@ -23,7 +32,12 @@ class KernelColumns:
     def __init__(self, X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0, degree: int = 3,
                  coef0: float = 0.0) -> None:
         self.X = np.asarray(X, dtype=float)
+        if self.X.ndim != 2:
+            raise ProblemError(f"X must be 2-D, got shape {self.X.shape}")
+        check_kernel_parameters(kernel, gamma, degree)
         self.parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
+        with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
+            self._left = left_factor(self.X, kernel, gamma, coef0)  # shared by every column block
         self._cache: dict[int, NDArray[np.float64]] = {}
         self.evaluated = 0  # number of columns computed (not served from the cache)
 
@@ -42,7 +56,10 @@ class KernelColumns:
         idx = np.asarray(idx, dtype=np.intp).ravel()
         missing = np.array([j for j in dict.fromkeys(idx.tolist()) if j not in self._cache], dtype=np.intp)
         if missing.size:
-            block = gram(self.X, self.X[missing], **self.parameters)
+            kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
+            with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
+                block = self._left @ right_factor(self.X[missing], kernel, gamma).T
+            finish_in_place(block, kernel, self.parameters["degree"])
             for position, j in enumerate(missing.tolist()):
                 self._cache[j] = block[:, position]
             self.evaluated += missing.size

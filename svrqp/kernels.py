@@ -16,7 +16,7 @@ The RBF width is written three ways in the literature:
   so :math:`\gamma = g = 1/\sigma^2`;
 * S4 (Lin 2011, eq. 6): :math:`\exp(-\lVert\cdot\rVert^2/(2\sigma^2))`, so :math:`\gamma = 1/(2\sigma^2)`.
 
-All Gram matrices are computed with matrix products (no Python loops over samples).
+All Gram matrices are computed with one matrix product per row block (no Python loops over samples).
 """
 
 from __future__ import annotations
@@ -75,15 +75,70 @@ def rbf_conventions(gamma: float) -> dict[str, float]:
     }
 
 
-def squared_distances(X: NDArray[np.float64], Y: NDArray[np.float64]) -> NDArray[np.float64]:
-    r"""Pairwise :math:`\lVert x_i - y_j\rVert^2` by the expansion :math:`x^2 - 2x\cdot y + y^2`."""
-    D = (
-        np.einsum("ij,ij->i", X, X)[:, None]
-        - 2.0 * (X @ Y.T)
-        + np.einsum("ij,ij->i", Y, Y)[None, :]
-    )
-    # The expansion can go a few ulps below zero where points coincide.
-    return np.maximum(D, 0.0, out=D)
+#: Entries of one row block of a Gram matrix (1 MiB): the in-place passes after each block's
+#: matrix product then run in cache instead of streaming the whole n×m matrix through memory.
+BLOCK_ENTRIES = 2**17
+
+
+def check_kernel_parameters(kernel: str, gamma: float, degree: int) -> None:
+    """Raise :class:`ProblemError` naming the kernel parameter that is out of range."""
+    if kernel not in KERNELS:
+        raise ProblemError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    if kernel != "linear":
+        _positive(gamma, "gamma")
+    if kernel == "poly" and (int(degree) != degree or degree < 1):
+        raise ProblemError(f"degree must be a positive integer, got {degree!r}")
+
+
+def left_factor(X: NDArray[np.float64], kernel: str, gamma: float, coef0: float) -> NDArray[np.float64]:
+    r"""Left factor :math:`A(X)` of the kernel's inner matrix :math:`A(X) B(Y)^\top` (see :func:`right_factor`).
+
+    .. math::
+
+        A_\text{linear} = X, \qquad A_\text{poly} = [\gamma X,\ c\mathbf 1], \qquad
+        A_\text{rbf} = [2\gamma X,\ -\gamma \lVert x\rVert^2,\ \mathbf 1]
+    """
+    ones = np.ones((X.shape[0], 1))
+    if kernel == "poly":
+        return np.hstack([gamma * X, coef0 * ones])
+    if kernel == "rbf":
+        return np.hstack([2.0 * gamma * X, -gamma * np.einsum("ij,ij->i", X, X)[:, None], ones])
+    return X
+
+
+def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[np.float64]:
+    r"""Right factor :math:`B(Y)`: one matrix product :math:`A(X) B(Y)^\top` gives the inner matrix
+
+    .. math::
+
+        B_\text{linear} = Y,\ \ B_\text{poly} = [Y,\ \mathbf 1],\ \
+        B_\text{rbf} = [Y,\ \mathbf 1,\ -\gamma\lVert y\rVert^2]
+        \quad\Rightarrow\quad
+        (AB^\top)_{ij} = x_i\cdot y_j,\ \ \gamma\, x_i\cdot y_j + c,\ \
+        -\gamma\bigl(\lVert x_i\rVert^2 - 2x_i\cdot y_j + \lVert y_j\rVert^2\bigr) = -\gamma\lVert x_i - y_j\rVert^2 .
+    """
+    ones = np.ones((Y.shape[0], 1))
+    if kernel == "poly":
+        return np.hstack([Y, ones])
+    if kernel == "rbf":
+        return np.hstack([Y, ones, -gamma * np.einsum("ij,ij->i", Y, Y)[:, None]])
+    return Y
+
+
+def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int) -> None:
+    """Turn a block of the inner matrix into kernel values, in place (no temporaries)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        if kernel == "poly":
+            # Repeated products: libm's pow per entry is several times slower for small degrees.
+            base = inner.copy()  # one cache-sized block
+            for _ in range(int(degree) - 1):
+                inner *= base
+        elif kernel == "rbf":
+            # The expansion can go a few ulps above −γ·0 where points coincide.
+            np.minimum(inner, 0.0, out=inner)
+            np.exp(inner, out=inner)
+    if not np.isfinite(inner).all():
+        raise ProblemError(f"the {kernel} kernel overflows on these inputs: scale the features")
 
 
 def gram(
@@ -95,7 +150,12 @@ def gram(
     degree: int = 3,
     coef0: float = 0.0,
 ) -> NDArray[np.float64]:
-    """Gram matrix :math:`K_{ij} = k(x_i, y_j)`.
+    """Gram matrix :math:`K_{ij} = k(x_i, y_j)`, built in place block by block.
+
+    Each row block is one matrix product of the factors of :func:`left_factor` and
+    :func:`right_factor` written into K, then :func:`finish_in_place` while it is in cache: the
+    only n×m array is K itself. Without ``Y`` only the lower triangle is computed and mirrored,
+    so K is exactly symmetric (and the RBF diagonal exactly 1, the zero self-distance).
 
     Parameters
     ----------
@@ -115,25 +175,28 @@ def gram(
     Y = X if Y is None else np.asarray(Y, dtype=float)
     if X.ndim != 2 or Y.ndim != 2 or X.shape[1] != Y.shape[1]:
         raise ProblemError(f"X and Y must be 2-D with the same columns, got {X.shape} and {Y.shape}")
-    with np.errstate(over="ignore", invalid="ignore"):
-        if kernel == "linear":
-            K = X @ Y.T
-        elif kernel == "poly":
-            _positive(gamma, "gamma")
-            if int(degree) != degree or degree < 1:
-                raise ProblemError(f"degree must be a positive integer, got {degree!r}")
-            K = (gamma * (X @ Y.T) + coef0) ** int(degree)
-        elif kernel == "rbf":
-            _positive(gamma, "gamma")
-            D = squared_distances(X, Y)
-            if symmetric:  # exact symmetry and zero self-distance, which rounding breaks
-                D = 0.5 * (D + D.T)
-                np.fill_diagonal(D, 0.0)
-            K = np.exp(-gamma * D)
-        else:
-            raise ProblemError(f"kernel must be one of {KERNELS}, got {kernel!r}")
-    if not np.all(np.isfinite(K)):
-        raise ProblemError(
-            f"the {kernel} kernel overflows on these inputs (|X| up to {np.abs(X).max():.3g}): scale the features"
-        )
+    check_kernel_parameters(kernel, gamma, degree)
+    n, m = X.shape[0], Y.shape[0]
+    K = np.empty((n, m))
+    rows = max(8, BLOCK_ENTRIES // max(m, 1))
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked per block, in finish_in_place
+        A, B = left_factor(X, kernel, gamma, coef0), right_factor(Y, kernel, gamma)
+        try:
+            # Bottom-up, so that the rows below a block are done when its upper part is mirrored.
+            for start in reversed(range(0, n, rows)):
+                stop = min(start + rows, n)
+                columns = stop if symmetric else m
+                block = K[start:stop, :columns]
+                np.matmul(A[start:stop], B[:columns].T, out=block)
+                finish_in_place(block, kernel, degree)
+                if symmetric:
+                    diagonal = K[start:stop, start:stop]
+                    upper = np.triu_indices(stop - start, 1)
+                    diagonal[upper] = diagonal.T[upper]
+                    K[start:stop, stop:] = K[stop:, start:stop].T
+        except ProblemError:
+            raise ProblemError(f"the {kernel} kernel overflows on these inputs (|X| up to {np.abs(X).max():.3g}, "
+                               f"|Y| up to {np.abs(Y).max():.3g}): scale the features") from None
+    if symmetric and kernel == "rbf":
+        np.fill_diagonal(K, 1.0)  # exp(−γ·0): rounding of the expansion leaves ulps off zero
     return K

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from problems import diabetes
+from sklearn.metrics.pairwise import polynomial_kernel, rbf_kernel
 
+from svrqp import ProblemError
 from svrqp.kernel_columns import KernelColumns
 from svrqp.kernels import gram
-
-from problems import diabetes
 
 
 @pytest.mark.parametrize("parameters", [{"kernel": "rbf", "gamma": 5.0}, {"kernel": "linear"},
@@ -29,3 +30,19 @@ def test_cached_columns_are_not_recomputed():
     columns(np.array([3, 2, 4]))
     assert columns.evaluated == 4
     assert columns(np.array([], dtype=int)).shape == (X.shape[0], 0)
+
+
+def test_columns_equal_scikit_learn_kernels():
+    X = diabetes().X
+    idx = np.array([3, 40, 7])
+    np.testing.assert_allclose(KernelColumns(X, gamma=5.0)(idx), rbf_kernel(X, X[idx], gamma=5.0),
+                               rtol=1e-12, atol=1e-14)
+    poly = KernelColumns(X, kernel="poly", gamma=0.5, degree=3, coef0=1.0)(idx)
+    np.testing.assert_allclose(poly, polynomial_kernel(X, X[idx], degree=3, gamma=0.5, coef0=1.0), rtol=1e-12)
+
+
+def test_bad_parameters_are_rejected_when_the_cache_is_made():
+    with pytest.raises(ProblemError, match="gamma"):
+        KernelColumns(diabetes().X, gamma=-1.0)
+    with pytest.raises(ProblemError, match="overflows"):
+        KernelColumns(np.full((4, 2), 1e160), kernel="linear")(np.array([0]))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from sklearn.metrics.pairwise import linear_kernel, polynomial_kernel, rbf_kernel
 
-from svrqp import ProblemError
+from svrqp import ProblemError, kernels
 from svrqp.kernels import (
     gamma_from_g,
     gamma_from_sigma_s0,
@@ -18,12 +18,54 @@ from svrqp.kernels import (
 RNG = np.random.default_rng(7)
 X, Y = RNG.normal(size=(30, 3)), RNG.normal(size=(12, 3))
 
+#: Each kernel with non-default parameters, and scikit-learn's function for it (the reference).
+SKLEARN_KERNELS = [
+    ({"kernel": "linear"}, linear_kernel),
+    ({"kernel": "poly", "gamma": 0.3, "degree": 3, "coef0": 1.5},
+     lambda A, B=None: polynomial_kernel(A, B, degree=3, gamma=0.3, coef0=1.5)),
+    ({"kernel": "poly", "gamma": 0.8, "degree": 1, "coef0": -0.5},
+     lambda A, B=None: polynomial_kernel(A, B, degree=1, gamma=0.8, coef0=-0.5)),
+    ({"kernel": "rbf", "gamma": 0.7}, lambda A, B=None: rbf_kernel(A, B, gamma=0.7)),
+]
+
+
+@pytest.fixture
+def tiny_blocks(monkeypatch):
+    """Row blocks of 8 rows, so a 30-row Gram matrix is built from several blocks and a partial one."""
+    monkeypatch.setattr(kernels, "BLOCK_ENTRIES", 8)
+
 
 def test_gram_matrices_equal_scikit_learn():
     np.testing.assert_allclose(gram(X, Y, kernel="linear"), linear_kernel(X, Y), rtol=1e-12)
     np.testing.assert_allclose(gram(X, Y, kernel="poly", gamma=0.3, degree=3, coef0=1.5),
                                polynomial_kernel(X, Y, degree=3, gamma=0.3, coef0=1.5), rtol=1e-12)
     np.testing.assert_allclose(gram(X, Y, kernel="rbf", gamma=0.7), rbf_kernel(X, Y, gamma=0.7), rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("parameters, reference", SKLEARN_KERNELS, ids=lambda p: str(p)[:30])
+def test_blocked_gram_equals_scikit_learn_symmetric_and_rectangular(tiny_blocks, parameters, reference):
+    np.testing.assert_allclose(gram(X, **parameters), reference(X), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(gram(X, Y, **parameters), reference(X, Y), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(gram(Y, X, **parameters), reference(Y, X), rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("parameters, reference", SKLEARN_KERNELS, ids=lambda p: str(p)[:30])
+def test_training_gram_is_exactly_symmetric_for_every_kernel(tiny_blocks, parameters, reference):
+    K = gram(X, **parameters)
+    np.testing.assert_array_equal(K, K.T)
+
+
+def test_rbf_of_far_points_underflows_to_zero_not_an_error():
+    far = np.array([[0.0], [40.0]])
+    np.testing.assert_array_equal(gram(far, gamma=1.0), np.eye(2))
+
+
+@pytest.mark.parametrize("parameters", [{"kernel": "poly", "gamma": 1.0, "degree": 9},
+                                        {"kernel": "linear"}])
+def test_overflow_is_a_problem_error_not_inf(parameters):
+    huge = np.full((3, 2), 1e160)
+    with pytest.raises(ProblemError, match="overflows"):
+        gram(huge, **parameters)
 
 
 def test_s0_polynomial_is_the_special_case():
