@@ -48,3 +48,26 @@ def test_non_psd_kernel_is_a_singular_system():
         solve_cholesky_schur(K, np.ones(2), C=10.0)
     with pytest.raises(ProblemError, match="C"):
         solve_cholesky_schur(np.eye(2), np.ones(2), C=0.0)
+
+
+@pytest.mark.parametrize("fit_intercept", [True, False])
+def test_in_place_factorisation_gives_the_same_solution_and_only_then_destroys_k(fit_intercept):
+    case = SVR_CASES[0]()
+    K = gram(case.X, gamma=case.gamma)
+    kept = K.copy()
+    alpha, b, info = solve_cholesky_schur(K, case.y, case.C, fit_intercept)
+    np.testing.assert_array_equal(K, kept)  # the default leaves the caller's Gram matrix alone
+    alpha_in_place, b_in_place, info_in_place = solve_cholesky_schur(K, case.y, case.C, fit_intercept, overwrite_K=True)
+    np.testing.assert_array_equal(alpha_in_place, alpha)
+    assert b_in_place == b and info_in_place["residual"] == info["residual"]
+    assert not np.array_equal(np.tril(K), np.tril(kept))  # the factor was written into K itself
+
+
+def test_certificate_is_the_residual_of_the_full_system():
+    case = SVR_CASES[1]()
+    K = gram(case.X, gamma=case.gamma)
+    alpha, b, info = solve_cholesky_schur(K, case.y, case.C)
+    system = kkt_system(K, case.y, case.C)
+    direct = np.max(np.abs(system.M @ np.concatenate([[b], alpha]) - system.rhs))  # independent: the formed matrix
+    # Both are rounding noise of the same size (a certificate read from the factored triangle is not).
+    assert direct / 10 <= info["residual"] <= 10 * direct + 1e-15

@@ -34,29 +34,55 @@ from svrqp.exceptions import ProblemError, SingularSystemError
 from svrqp.problems import LinearSystem
 
 
+def _add_to_diagonal(M: NDArray[np.float64], value: float) -> None:
+    r""":math:`M \leftarrow M + \text{value}\, I` in place (no n×n identity is formed)."""
+    diagonal = np.einsum("ii->i", M)  # a writable view
+    diagonal += value
+
+
 def kkt_system(K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_intercept: bool = True) -> LinearSystem:
-    """The full KKT system of S4 eq. (5) (or :math:`H\\alpha = y` without the bias)."""
+    r"""The full KKT system of S4 eq. (5) (or :math:`H\alpha = y` without the bias).
+
+    The matrix is written once: K is copied into its block and :math:`C^{-1}` added on the diagonal.
+    """
     if not np.isfinite(C) or C <= 0:
         raise ProblemError(f"C must be a finite positive number, got {C!r}")
     n = y.shape[0]
-    H = K + np.eye(n) / C
+    if not fit_intercept:
+        H = K.astype(float, copy=True)
+        _add_to_diagonal(H, 1.0 / C)
+        return LinearSystem(M=H, rhs=y, name="LS-SVR without bias", statement=r"(\Omega + C^{-1}I)\alpha = y")
+    M = np.empty((n + 1, n + 1))
+    M[0, 0] = 0.0
+    M[0, 1:] = 1.0
+    M[1:, 0] = 1.0
+    M[1:, 1:] = K
+    _add_to_diagonal(M[1:, 1:], 1.0 / C)
     statement = (
         r"\begin{bmatrix}0 & \mathbf 1^\top\\ \mathbf 1 & \Omega + C^{-1}I\end{bmatrix}"
         r"\begin{bmatrix}b\\ \alpha\end{bmatrix} = \begin{bmatrix}0\\ y\end{bmatrix}"
     )
-    if not fit_intercept:
-        return LinearSystem(M=H, rhs=y, name="LS-SVR without bias", statement=r"(\Omega + C^{-1}I)\alpha = y")
-    M = np.zeros((n + 1, n + 1))
-    M[0, 1:] = 1.0
-    M[1:, 0] = 1.0
-    M[1:, 1:] = H
     return LinearSystem(M=M, rhs=np.concatenate([[0.0], y]), name="LS-SVR KKT system", statement=statement)
 
 
 def solve_cholesky_schur(
-    K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_intercept: bool = True
+    K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_intercept: bool = True, *,
+    overwrite_K: bool = False,
 ) -> tuple[NDArray[np.float64], float, dict[str, float]]:
-    """Solve the LS-SVR system by one Cholesky of :math:`\\Omega + I/C` and the Schur complement.
+    r"""Solve the LS-SVR system by one in-place Cholesky of :math:`\Omega + I/C` and the Schur complement.
+
+    Parameters
+    ----------
+    K
+        Gram matrix :math:`\Omega`, symmetric, shape ``(n, n)``.
+    y
+        Targets, shape ``(n,)``.
+    C
+        Regularisation (positive).
+    fit_intercept
+        Solve the bordered system with the bias :math:`b` (else :math:`b = 0`).
+    overwrite_K
+        Factor in K's own memory (K is destroyed) instead of in one n×n copy.
 
     Returns
     -------
@@ -67,9 +93,13 @@ def solve_cholesky_schur(
     if not np.isfinite(C) or C <= 0:
         raise ProblemError(f"C must be a finite positive number, got {C!r}")
     start = time.perf_counter()
-    H = K + np.eye(y.shape[0]) / C
+    H = K if overwrite_K and K.dtype == np.float64 else K.astype(float, order="C", copy=True)
+    H_diagonal = np.diagonal(H) + 1.0 / C
+    np.einsum("ii->i", H)[:] = H_diagonal
+    # H is symmetric, so H.T is the same matrix in Fortran order: LAPACK factors it in place
+    # (a C-ordered array would be copied) and leaves its other triangle, H's strict upper part, as it was.
     try:
-        factor = scipy.linalg.cho_factor(H, lower=True, check_finite=False)
+        factor = scipy.linalg.cho_factor(H.T, lower=False, overwrite_a=True, check_finite=False)
     except np.linalg.LinAlgError:
         raise SingularSystemError("Omega + I/C is not positive definite: is the kernel PSD?") from None
     if fit_intercept:
@@ -82,7 +112,10 @@ def solve_cholesky_schur(
         b = 0.0
     solve_time = time.perf_counter() - start
     # Certificate of the full bordered system without forming it: rows [1^T alpha; H alpha + b 1].
-    Mx = np.concatenate([[alpha.sum() if fit_intercept else 0.0], H @ alpha + b])
+    # H alpha from the untouched triangle and H's diagonal put back (BLAS symv reads one triangle only).
+    np.einsum("ii->i", H)[:] = H_diagonal
+    H_alpha = scipy.linalg.blas.dsymv(1.0, H.T, alpha, lower=1)
+    Mx = np.concatenate([[alpha.sum() if fit_intercept else 0.0], H_alpha + b])
     residual = float(np.max(np.abs(Mx - np.concatenate([[0.0], y]))))
     scale = 1.0 + max(float(np.max(np.abs(Mx))), float(np.max(np.abs(y))))
     return alpha, b, {"residual": residual, "residual_rel": residual / scale, "solve_time": solve_time}
