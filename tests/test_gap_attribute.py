@@ -20,7 +20,7 @@ from svrqp.gap.attribute import CandidateBank, SurrogateTest, run_tests
 from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 
-ARGS = dict(target="error_um", train="run == 'r0'", features=["spindle_C"], order="time_min", group="run")
+ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,8 @@ from gap_problems import CANDIDATES, null_problem
 from svrqp.exceptions import ProblemError
 from svrqp.gap.prepare import prepare
 
-ARGS = dict(target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
-            order="time_min", group="run")
+ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
+            "order": "time_min", "group": "run"}
 
 
 @pytest.fixture(scope="module")

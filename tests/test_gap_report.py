@@ -12,8 +12,8 @@ from svrqp.exceptions import SvrqpError
 from svrqp.gap import diagnose, load_schema
 from svrqp.gap.report import _finite
 
-ARGS = dict(target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
-            order="time_min", group="run")
+ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
+            "order": "time_min", "group": "run"}
 
 
 @pytest.fixture(scope="module")

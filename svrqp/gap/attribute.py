@@ -324,6 +324,38 @@ def _benjamini_hochberg(p: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class AttributionProblem:
+    """What every test of a diagnosis shares: the residual, the base, the resampling, the noise.
+
+    Attributes
+    ----------
+    r : ndarray, shape (n_real,)
+        Baseline residual on the real rows.
+    B : ndarray, shape (n_real, p)
+        Base regressors (with an intercept column).
+    folds : list of ndarray
+        Blocked cross-validation folds of the real rows.
+    groups : ndarray of int
+        Group code per real row.
+    noise_rmse : float
+        Noise level for the absolute floor (the train reference RMSE).
+    rng : numpy.random.Generator
+        Source of the surrogates.
+    """
+
+    r: np.ndarray
+    B: np.ndarray
+    folds: list[np.ndarray]
+    groups: np.ndarray
+    noise_rmse: float
+    rng: np.random.Generator
+
+    def scorer(self, given: list[np.ndarray] = ()) -> CrossValidatedDiscrepancy:
+        """Cross-validated scorer of the residual against the base plus the blocks ``given``."""
+        return CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
+
+
+@dataclass(frozen=True)
 class Evidence:
     """A test with its multiplicity-adjusted p-value and floor decision."""
 
@@ -334,24 +366,18 @@ class Evidence:
 
 
 def _test_round(
-    r: np.ndarray,
-    B: np.ndarray,
-    banks: list[CandidateBank],
-    folds: list[np.ndarray],
-    groups: np.ndarray,
-    noise_rmse: float,
-    rng: np.random.Generator,
-    round_number: int,
+    problem: AttributionProblem, given: list[np.ndarray], banks: list[CandidateBank], round_number: int
 ) -> list[Evidence]:
-    """Test every bank against base ``B``; Benjamini–Hochberg and the effect floor."""
+    """Test every bank against the base plus ``given``; Benjamini–Hochberg and the effect floor."""
     if not banks:
         return []
-    cv = CrossValidatedDiscrepancy(r, B, folds)
+    cv = problem.scorer(given)
     most = int(min(MAX_SURROGATES, max(PAIRWISE_SURROGATES, np.ceil(2 * len(banks) / ALPHA))))
-    tests = run_tests([SurrogateTest(cv, bank, groups, rng) for bank in banks], most, _benjamini_hochberg)
+    tests = run_tests([SurrogateTest(cv, bank, problem.groups, problem.rng) for bank in banks], most,
+                      _benjamini_hochberg)
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
-        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, cv, noise_rmse)), round_number)
+        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, cv, problem.noise_rmse)), round_number)
         for t, qi in zip(tests, q)
     ]
 
@@ -404,13 +430,12 @@ def _best_by_column(evidence: list[Evidence], passing_only: bool) -> dict[str, E
 class _Conditional:
     """Conditional surrogate tests of a bank given blocks already in the base."""
 
-    def __init__(self, r, B, folds, groups, rng):
-        self.r, self.B, self.folds, self.groups, self.rng = r, B, folds, groups, rng
+    def __init__(self, problem: AttributionProblem):
+        self.problem = problem
 
     def test(self, bank: CandidateBank, given: list[np.ndarray]) -> TestOutcome:
-        cv = CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
-        return run_tests([SurrogateTest(cv, bank, self.groups, self.rng)], PAIRWISE_SURROGATES,
-                         lambda p: p < ALPHA)[0]
+        test = SurrogateTest(self.problem.scorer(given), bank, self.problem.groups, self.problem.rng)
+        return run_tests([test], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0]
 
     def adds(self, bank: CandidateBank, given: list[np.ndarray]) -> bool:
         """Whether ``bank`` carries information beyond ``given``: significant and above the relative floor."""
@@ -431,40 +456,22 @@ def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given
     return best
 
 
-def attribute(
-    r: np.ndarray,
-    B: np.ndarray,
-    banks: list[CandidateBank],
-    folds: list[np.ndarray],
-    groups: np.ndarray,
-    noise_rmse: float,
-    rng: np.random.Generator,
-) -> Attribution:
+def attribute(problem: AttributionProblem, banks: list[CandidateBank]) -> Attribution:
     """Test, rank and disambiguate candidate effects (see the module docstring).
 
     Parameters
     ----------
-    r : ndarray, shape (n_real,)
-        Baseline residual on the real rows.
-    B : ndarray, shape (n_real, p)
-        Base regressors (with an intercept column).
+    problem : AttributionProblem
+        Residual, base, folds, groups, noise level and random source.
     banks : list of CandidateBank
         Everything to test (:func:`build_banks`).
-    folds : list of ndarray
-        Blocked cross-validation folds of the real rows.
-    groups : ndarray of int
-        Group code per real row.
-    noise_rmse : float
-        Noise level for the absolute floor (the train reference RMSE).
-    rng : numpy.random.Generator
-        Source of the surrogates.
 
     Returns
     -------
     Attribution
     """
-    cond = _Conditional(r, B, folds, groups, rng)
-    evidence = _test_round(r, B, banks, folds, groups, noise_rmse, rng, 1)
+    cond = _Conditional(problem)
+    evidence = _test_round(problem, [], banks, 1)
     result = Attribution(evidence)
     passing = _best_by_column(evidence, passing_only=True)
     if not passing:
@@ -514,18 +521,18 @@ def attribute(
     if result.ambiguous:
         result.notes[champion.test.column] = "cannot be told apart from " + ", ".join(result.ambiguous)
     result.accepted.append(champion)
-    _further_effects(result, r, B, banks, folds, groups, noise_rmse, rng, cond)
+    _further_effects(result, problem, banks, cond)
     return result
 
 
-def _further_effects(result, r, B, banks, folds, groups, noise_rmse, rng, cond) -> None:
+def _further_effects(result: Attribution, problem: AttributionProblem, banks: list[CandidateBank],
+                     cond: _Conditional) -> None:
     """Accept more effects in rounds, each conditional on those already accepted."""
     while len(result.accepted) < MAX_EFFECTS:
         taken = {e.test.column for e in result.accepted} | set(result.ambiguous)
         given = [e.test.bank.block(e.test.variant) for e in result.accepted]
         remaining = [b for b in banks if b.column not in taken]
-        evidence = _test_round(r, np.column_stack([B, *given]), remaining, folds, groups, noise_rmse, rng,
-                               len(result.accepted) + 1)
+        evidence = _test_round(problem, given, remaining, len(result.accepted) + 1)
         passing = _best_by_column(evidence, passing_only=True)
         if not passing:
             return

@@ -30,7 +30,13 @@ import numpy as np
 import pandas as pd
 
 from svrqp.gap import attribute as attr
-from svrqp.gap.attribute import Attribution, Evidence, attribute, build_banks
+from svrqp.gap.attribute import (
+    Attribution,
+    AttributionProblem,
+    Evidence,
+    attribute,
+    build_banks,
+)
 from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
 from svrqp.gap.compare import paired_loss_test
@@ -160,7 +166,7 @@ def diagnose(
     report_progress("localising", 0.15)
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
     report_progress("testing candidates", 0.2)
-    attribution = attribute(r, B, build_banks(data, taus), folds, groups, gap.train_rmse, rng)
+    attribution = attribute(AttributionProblem(r, B, folds, groups, gap.train_rmse, rng), build_banks(data, taus))
     report_progress("quantifying", 0.85)
     causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
     causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
