@@ -2,7 +2,10 @@
 
 The estimators are thin: ``fit`` builds the formulation object (kept as ``problem_``), hands it to
 :func:`svrqp.solve.solve` (the certificate-checked result is kept as ``solution_``) and reads the
-model off the solution. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
+model off the solution. ``EpsilonSVR(solver="dual_ipm")`` instead solves the dual with
+:func:`svrqp.dual_ipm.solve_exact` (the structure-exploiting interior point and exact crossover)
+and certifies its answer on the same QP statement: the multipliers of that QP are read off the
+optimality conditions (:func:`dual_qp_point`) and its residuals are checked like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
 :math:`\\beta_i = \\alpha_i^* - \\alpha_i` of the support vectors and the prediction is
 ``gram(X, support_vectors_) @ dual_coef_[0] + intercept_[0]``.
 """
@@ -19,12 +22,20 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from svrqp import dual_ipm
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
-from svrqp.problems import check_psd
-from svrqp.solve import BACKENDS, Solution, solve_linear_system, solve_qp
+from svrqp.problems import QuadraticProgram, check_psd
+from svrqp.solve import BACKENDS, DEFAULT_CHECK_FACTOR, Solution, solve_linear_system, solve_qp
+
+#: ``EpsilonSVR(solver=DUAL_IPM)``: svrqp's own interior point with exact crossover (:mod:`svrqp.dual_ipm`).
+DUAL_IPM = "dual_ipm"
+#: Every value ``EpsilonSVR.solver`` accepts: the dual interior point and the QP backends.
+SOLVERS: tuple[str, ...] = (DUAL_IPM, *BACKENDS)
+#: The QP statements a ``dual_ipm`` solution is certified on (the primal has no kernel matrix).
+DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 
 _KERNEL_CONSTRAINTS = {
     "kernel": [StrOptions({"linear", "poly", "rbf", "precomputed"})],
@@ -32,6 +43,74 @@ _KERNEL_CONSTRAINTS = {
     "degree": [Interval(Integral, 1, None, closed="left")],
     "coef0": [Interval(Real, None, None, closed="neither")],
 }
+
+
+def dual_qp_point(formulation: str, K: NDArray[np.float64], y: NDArray[np.float64], beta: NDArray[np.float64],
+                  b: float, epsilon: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    r"""The primal point and multipliers ``(x, y_eq, z_box)`` of a dual QP at the ε-SVR solution ``(β, b)``.
+
+    With :math:`\alpha = \max(-\beta, 0)`, :math:`\alpha^* = \max(\beta, 0)` and the residual
+    :math:`r = y - K\beta - b`, the stationarity rows of the QPs of
+    :mod:`svrqp.formulations.epsilon_svr` (qpsolvers' signs) hold with
+
+    * split, :math:`x = [\beta; \alpha; \alpha^*]`: equality multipliers :math:`[r;\ b]`, box
+      multipliers :math:`[0;\ -\varepsilon - r;\ r - \varepsilon]`;
+    * stacked, :math:`x = [\alpha; \alpha^*]`: equality multiplier :math:`b`, box multipliers
+      :math:`[-\varepsilon - r;\ r - \varepsilon]`.
+
+    The box multipliers have the signs the bounds need exactly when :math:`(\beta, b)` satisfies
+    the ε-SVR KKT conditions, so the QP's residuals certify the solution independently of how
+    it was found.
+    """
+    r = y - K @ beta - b
+    alpha, alpha_star = np.maximum(-beta, 0.0), np.maximum(beta, 0.0)
+    box = np.concatenate([-epsilon - r, r - epsilon])
+    if formulation == "split":
+        return np.concatenate([beta, alpha, alpha_star]), np.append(r, b), np.concatenate([np.zeros_like(beta), box])
+    if formulation == "stacked":
+        return np.concatenate([alpha, alpha_star]), np.array([b]), box
+    raise ProblemError(f"formulation must be one of {DUAL_FORMULATIONS}, got {formulation!r}")
+
+
+def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
+                   formulation: str = "split", tol: float = 1e-8,
+                   check_tol: float | None = None) -> epsilon_svr.DualFit:
+    """Solve the ε-SVR dual with :func:`svrqp.dual_ipm.solve_exact` and certify it on the QP ``formulation``.
+
+    Returns the same :class:`~svrqp.formulations.epsilon_svr.DualFit` as
+    :func:`~svrqp.formulations.epsilon_svr.solve_dual` (``polished`` says whether the crossover
+    reached the exact optimum). Raises :class:`SolverError` when a relative certificate of the QP
+    exceeds ``check_tol`` (default ``100·tol``).
+    """
+    if formulation not in DUAL_FORMULATIONS:
+        raise ProblemError(f"solver={DUAL_IPM!r} solves a kernel dual: formulation must be one of "
+                           f"{DUAL_FORMULATIONS}, got {formulation!r}")
+    C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
+    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
+    start = time.perf_counter()
+    problem = epsilon_svr.build(formulation, y, C, epsilon, K=K)
+    build_time = time.perf_counter() - start
+    fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
+    x, y_eq, z_box = dual_qp_point(formulation, K, y, fit.beta, fit.intercept, epsilon)
+    solution = Solution(
+        x=x, y=y_eq, z=None, z_box=z_box, objective=problem.objective(x), status="optimal",
+        residuals=problem.kkt_residuals(x, y_eq, None, z_box), backend=DUAL_IPM,
+        backend_version=f"svrqp {version('svrqp')}",
+        settings={"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
+                  "ipm_converged": fit.ipm.converged, "crossover_steps": fit.crossover.steps,
+                  "crossover_exact": fit.crossover.exact},
+        build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations,
+    )
+    _require_certificates(solution, problem, check_tol)
+    return epsilon_svr.DualFit(fit.beta, fit.intercept, problem, solution, fit.crossover.exact)
+
+
+def _require_certificates(solution: Solution, problem: QuadraticProgram, check_tol: float) -> None:
+    worst = max(("primal_rel", "dual_rel", "gap_rel"), key=solution.residuals.__getitem__)
+    if not solution.residuals[worst] <= check_tol:  # also catches NaN
+        raise SolverError(f"{solution.backend!r} did not solve {problem.name!r}: its {worst[:-4]} certificate "
+                          f"is {solution.residuals[worst]:.2e} (relative) > {check_tol:.1e}",
+                          solution.backend, "inaccurate")
 
 
 class _KernelModel(RegressorMixin, BaseEstimator):
@@ -104,9 +183,13 @@ class EpsilonSVR(ExportMixin, _KernelModel):
     degree : int, default=3
     coef0 : float, default=0.0
     solver : str, default="clarabel"
-        Any backend of :data:`svrqp.solve.BACKENDS`.
+        ``"dual_ipm"`` (the fast exact path: :func:`svrqp.dual_ipm.solve_exact`, an interior point
+        on the reduced n×n system with an exact active-set crossover, certified on the QP of
+        ``formulation``) or any backend of :data:`svrqp.solve.BACKENDS`.
     formulation : {"split", "stacked", "primal"}, default="split"
-        Which equivalent QP to solve (``"primal"`` needs ``kernel="linear"``).
+        Which equivalent QP to solve (``"primal"`` needs ``kernel="linear"``). With
+        ``solver="dual_ipm"``: the dual QP kept as ``problem_`` and whose residuals certify the
+        solution (``"split"`` or ``"stacked"``; every kernel, linear included).
     tol : float, default=1e-8
         Requested solver accuracy.
     check_tol : float or None, default=None
@@ -130,14 +213,15 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         The certificate-checked solution.
     polished_ : bool
         Whether the active-set polish of :func:`svrqp.formulations.epsilon_svr.polish` replaced
-        the solver's dual coefficients (dual formulations only).
+        the solver's dual coefficients (dual formulations only); with ``solver="dual_ipm"``,
+        whether its crossover reached the exact optimum.
     """
 
     _parameter_constraints = {
         "C": [Interval(Real, 0.0, None, closed="neither")],
         "epsilon": [Interval(Real, 0.0, None, closed="left")],
         **_KERNEL_CONSTRAINTS,
-        "solver": [StrOptions(set(BACKENDS))],
+        "solver": [StrOptions(set(SOLVERS))],
         "formulation": [StrOptions(set(epsilon_svr.FORMULATIONS))],
         "tol": [Interval(Real, 0.0, None, closed="neither")],
         "check_tol": [Interval(Real, 0.0, None, closed="neither"), None],
@@ -169,7 +253,11 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
-        if self.formulation == "primal":
+        if self.solver == DUAL_IPM:
+            beta, b, self.problem_, self.solution_, self.polished_ = solve_dual_ipm(
+                self._training_gram(X), y, self.C, self.epsilon, formulation=self.formulation, tol=self.tol,
+                check_tol=self.check_tol)
+        elif self.formulation == "primal":
             self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
             self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol, check_tol=self.check_tol)
             beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
@@ -177,10 +265,9 @@ class EpsilonSVR(ExportMixin, _KernelModel):
             self.coef_ = self.solution_.x[:d].copy()
             b = float(self.solution_.x[d])
         else:
-            K = self._training_gram(X)
             beta, b, self.problem_, self.solution_, self.polished_ = epsilon_svr.solve_dual(
-                K, y, self.C, self.epsilon, formulation=self.formulation, backend=self.solver,
-                tol=self.tol, check_tol=self.check_tol)
+                self._training_gram(X), y, self.C, self.epsilon, formulation=self.formulation,
+                backend=self.solver, tol=self.tol, check_tol=self.check_tol)
         if not (np.all(np.isfinite(beta)) and np.isfinite(b)):
             raise SolverError(f"backend {self.solver!r} returned non-finite coefficients", self.solver, "failed")
         support = epsilon_svr.support_mask(beta, self.C)

@@ -10,13 +10,18 @@ from hypothesis.extra.numpy import arrays
 from sklearn.model_selection import GridSearchCV
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from svrqp import LSSVR, EpsilonSVR, SvrqpError
+from svrqp import LSSVR, EpsilonSVR, ProblemError, SolverError, SvrqpError
+from svrqp.estimators import dual_qp_point, solve_dual_ipm
+from svrqp.kernels import gram
+
+from problems import SVR_CASES, thermal_two_sensors
+from test_epsilon_svr_crosscheck import assert_kkt, assert_matches_reference, full_beta, linear, reference
 
 X_OK = np.linspace(0.0, 1.0, 20)[:, None]
 Y_OK = np.sin(6.0 * X_OK[:, 0])
 
 
-@parametrize_with_checks([EpsilonSVR(), LSSVR()])
+@parametrize_with_checks([EpsilonSVR(), EpsilonSVR(solver="dual_ipm"), LSSVR()])
 def test_scikit_learn_estimator_checks(estimator, check):
     check(estimator)
 
@@ -80,19 +85,20 @@ finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 wild = st.floats(allow_nan=True, allow_infinity=True, width=64)
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     X=arrays(np.float64, st.tuples(st.integers(0, 12), st.integers(1, 3)), elements=st.one_of(finite, wild)),
     y_seed=st.integers(0, 2**32 - 1),
     C=st.floats(-1.0, 1e4),
     epsilon=st.floats(-0.5, 2.0),
+    solver=st.sampled_from(["clarabel", "dual_ipm"]),
 )
-def test_property_epsilon_svr_raises_only_library_errors_and_never_returns_nan(X, y_seed, C, epsilon):
+def test_property_epsilon_svr_raises_only_library_errors_and_never_returns_nan(X, y_seed, C, epsilon, solver):
     y = np.random.default_rng(y_seed).normal(size=X.shape[0])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            predictions = EpsilonSVR(C=C, epsilon=epsilon, gamma=1.0).fit(X, y).predict(X)
+            predictions = EpsilonSVR(C=C, epsilon=epsilon, gamma=1.0, solver=solver).fit(X, y).predict(X)
         except (ValueError, SvrqpError):
             return
     assert np.all(np.isfinite(predictions))
@@ -121,3 +127,52 @@ def test_model_export_round_trips_through_verify(Model, tmp_path):
     [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
     assert verify(path).ok
     np.testing.assert_allclose(predict_from_file(read_document(path), X_OK), model.predict(X_OK), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)
+@pytest.mark.parametrize("kernel", ["rbf", "linear"])
+@pytest.mark.parametrize("formulation", ["split", "stacked"])
+def test_dual_ipm_matches_libsvm_and_is_certified_on_the_qp(case_factory, kernel, formulation):
+    """The fast exact path meets DESIGN §3 against SVR(tol=1e-8), and the QP it names certifies it."""
+    case = case_factory() if kernel == "rbf" else linear(case_factory())
+    model = EpsilonSVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma, kernel=kernel, solver="dual_ipm",
+                       formulation=formulation).fit(case.X, case.y)
+    assert model.solution_.backend == "dual_ipm" and model.solution_.status == "optimal"
+    assert model.problem_.name.startswith(f"epsilon-SVR dual, {formulation}")
+    assert model.solution_.is_optimal(1e-10)  # the crossover's optimum: certificates at rounding level
+    K = gram(case.X, kernel=kernel, gamma=case.gamma)
+    assert_kkt(K, case.y, full_beta(model, len(case.y)), model.intercept_[0], case.C, case.epsilon, 1e-6)
+    assert_matches_reference(model, reference(case, kernel=kernel), case, K)
+
+
+def test_dual_ipm_certificates_catch_a_wrong_solution():
+    """The QP residuals at a perturbed β are large, and an unmeetable check_tol raises naming the solver."""
+    case = thermal_two_sensors()
+    K = gram(case.X, gamma=case.gamma)
+    fit = solve_dual_ipm(K, case.y, case.C, case.epsilon)
+    x, y_eq, z_box = dual_qp_point("split", K, case.y, 0.9 * fit.beta, fit.b, case.epsilon)
+    residuals = fit.problem.kkt_residuals(x, y_eq, None, z_box)
+    assert max(residuals["dual_rel"], residuals["gap_rel"]) > 1e-3
+    with pytest.raises(SolverError, match="'dual_ipm'.*certificate"):
+        solve_dual_ipm(K, case.y, case.C, case.epsilon, check_tol=1e-300)
+
+
+def test_dual_ipm_rejects_the_primal_formulation():
+    with pytest.raises(ProblemError, match="dual_ipm.*formulation"):
+        EpsilonSVR(kernel="linear", solver="dual_ipm", formulation="primal").fit(X_OK, Y_OK)
+
+
+def test_dual_ipm_takes_an_integer_c_above_the_int8_range():
+    """C = 1000 given as an int: the crossover stores its states as int8 and must see a float C."""
+    ints = EpsilonSVR(C=1000, epsilon=0.05, solver="dual_ipm").fit(X_OK, Y_OK)
+    floats = EpsilonSVR(C=1000.0, epsilon=0.05, solver="dual_ipm").fit(X_OK, Y_OK)
+    np.testing.assert_array_equal(ints.predict(X_OK), floats.predict(X_OK))
+
+
+def test_dual_ipm_model_exports_and_verifies(tmp_path):
+    from svrqp.export import verify
+
+    model = EpsilonSVR(C=10.0, solver="dual_ipm").fit(X_OK, Y_OK)
+    [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
+    report = verify(path)
+    assert report.ok, [check for check in report.checks if not check.ok]
