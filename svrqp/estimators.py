@@ -28,7 +28,13 @@ from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
 from svrqp.problems import QuadraticProgram, check_psd
-from svrqp.solve import BACKENDS, DEFAULT_CHECK_FACTOR, Solution, solve_linear_system, solve_qp
+from svrqp.solve import (
+    BACKENDS,
+    DEFAULT_CHECK_FACTOR,
+    Solution,
+    solve_linear_system,
+    solve_qp,
+)
 
 #: ``EpsilonSVR(solver=DUAL_IPM)``: svrqp's own interior point with exact crossover (:mod:`svrqp.dual_ipm`).
 DUAL_IPM = "dual_ipm"

@@ -7,15 +7,20 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from problems import SVR_CASES, thermal_two_sensors
 from sklearn.model_selection import GridSearchCV
 from sklearn.utils.estimator_checks import parametrize_with_checks
+from test_epsilon_svr_crosscheck import (
+    assert_kkt,
+    assert_matches_reference,
+    full_beta,
+    linear,
+    reference,
+)
 
 from svrqp import LSSVR, EpsilonSVR, ProblemError, SolverError, SvrqpError
 from svrqp.estimators import dual_qp_point, solve_dual_ipm
 from svrqp.kernels import gram
-
-from problems import SVR_CASES, thermal_two_sensors
-from test_epsilon_svr_crosscheck import assert_kkt, assert_matches_reference, full_beta, linear, reference
 
 X_OK = np.linspace(0.0, 1.0, 20)[:, None]
 Y_OK = np.sin(6.0 * X_OK[:, 0])
@@ -120,8 +125,8 @@ def test_property_ls_svr_raises_only_library_errors_and_never_returns_nan(X, C):
 
 @pytest.mark.parametrize("Model", [EpsilonSVR, LSSVR])
 def test_model_export_round_trips_through_verify(Model, tmp_path):
-    from svrqp.export import read_document, verify
     from svrqp.export import predict as predict_from_file
+    from svrqp.export import read_document, verify
 
     model = Model(C=10.0).fit(X_OK, Y_OK)
     [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
