@@ -19,7 +19,7 @@ from __future__ import annotations
 import importlib
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
@@ -366,7 +366,8 @@ def solve_qp(
     tol: float = 1e-8,
     check_tol: float | None = None,
     initvals: NDArray[np.float64] | None = None,
-    **options: Any,
+    options: Mapping[str, Any] | None = None,
+    **settings: Any,
 ) -> Solution:
     """Solve a :class:`QuadraticProgram` with one backend and check its certificates.
 
@@ -383,8 +384,12 @@ def solve_qp(
         ``DEFAULT_CHECK_FACTOR * tol``.
     initvals
         Warm start for backends that accept one.
-    **options
-        Backend settings; unknown names are rejected with the list of valid ones.
+    options
+        Backend settings as a mapping: the way to pass a setting whose name is also a
+        parameter of this function (PIQP's and ProxQP's ``backend``: ``options={"backend": "sparse"}``).
+    **settings
+        Backend settings as keywords (merged with ``options``; a name given both ways is an
+        error). Unknown names are rejected with the list of valid ones.
 
     Raises
     ------
@@ -395,7 +400,10 @@ def solve_qp(
         raise ProblemError(f"tol must be a positive number, got {tol!r}")
     check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
     spec = require_backend(backend)
-    settings = _validated_settings(spec, tol, options)
+    twice = sorted(set(options or {}) & set(settings))
+    if twice:
+        raise ProblemError(f"option(s) {twice} given both in options= and as keywords; give each once")
+    settings = _validated_settings(spec, tol, {**(options or {}), **settings})
     if spec.name == "cvxpy":
         outcome = _solve_cvxpy(problem, settings, initvals)
     else:
@@ -445,7 +453,8 @@ def solve_linear_system(system: LinearSystem, *, check_tol: float = 1e-9) -> Sol
 def solve(problem: QuadraticProgram | LinearSystem, backend: str = "clarabel", **kwargs: Any) -> Solution:
     """Solve a :class:`QuadraticProgram` (any QP backend) or a :class:`LinearSystem` (LU).
 
-    See :func:`solve_qp` for the QP arguments.
+    See :func:`solve_qp` for the QP arguments (a backend setting named ``backend`` goes in
+    ``options={"backend": ...}``).
     """
     if isinstance(problem, LinearSystem):
         return solve_linear_system(problem, **kwargs)

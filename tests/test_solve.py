@@ -8,6 +8,7 @@ from svrqp import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.problems import LinearSystem, QuadraticProgram
 from svrqp.solve import available_backends, solve
 
+from conftest import require
 from test_problems import box_qp
 
 
@@ -62,3 +63,21 @@ def test_available_backends_lists_the_core_ones():
 def test_bad_tolerance():
     with pytest.raises(ProblemError, match="tol"):
         solve(box_qp(), tol=-1.0)
+
+
+@pytest.mark.parametrize("backend_name", ["piqp", "proxqp"])
+def test_a_backend_setting_named_backend_goes_through_options(backend_name):
+    """PIQP and ProxQP have a setting called ``backend``; ``options=`` carries it past solve's own parameter."""
+    require(backend_name)
+    for value in ("dense", "sparse"):
+        solution = solve(box_qp(), backend_name, options={"backend": value})
+        np.testing.assert_allclose(solution.x, [0.5, 0.5], atol=1e-6)
+        assert solution.backend == backend_name and solution.settings["backend"] == value
+    with pytest.raises(SolverError, match=backend_name):  # the value reaches the backend, which refuses it
+        solve(box_qp(), backend_name, options={"backend": "no-such-linear-algebra"})
+
+
+def test_a_setting_given_twice_is_rejected():
+    with pytest.raises(ProblemError, match=r"\['eps_abs'\] given both"):
+        solve(box_qp(), "osqp", options={"eps_abs": 1e-6}, eps_abs=1e-7)
+    assert solve(box_qp(), "osqp", options={"eps_abs": 1e-9}).settings["eps_abs"] == 1e-9
