@@ -2,14 +2,13 @@
 
 import numpy as np
 import pytest
+from conftest import require
+from test_problems import box_qp
 
 import svrqp.solve as solve_module
 from svrqp import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.problems import LinearSystem, QuadraticProgram
 from svrqp.solve import available_backends, solve
-
-from conftest import require
-from test_problems import box_qp
 
 
 def test_every_backend_solves_the_known_qp(backend):
