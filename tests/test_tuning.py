@@ -10,8 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 from sklearn.model_selection import GridSearchCV, KFold
+from sklearn.svm import SVR
 
-from problems import thermal_two_sensors
+from problems import diabetes, thermal_two_sensors
 from svrqp import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.tuning import (
@@ -92,6 +93,33 @@ def test_warm_start_along_c_does_not_change_the_scores():
     cold = grid_search(case.X, case.y, **grid, solver="osqp", warm_start=False, backend="sequential")
     warm = grid_search(case.X, case.y, **grid, solver="osqp", warm_start=True, backend="sequential")
     np.testing.assert_allclose(warm.table["mse"], cold.table["mse"], rtol=1e-6)
+
+
+def test_dual_ipm_grid_search_matches_libsvm_grid_search_cv():
+    """The fast exact path scores every candidate as GridSearchCV(SVR(tol=1e-8)) does, within DESIGN §3.
+
+    Predictions within δ = 1e-5·std(y) of the reference bound the difference of the mean squared
+    errors by 2δ·√MSE + δ² (Cauchy–Schwarz, then Jensen over the folds).
+    """
+    case = thermal_two_sensors()
+    grid = {"C": [10.0, 100.0], "epsilon": [0.05, 0.2], "gamma": [0.1, 2.0]}
+    reference = GridSearchCV(SVR(tol=1e-8), grid, cv=5, scoring="neg_mean_squared_error").fit(case.X, case.y)
+    ours = grid_search(case.X, case.y, **grid, cv=5, solver="dual_ipm", backend="sequential")
+    merged = _with_reference(ours, reference, ["C", "epsilon", "gamma"])
+    delta = 1e-5 * case.y.std()
+    bound = 2 * delta * np.sqrt(merged["reference_mse"]) + delta**2
+    assert (np.abs(merged["mse"] - merged["reference_mse"]) <= bound).all()
+    assert ours.best_params == reference.best_params_ and (ours.table["failed_folds"] == 0).all()
+
+
+def test_dual_ipm_warm_start_along_c_gives_the_cold_scores():
+    """On diabetes the active set of C = 0.1 guessed for C = 1 ends with every coefficient at ±C
+    and Σβ ≠ 0, which the crossover alone accepts; the warm start must reject it (cold = warm)."""
+    case = diabetes()
+    grid = {"C": [0.1, 1.0, 10.0], "epsilon": [0.05, 0.2], "gamma": [0.1]}
+    warm = grid_search(case.X, case.y, **grid, solver="dual_ipm", warm_start=True, backend="sequential")
+    cold = grid_search(case.X, case.y, **grid, solver="dual_ipm", warm_start=False, backend="sequential")
+    np.testing.assert_allclose(warm.table["mse"], cold.table["mse"], rtol=1e-9)
 
 
 def test_best_estimator_refits_with_the_best_parameters(sine_wave):
