@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from problems import diabetes, thermal_two_sensors
 from sklearn.model_selection import GridSearchCV, KFold
 from sklearn.svm import SVR
 
-from problems import diabetes, thermal_two_sensors
 from svrqp import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.tuning import (
