@@ -1,12 +1,22 @@
-"""Helpers shared by the subcommands: reading tables, splitting column lists."""
+"""Helpers shared by the subcommands: reading tables, splitting column lists, the model factory."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
+from svrqp.estimators import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
 from svrqp.exceptions import ProblemError
+from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
+
+#: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
+MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
+
+#: ``--help`` of every ``--solver`` option that picks how an ε-SVR is solved.
+SOLVER_HELP = (f"svr: '{DUAL_IPM}' (svrqp's interior point with exact crossover, the fast exact path) "
+               f"or a QP backend: {', '.join(name for name in SOLVERS if name != DUAL_IPM)}.")
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
@@ -30,3 +40,34 @@ def split_columns(text: str | None, table: pd.DataFrame, option: str) -> list[st
             f"{option}: unknown column(s) {missing}; available: {list(table.columns)}"
         )
     return names
+
+
+def parse_gamma(text: str) -> str | float:
+    """``"scale"``, ``"auto"`` or a positive number."""
+    if text in ("scale", "auto"):
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise ProblemError(f"--gamma must be 'scale', 'auto' or a positive number, got {text!r}") from None
+    if not value > 0:
+        raise ProblemError(f"--gamma must be positive, got {text!r}")
+    return value
+
+
+def make_estimator(model: str, *, C: float, epsilon: float, gamma: str | float, degree: int,
+                   forgetting: float, solver: str) -> Any:
+    """The unfitted estimator of kind ``model`` (one of :data:`MODELS`)."""
+    if model == "svr":
+        if solver not in SOLVERS:
+            raise ProblemError(f"--solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
+        return EpsilonSVR(C=C, epsilon=epsilon, gamma=gamma, solver=solver)
+    if model == "lssvr":
+        return LSSVR(C=C, gamma=gamma)
+    if model == "mlr":
+        return LinearLS()
+    if model == "poly":
+        return PolynomialLS(degree=degree)
+    if model == "rls":
+        return RecursiveLS(forgetting=forgetting)
+    raise ProblemError(f"--model must be one of {MODELS}, got {model!r}")

@@ -18,44 +18,12 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from svrqp.cli._common import read_table, split_columns
-from svrqp.estimators import LSSVR, EpsilonSVR
+from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.exceptions import ProblemError
 from svrqp.export import FORMATS, build_document, read_document, verify, write
-from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
 
-MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
 MODEL_SUFFIXES = {".json"}
 DATA_SUFFIXES = {".csv", ".parquet", ".pq"}
-
-
-def parse_gamma(text: str) -> str | float:
-    """``"scale"``, ``"auto"`` or a positive number."""
-    if text in ("scale", "auto"):
-        return text
-    try:
-        value = float(text)
-    except ValueError:
-        raise ProblemError(f"--gamma must be 'scale', 'auto' or a positive number, got {text!r}") from None
-    if not value > 0:
-        raise ProblemError(f"--gamma must be positive, got {text!r}")
-    return value
-
-
-def make_estimator(model: str, *, C: float, epsilon: float, gamma: str | float, degree: int,
-                   forgetting: float, solver: str) -> Any:
-    """The unfitted estimator of kind ``model`` (one of :data:`MODELS`)."""
-    if model == "svr":
-        return EpsilonSVR(C=C, epsilon=epsilon, gamma=gamma, solver=solver)
-    if model == "lssvr":
-        return LSSVR(C=C, gamma=gamma)
-    if model == "mlr":
-        return LinearLS()
-    if model == "poly":
-        return PolynomialLS(degree=degree)
-    if model == "rls":
-        return RecursiveLS(forgetting=forgetting)
-    raise ProblemError(f"--model must be one of {MODELS}, got {model!r}")
 
 
 def _document_from_model_file(path: Path) -> dict[str, Any]:
@@ -91,7 +59,7 @@ def register(app: typer.Typer) -> None:
                                                            "'scale'/'auto'."),
         degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (one input)."),
         forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
-        solver: str = typer.Option("clarabel", "--solver", help="svr: the QP backend."),
+        solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP),
         standardize: bool = typer.Option(False, "--standardize", help="Data tables: standardise the inputs "
                                                                       "first (recorded in the file)."),
     ) -> None:

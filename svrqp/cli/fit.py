@@ -18,8 +18,7 @@ from rich.table import Table
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from svrqp.cli._common import read_table, split_columns
-from svrqp.cli.export import MODELS, make_estimator, parse_gamma
+from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.compensate import online_compensation, residual_metrics
 from svrqp.exceptions import ProblemError
 from svrqp.linear_models import PolynomialLS, split_unit
@@ -107,7 +106,7 @@ def register(app: typer.Typer) -> None:
                                   "(S0's g = 1/σ²; S4's σ gives 1/(2σ²)), or 'scale'/'auto'."),
         degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (S2: 5)."),
         forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
-        solver: str = typer.Option("clarabel", "--solver", help="svr: the QP backend."),
+        solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP),
         standardize: bool = typer.Option(False, "--standardize", help="svr/lssvr: standardise the inputs "
                                          "before the kernel."),
     ) -> None:

@@ -13,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 from sklearn.model_selection import KFold
 
-from svrqp.cli._common import read_table, split_columns
+from svrqp.cli._common import SOLVER_HELP, read_table, split_columns
 from svrqp.exceptions import ProblemError
 from svrqp.tuning import SearchResult, ga_search, grid_search, plot_convergence, plot_grid_scores
 
@@ -106,7 +106,8 @@ def tune(
     seed: int = typer.Option(0, "--seed", help="Seed of the fold shuffle and of the GA."),
     population: int = typer.Option(100, "--population", help="GA population size (S1: 100)."),
     generations: int = typer.Option(50, "--generations", help="GA generations (S1: 50)."),
-    solver: str = typer.Option("clarabel", "--solver", help="QP backend of the ε-SVR fits."),
+    solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP + " 'dual_ipm' also warm-starts "
+                               "along the C grid."),
     tol: float = typer.Option(1e-8, "--tol", help="Solver accuracy of every fit."),
     backend: Backend = typer.Option(Backend.loky, "--backend", help="Where the fold × candidate fits run: local "
                                     "processes (loky), in this process (sequential), or a Dask cluster (dask)."),
