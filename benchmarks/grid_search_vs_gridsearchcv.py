@@ -17,8 +17,11 @@ Usage (the full run takes about half an hour, most of it ``SVR(tol=1e-8)`` at la
 from __future__ import annotations
 
 import argparse
+import os
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -39,8 +42,10 @@ GAMMA_GRID = tuple(float(g) for g in np.logspace(-2.0, 0.0, 5))
 EPSILON = 0.1
 FOLDS = 5
 
-LIMITATIONS = """One run of each search, in one process, on a machine shared with other work (the
-ratios compare runs of this report only; absolute times vary between reports). One BLAS/OpenMP
+LIMITATIONS = """One run of each search, in one process, on a 2-core machine shared with other work
+that does not always wait for the benchmark lock (see `load_1min`): wall times are inflated by it
+and not all by the same factor, so the CPU-time ratios are the better comparison; absolute times
+vary between reports. One BLAS/OpenMP
 thread for every run (threadpoolctl), `n_jobs=1` for GridSearchCV and `backend="sequential"` for
 svrqp, `refit=False`: only the cross-validation is timed. svrqp's time includes the Gram matrix
 per γ, the fold slices, every fit and the validation predictions; GridSearchCV's includes its
@@ -57,28 +62,38 @@ does not settle in a few steps (small γ here) the fit falls back to the interio
 gain of the warm start depends on the grid's spacing in C."""
 
 
-def run_svrqp(X: np.ndarray, y: np.ndarray, folds: KFold, warm_start: bool) -> tuple[pd.DataFrame, float]:
-    """Scores and wall time of ``grid_search(solver="dual_ipm")``."""
-    start = time.perf_counter()
+def timed(search: Callable[[], Any]) -> tuple[Any, dict[str, float]]:
+    """Run ``search``; its result, wall time, CPU time of this process and the 1-min load average around it.
+
+    Every run is single-threaded in this process, so CPU time is the measure least disturbed by
+    other work on a shared machine; wall time is what a user waits.
+    """
+    load_before = os.getloadavg()[0]
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = search()
+    timing = {"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
+              "load_1min": max(load_before, os.getloadavg()[0])}
+    return result, timing
+
+
+def run_svrqp(X: np.ndarray, y: np.ndarray, folds: KFold, warm_start: bool) -> pd.DataFrame:
+    """Scores of ``grid_search(solver="dual_ipm")`` (every fit must succeed)."""
     result = grid_search(X, y, C=C_GRID, gamma=GAMMA_GRID, epsilon=[EPSILON], cv=folds, solver="dual_ipm",
                          warm_start=warm_start, backend="sequential")
-    elapsed_s = time.perf_counter() - start
     if (result.table["failed_folds"] > 0).any():
         raise RuntimeError(f"svrqp had failed fits:\n{result.table[result.table['failed_folds'] > 0]}")
-    return result.table[["C", "gamma", "mse"]], elapsed_s
+    return result.table[["C", "gamma", "mse"]]
 
 
-def run_gridsearchcv(X: np.ndarray, y: np.ndarray, folds: KFold, tol: float) -> tuple[pd.DataFrame, float]:
-    """Scores, summed fit times per candidate, and wall time of ``GridSearchCV(SVR(tol=tol))``."""
+def run_gridsearchcv(X: np.ndarray, y: np.ndarray, folds: KFold, tol: float) -> pd.DataFrame:
+    """Scores and summed fit times per candidate of ``GridSearchCV(SVR(tol=tol))``."""
     search = GridSearchCV(SVR(epsilon=EPSILON, tol=tol), {"C": list(C_GRID), "gamma": list(GAMMA_GRID)},
                           cv=folds, scoring="neg_mean_squared_error", n_jobs=1, refit=False)
-    start = time.perf_counter()
     search.fit(X, y)
-    elapsed_s = time.perf_counter() - start
     table = pd.DataFrame(search.cv_results_["params"]).astype(float)
     table["mse"] = -search.cv_results_["mean_test_score"]
     table["fit_time_s"] = search.cv_results_["mean_fit_time"] * folds.get_n_splits()
-    return table, elapsed_s
+    return table
 
 
 def score_difference(ours: pd.DataFrame, reference: pd.DataFrame) -> float:
@@ -87,17 +102,20 @@ def score_difference(ours: pd.DataFrame, reference: pd.DataFrame) -> float:
     return float(np.max(np.abs(merged["mse"] - merged["mse_reference"]) / merged["mse_reference"]))
 
 
-def report(n: int, times: dict[str, float], differences: dict[str, float], best: dict[str, str],
+def report(n: int, times: dict[str, dict[str, float]], differences: dict[str, float], best: dict[str, str],
            per_c: pd.DataFrame) -> str:
     machine, versions = machine_info(), package_versions()
-    reference = "GridSearchCV(SVR(tol=1e-8))"
+    accurate, default = times["GridSearchCV(SVR(tol=1e-8))"], times["GridSearchCV(SVR())"]
     rows = pd.DataFrame({
         "search": list(times),
-        "time_s": list(times.values()),
-        "ratio_to_SVR_tol_1e-8": [t / times[reference] for t in times.values()],
-        "ratio_to_SVR_default": [t / times["GridSearchCV(SVR())"] for t in times.values()],
-        "max_rel_dCVMSE_vs_SVR_tol_1e-8": [differences.get(name, np.nan) for name in times],
+        "wall_s": [t["wall_s"] for t in times.values()],
+        "cpu_s": [t["cpu_s"] for t in times.values()],
+        "wall_ratio_to_SVR_tol_1e-8": [t["wall_s"] / accurate["wall_s"] for t in times.values()],
+        "cpu_ratio_to_SVR_tol_1e-8": [t["cpu_s"] / accurate["cpu_s"] for t in times.values()],
+        "cpu_ratio_to_SVR_default": [t["cpu_s"] / default["cpu_s"] for t in times.values()],
+        "max_rel_dCVMSE_vs_SVR_tol_1e-8": [differences[name] for name in times],
         "best (C, gamma)": [best[name] for name in times],
+        "load_1min": [t["load_1min"] for t in times.values()],
     })
     pools = pd.DataFrame(machine["thread_pools"])
     return "\n\n".join([
@@ -105,7 +123,9 @@ def report(n: int, times: dict[str, float], differences: dict[str, float], best:
         (f"friedman1, n = {n}, d = 10 (standardised), epsilon = {EPSILON:g}, {FOLDS}-fold KFold (no shuffle), "
          f"C in {list(C_GRID)}, gamma in {[float(f'{g:.4g}') for g in GAMMA_GRID]} (25 candidates, "
          f"{25 * FOLDS} fits each search); one BLAS thread. Target (issue 6): svrqp <= 0.3x GridSearchCV(SVR). "
-         "`max_rel_dCVMSE` is the largest |CV-MSE difference| / CV-MSE over the 25 candidates."),
+         "`max_rel_dCVMSE` is the largest |CV-MSE difference| / CV-MSE over the 25 candidates; `cpu_s` is "
+         "the CPU time of the (single-threaded) process, `load_1min` the larger 1-minute load average "
+         "before and after the search (2 cores)."),
         markdown_table(rows),
         "GridSearchCV fit time summed over the folds and over the γ grid, per C (seconds):\n\n"
         + markdown_table(per_c),
@@ -133,11 +153,11 @@ def main() -> None:
         grid_search(X[:50], y[:50], C=[1.0], gamma=[0.1], cv=2, solver="dual_ipm", backend="sequential")  # imports
         for name, warm_start in (("svrqp grid_search(dual_ipm, warm start)", True),
                                  ("svrqp grid_search(dual_ipm, cold)", False)):
-            scores[name], times[name] = run_svrqp(X, y, folds, warm_start)
-            print(f"{name}: {times[name]:.1f} s", flush=True)
+            scores[name], times[name] = timed(lambda warm_start=warm_start: run_svrqp(X, y, folds, warm_start))
+            print(f"{name}: {times[name]}", flush=True)
         for name, tol in (("GridSearchCV(SVR())", 1e-3), ("GridSearchCV(SVR(tol=1e-8))", 1e-8)):
-            scores[name], times[name] = run_gridsearchcv(X, y, folds, tol)
-            print(f"{name}: {times[name]:.1f} s", flush=True)
+            scores[name], times[name] = timed(lambda tol=tol: run_gridsearchcv(X, y, folds, tol))
+            print(f"{name}: {times[name]}", flush=True)
     reference = scores["GridSearchCV(SVR(tol=1e-8))"]
     differences = {name: score_difference(table[["C", "gamma", "mse"]], reference[["C", "gamma", "mse"]])
                    for name, table in scores.items()}
