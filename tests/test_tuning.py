@@ -294,6 +294,18 @@ def test_cli_tune_grid_writes_best_parameters_and_plot(sine_wave_csv, tmp_path):
     assert _svrqp("tune", *argv, "--force") == 0
 
 
+def test_cli_tune_with_the_dual_ipm_solver_finds_the_clearly_best_point(sine_wave_csv, tmp_path):
+    import json
+
+    out_json = tmp_path / "tune.json"
+    assert _svrqp("tune", str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--C", "0.01,100",
+                  "--epsilon", "0.01,1", "--gamma", "0.01,10,10000", "--shuffle", "--backend", "sequential",
+                  "--solver", "dual_ipm", "--json", str(out_json)) == 0
+    report = json.loads(out_json.read_text())
+    assert report["best_params"] == {"C": 100.0, "epsilon": 0.01, "gamma": 10.0}
+    assert all(candidate["failed_folds"] == 0 for candidate in report["candidates"])
+
+
 def test_cli_tune_ga_and_bad_input(sine_wave_csv, capsys):
     assert _svrqp("tune", str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--method", "ga",
                   "--population", "4", "--generations", "1", "--folds", "3", "--backend", "sequential") == 0
