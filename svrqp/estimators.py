@@ -22,7 +22,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from svrqp import dual_ipm
+from svrqp import __version__, dual_ipm
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
@@ -101,7 +101,7 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
     solution = Solution(
         x=x, y=y_eq, z=None, z_box=z_box, objective=problem.objective(x), status="optimal",
         residuals=problem.kkt_residuals(x, y_eq, None, z_box), backend=DUAL_IPM,
-        backend_version=f"svrqp {version('svrqp')}",
+        backend_version=f"svrqp {__version__}",
         settings={"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
                   "ipm_converged": fit.ipm.converged, "crossover_steps": fit.crossover.steps,
                   "crossover_exact": fit.crossover.exact},
