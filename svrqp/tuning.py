@@ -25,8 +25,9 @@ crossover). Along the C grid the previous optimum's active set — which coeffic
 free, or at the bound (moved from :math:`\pm C_{prev}` to :math:`\pm C`) — starts the crossover at
 the next C directly; if :data:`WARM_CROSSOVER_STEPS` primal–dual active-set steps do not reach a
 point that satisfies every KKT condition, the fit falls back to the interior point. Either way
-the returned coefficients satisfy the KKT conditions to rounding (the crossover checks them) or
-are the converged interior-point solution; a fit that is neither counts as failed.
+the returned coefficients satisfy the KKT conditions to rounding (checked again here, not taken
+from the crossover) or are the converged interior-point solution; a fit that is neither counts
+as failed.
 
 **Genetic algorithm** (S1, on `pygad <https://pygad.readthedocs.io>`_): real-coded individuals
 :math:`(\log_{10} C, \log_{10}\varepsilon, \log_{10}\gamma)` inside given ranges, population 100,
