@@ -99,6 +99,17 @@ def test_circular_shifts_rotate_each_group():
             np.testing.assert_array_equal(shifted, own[0] + (np.arange(own.size) + offset) % own.size)
 
 
+def test_circular_shifts_avoid_copies_and_negated_copies_of_a_periodic_candidate():
+    # A sine with a 60-row period in each 300-row group: shifts near whole periods copy it,
+    # shifts near half periods negate it; neither may be drawn.
+    chiller = np.sin(2 * np.pi * np.arange(N) / 60.0)
+    index = circular_shifts(GROUPS_FEW, 200, np.random.default_rng(1), chiller)
+    for row in index:
+        for g in (0, 1):
+            own = np.flatnonzero(GROUPS_FEW == g)
+            assert abs(np.corrcoef(chiller[row[own]], chiller[own])[0, 1]) <= 0.5 + 1e-9
+
+
 def test_block_bootstrap_stays_within_groups_and_keeps_blocks():
     index = block_bootstrap(GROUPS_FEW, 20, 25, np.random.default_rng(0))
     assert index.shape == (20, N)

@@ -90,8 +90,9 @@ def circular_shifts(
     Offsets are drawn uniformly among those at least :data:`MIN_SHIFT_FRACTION` of the group
     length away from no shift. With a ``signature`` (the candidate column being tested), offsets
     at which the rotated signature would correlate with itself by :data:`MAX_SELF_CORRELATION`
-    or more are left out as well: a periodic candidate (a chiller cycling every 40 min) rotated
-    by whole periods is a copy of itself, not a surrogate. The choice depends on the candidate
+    or more in absolute value are left out as well: a periodic candidate (a chiller cycling
+    every 40 min) rotated by whole periods is a copy of itself, not a surrogate, and rotated by
+    half periods a negated copy — which a regression uses just as well. The choice depends on the candidate
     alone, never on the residual, so under "no relation" every surrogate statistic still has
     the distribution of the observed one. When fewer than a fifth of the offsets would remain,
     the self-correlation rule is dropped for that group.
@@ -119,7 +120,7 @@ def circular_shifts(
         low = max(1, int(np.ceil(MIN_SHIFT_FRACTION * m)))
         allowed = np.arange(low, max(low + 1, m - low + 1))
         if signature is not None:
-            kept = allowed[circular_autocorrelation(signature[rows])[allowed % m] < MAX_SELF_CORRELATION]
+            kept = allowed[np.abs(circular_autocorrelation(signature[rows])[allowed % m]) < MAX_SELF_CORRELATION]
             if kept.size >= allowed.size / 5:
                 allowed = kept
         shift = rng.choice(allowed, size=n_surrogates)
