@@ -187,7 +187,8 @@ def report_section(title: str, report: GapReport) -> list[str]:
     g, v = report.gap, report.verdict
     causes = [[str(i + 1), f"`{c.column}`", c.transform, "–" if c.tau is None else f"{c.tau:.3g}",
                f"{c.p_value:.2g}", f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
-               "yes" if c.significant else "no"] for i, c in enumerate(report.causes[:TOP_CAUSES])]
+               "yes" if c.significant else "no", "yes" if c.ambiguous else "no"]
+              for i, c in enumerate(report.causes[:TOP_CAUSES])]
     where = [[f"`{r.column}`", f"{r.low:.4g}", f"{r.high:.4g}", f"{r.rmse:.3g}", f"{r.share:.0%}", str(r.n)]
              for r in report.where]
     return [
@@ -201,7 +202,8 @@ def report_section(title: str, report: GapReport) -> list[str]:
         "Where the squared error concentrates:", "",
         md_table(["column", "low", "high", "RMSE (μm)", "share", "rows"], where) if where else "(no region)", "",
         f"Top {min(TOP_CAUSES, len(report.causes))} causes (shrink = out-of-sample, 95 % CI):", "",
-        md_table(["rank", "column", "transform", "τ (min)", "q (BH)", "shrink", "significant"], causes), "",
+        md_table(["rank", "column", "transform", "τ (min)", "q (BH)", "shrink", "significant",
+                  "cannot be told apart"], causes), "",
         f"**Verdict:** {v.reason}", "",
     ]
 
@@ -371,7 +373,10 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
         f"temperature behind the ambient drift. The diagnosis names {effect_text(v.column, v.transform, v.tau)}"
         + (" — the sensor the card points to." if v.column == "T8_C" else " — not the sensor the card points to (`T8_C`"
            + (f", which ranks {t8[0]} of {len(report.causes)} with {effect_text(t8[1].column, t8[1].transform, t8[1].tau)}, "
-              f"shrink {t8[1].shrink:.0%}" if t8 else ", absent from the causes table") + ").")
+              f"shrink {t8[1].shrink:.0%}"
+              + (f", and which the paired loss test cannot tell apart from it (p = {t8[1].p_paired:.2g})"
+                 if t8[1].ambiguous and t8[1].p_paired is not None else "")
+              if t8 else ", absent from the causes table") + ").")
         + (f" Its strongest region is `{top_where.column}` {top_where.low:.4g} … {top_where.high:.4g} "
            f"({top_where.share:.0%} of the squared error)" if top_where else " It reports no region")
         + ("; this covers the start-up transient (first 10 min)." if top_where and top_where.column == "time_min"

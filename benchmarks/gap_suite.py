@@ -50,12 +50,13 @@ for reference, the best IoU a single interval of the order axis could reach); sh
 ``|verdict.shrink − oracle|``, the oracle being the same out-of-sample discrepancy model
 (:func:`svrqp.gap.quantify.estimate_shrink`) given the true effect column instead.
 
-Two grids: :data:`DEVELOPMENT`, on which the method was developed (its numbers are optimistic
-by construction), and :data:`HOLDOUT` — other seeds, other SNR levels, run counts and lengths —
-run only to check the final method.
+Three grids: :data:`DEVELOPMENT`, on which the method was developed (its numbers are optimistic
+by construction); :data:`HOLDOUT` — other seeds, other SNR levels, run counts and lengths — run
+to check the first versions of the method and again after later changes (so no longer quite
+unseen); and :data:`FRESH`, with seeds never used before, run once after the last change.
 
-Run: ``python benchmarks/gap_suite.py [--holdout]`` (writes
-``benchmarks/results/gap_suite[_holdout].{csv,md}``); ``--quick`` runs every tenth scenario,
+Run: ``python benchmarks/gap_suite.py [--grid development|holdout|fresh]`` (writes
+``benchmarks/results/gap_suite[_holdout|_fresh].{csv,md}``); ``--quick`` runs every tenth scenario,
 ``--jobs`` sets parallel workers (default 2).
 """
 
@@ -312,13 +313,20 @@ DEVELOPMENT = {"seed": 1000, "snr": (1.0, 2.0, 4.0, 8.0, 1.5), "runs": (3, 5, 4)
 
 HOLDOUT = {"seed": 7000, "snr": (0.75, 3.0, 6.0, 1.25, 2.5), "runs": (4, 3, 6), "run_min": (300.0, 180.0, 480.0),
            "ar": 2}
-"""A fresh grid (other seeds, other levels) never used while developing the method."""
+"""A second grid (other seeds, other levels), held out while developing the first versions."""
+
+FRESH = {"seed": 41000, "snr": (1.0, 0.75, 2.0, 5.0, 1.25), "runs": (3, 4, 5), "run_min": (360.0, 200.0, 300.0),
+         "ar": 1}
+"""A third grid with seeds never used before, run once after the last change of the method."""
+
+GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH}
+"""Every grid by name."""
 
 
-def scenarios(quick: bool = False, holdout: bool = False) -> list[Scenario]:
-    """The fixed scenario grid (deterministic seeds); ``holdout`` gives the fresh grid."""
+def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
+    """The fixed scenario grid of :data:`GRIDS` (deterministic seeds)."""
     out: list[Scenario] = []
-    levels = HOLDOUT if holdout else DEVELOPMENT
+    levels = GRIDS[grid]
 
     def design(i: int) -> dict:
         # Cycle through SNR x runs x record length x noise colour so every effect sees each level.
@@ -359,8 +367,8 @@ def scenarios(quick: bool = False, holdout: bool = False) -> list[Scenario]:
 def diagnose_case(s: Scenario, case: Case):
     """Run the diagnosis the way a user would on this scenario."""
     gantry = s.family.startswith("gantry")
-    common = dict(target="error_um", train=train_query(s), candidates=list(case.candidates),
-                  order="time_s" if gantry else "time_min", group="run")
+    common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
+              "order": "time_s" if gantry else "time_min", "group": "run"}
     if s.family.endswith("prediction"):
         return diagnose(case.table, prediction="prediction_um", **common)
     return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
@@ -510,18 +518,19 @@ def timing_case() -> tuple[int, int, float]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="Run every tenth scenario only.")
-    parser.add_argument("--holdout", action="store_true", help="Run the fresh grid (HOLDOUT) instead.")
+    parser.add_argument("--grid", choices=tuple(GRIDS), default="development",
+                        help="Scenario grid: development, holdout or fresh (run once, after the last method change).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Folder for gap_suite.csv and gap_suite.md.")
     args = parser.parse_args(argv)
-    grid = scenarios(args.quick, args.holdout)
+    grid = scenarios(args.quick, args.grid)
     started = time.perf_counter()
     rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
-    name = "gap_suite_holdout" if args.holdout else "gap_suite"
+    name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh"}[args.grid]
     table.to_csv(args.out / f"{name}.csv", index=False)
-    title = "held-out grid" if args.holdout else "development grid"
+    title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid"}[args.grid]
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"
     n_real, n_tests, seconds = timing_case()
     text += (f"\nPerformance case (issue target ≤ 20 s on 2 cores): {n_real} real rows, {n_tests} candidate × "

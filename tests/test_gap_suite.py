@@ -45,3 +45,10 @@ def test_labels_come_from_the_simulator(suite):
     case = suite.case_for(_scenario(suite, "tp-nut_heating-2"))
     assert case.truth[0] == "nut_C" and "axis_duty_pct" in case.truth
     assert "nut_C" in case.candidates and not set(case.truth[1:]) & set(case.candidates)
+
+
+def test_grids_never_share_a_seed(suite):
+    seeds = {grid: {s.seed for s in suite.scenarios(grid=grid)} for grid in suite.GRIDS}
+    assert all(len(seeds[grid]) >= 138 for grid in seeds)  # ≥ 100 withheld + ≥ 30 null, each its own seed
+    assert not seeds["fresh"] & (seeds["development"] | seeds["holdout"])
+    assert not seeds["development"] & seeds["holdout"]

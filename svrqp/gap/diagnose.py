@@ -10,7 +10,21 @@
    false-discovery rate and confounding (:mod:`svrqp.gap.attribute`).
 5. **Quantify** — out-of-sample shrink with a block-bootstrap interval, the gate re-run on what
    is left, and a refit of the model family with the effect as an input
-   (:mod:`svrqp.gap.quantify`).
+   (:mod:`svrqp.gap.quantify`); every significant cause is compared with the top one by a
+   paired block-bootstrap test of their out-of-sample losses (:mod:`svrqp.gap.compare`,
+   :func:`mark_ties`).
+
+Causes that cannot be told apart
+    Two kinds of evidence answer "is it this column or that one?". The conditional tests of
+    :mod:`svrqp.gap.attribute` ask whether each carries information beyond the other, on the
+    rows where they decorrelate; the paired loss test asks whether either fits the real rows
+    better. When the conditional tests separate neither column, the verdict is withheld
+    (``column: null``) and ``ambiguous_with`` lists both. When the conditional tests favour
+    the top cause (or credit each with its own information) but the paired test finds their
+    fits equal, the verdict **stays** on the top cause — the decorrelated evidence is the
+    sharper of the two, and it is not a guess — while ``ambiguous_with``, the ``ambiguous``
+    flag and ``p_paired`` of each tied cause, the verdict's reason and the one-sentence summary
+    all say that the others explain the gap about as well.
 6. **Report** — :class:`svrqp.gap.report.GapReport`.
 
 The discrepancy models of steps 4–5 use the base regressors "offsets + the model's features
