@@ -77,6 +77,9 @@ from svrqp.exceptions import ProblemError, SingularSystemError
 #: Fraction of the distance to the boundary that one interior-point step may cover.
 STEP_TO_BOUNDARY = 0.995
 
+#: A coefficient within this fraction of C of zero or of a bound starts the crossover in that state.
+CROSSOVER_THRESHOLD = 1e-6
+
 
 class DenseKernel:
     """An explicit Gram matrix: products by BLAS, Newton systems by dense Cholesky."""
@@ -125,7 +128,8 @@ class FactoredKernel:
         """A solver of :math:`(LL^\\top + \\operatorname{diag}(\\text{shift}))\\,x = \\text{rhs}` (Woodbury)."""
         d = 1.0 / shift
         DL = self.L * d[:, None]
-        core = self.L.T @ DL
+        # I + L^T D L by a symmetric rank-k update (half the flops of a general product), lower triangle only
+        core = scipy.linalg.blas.dsyrk(1.0, (self.L * np.sqrt(d)[:, None]).T, trans=0, lower=1)
         core.flat[:: core.shape[0] + 1] += 1.0
         try:
             factor = scipy.linalg.cho_factor(core, lower=True, overwrite_a=True, check_finite=False)
@@ -279,7 +283,7 @@ def _states(beta: NDArray[np.float64], C: float, threshold: float) -> NDArray[np
 def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64], C: float,
               epsilon: float, beta: NDArray[np.float64], *,
               products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]] | None = None,
-              threshold: float = 1e-6, kkt_tol: float = 1e-9, max_steps: int = 200,
+              threshold: float = CROSSOVER_THRESHOLD, kkt_tol: float = 1e-9, max_steps: int = 200,
               fast_steps: int = 8) -> CrossoverResult:
     """Active-set steps from an approximate ``beta`` to the exact optimum (module docstring).
 
@@ -318,30 +322,84 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     return careful
 
 
-@dataclass(frozen=True)
 class _KernelAccess:
-    columns: Callable[[NDArray[np.intp]], NDArray[np.float64]]
-    products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]]
-    n: int
+    """Kernel columns for the crossover, cached, and the bounded term :math:`K_{:,B}\\beta_B` kept up to date.
+
+    Each active-set step changes few states, so the free columns are mostly those of the last
+    step and the bounded term changes by a few columns: computing only what changed makes a step
+    cost :math:`O(n\\,\\Delta)` kernel entries instead of :math:`O(n\\,(|F| + |B|))`.
+    """
+
+    def __init__(self, columns: Callable[[NDArray[np.intp]], NDArray[np.float64]],
+                 products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]], n: int) -> None:
+        self._columns, self._products, self.n = columns, products, n
+        self._slots: dict[int, int] = {}  # sample index -> column of _store
+        self._store = np.empty((n, 0), order="F")
+        self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
+        self.bounded_term = np.zeros(n)
+
+    def free_columns(self, free: NDArray[np.intp]) -> NDArray[np.float64]:
+        """:math:`K_{:,F}`, computing only the columns not already cached."""
+        if len(self._slots) + free.size > 4 * free.size + 256:  # keep memory near O(n |F|)
+            kept = [i for i in free.tolist() if i in self._slots]
+            self._store = np.asfortranarray(self._store[:, [self._slots[i] for i in kept]])
+            self._slots = {i: slot for slot, i in enumerate(kept)}
+        missing = [i for i in free.tolist() if i not in self._slots]
+        if missing:
+            start = len(self._slots)
+            self._store = np.concatenate([self._store, self._columns(np.array(missing, dtype=np.intp))], axis=1)
+            self._slots.update({i: start + k for k, i in enumerate(missing)})
+        return self._store[:, [self._slots[i] for i in free.tolist()]]
+
+    def update_bounded(self, fixed: NDArray[np.float64], *, fresh: bool = False) -> NDArray[np.float64]:
+        """:math:`K \\cdot` ``fixed`` (``fixed`` is ±C on the bounded set, 0 elsewhere), updated by the change only.
+
+        ``fresh`` recomputes it from all bounded columns, so the final KKT check carries no
+        accumulated rounding.
+        """
+        if fresh:
+            self._fixed, self.bounded_term = np.zeros(self.n), np.zeros(self.n)
+        changed = np.flatnonzero(fixed != self._fixed)
+        if changed.size:
+            self.bounded_term = self.bounded_term + self._products(changed, fixed[changed] - self._fixed[changed])
+            self._fixed = fixed.copy()
+        return self.bounded_term
 
 
-def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states):
+def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False):
     """The equality-constrained optimum on the free set (module docstring), K_{:,F}, and K_{:,bounded} beta_bounded."""
     free = np.flatnonzero(np.abs(states) == 1)
-    bounded = np.flatnonzero(np.abs(states) == 2)
-    fixed = np.sign(states[bounded]) * C
-    K_free = kernel.columns(free) if free.size else np.zeros((kernel.n, 0))
-    bounded_term = kernel.products(bounded, fixed) if bounded.size else np.zeros(kernel.n)
+    fixed = np.where(np.abs(states) == 2, np.sign(states) * C, 0.0)
+    K_free = kernel.free_columns(free)
+    bounded_term = kernel.update_bounded(fixed, fresh=fresh)
     rhs = y[free] - epsilon * states[free] - bounded_term[free]
     target, b = _bordered_solve(K_free[free], rhs, -float(fixed.sum()))
     return free, fixed, K_free, bounded_term, target, b
 
 
+#: At most this many KKT violators (the worst ones) enter the free set in one step, beyond the
+#: size of the free set itself: a bias far off early on can flag thousands, and a free set of
+#: thousands costs O(n·|F|) kernel entries and an O(|F|³) solve for a step that is soon undone.
+ENTERING_PER_STEP = 64
+
+
 def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float):
-    """Fixed coefficients whose residual violates their KKT condition: (to free positive, to free negative)."""
+    """The worst fixed coefficients whose residual violates their KKT condition: (to free positive, to free negative).
+
+    A zero with :math:`|\\rho| > \\varepsilon` or a bound with :math:`\\rho` on the wrong side of
+    :math:`\\pm\\varepsilon` violates by that distance; at most ``ENTERING_PER_STEP`` plus the number
+    of free coefficients enter at once.
+    """
     zero = states == 0
-    positive = (zero & (rho > epsilon + slack)) | ((states == 2) & (rho < epsilon - slack))
-    negative = (zero & (rho < -epsilon - slack)) | ((states == -2) & (rho > -epsilon + slack))
+    violation_positive = np.where(zero, rho - epsilon, np.where(states == 2, epsilon - rho, -np.inf))
+    violation_negative = np.where(zero, -rho - epsilon, np.where(states == -2, rho + epsilon, -np.inf))
+    positive, negative = violation_positive > slack, violation_negative > slack
+    limit = ENTERING_PER_STEP + int(np.sum(np.abs(states) == 1))
+    if positive.sum() + negative.sum() > limit:
+        worst = np.maximum(violation_positive, violation_negative)
+        kept = np.zeros(rho.size, dtype=bool)
+        kept[np.argpartition(-worst, limit)[:limit]] = True
+        positive, negative = positive & kept, negative & kept
     return positive, negative
 
 
@@ -354,11 +412,10 @@ def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
 
 def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
     """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result."""
-    beta, b = np.zeros(y.size), 0.0
+    beta, b, fresh = np.zeros(y.size), 0.0, False
     for step in range(1, max_steps + 1):
-        free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states)
-        beta = np.zeros(y.size)
-        beta[np.abs(states) == 2] = fixed
+        free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states, fresh)
+        beta = fixed.copy()
         beta[free] = target
         rho, b = _residuals(y, K_free, target, bounded_term, states, epsilon, b, free)
         new_states = states.copy()
@@ -370,17 +427,20 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
         new_states[entering_positive] = 1
         new_states[entering_negative] = -1
         if np.array_equal(new_states, states):
-            return CrossoverResult(beta, b, step, True, int(free.size))
-        states = new_states
+            if fresh:
+                return CrossoverResult(beta, b, step, True, int(free.size))
+            fresh = True  # confirm once with the bounded term recomputed from scratch
+            continue
+        states, fresh = new_states, False
     return CrossoverResult(beta, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
 
 
 def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) -> CrossoverResult:
     """Move towards the free-set optimum as far as signs and box allow; free KKT violators after a full step."""
     current = np.where(np.abs(states) == 2, np.sign(states) * C, np.where(states == 0, 0.0, beta))
-    b = 0.0
+    b, fresh = 0.0, False
     for step in range(1, max_steps + 1):
-        free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states)
+        free, _, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states, fresh)
         length, blocking = _step_to_sign_or_box(current[free], target - current[free], states[free], C)
         current[free] += length * (target - current[free])
         if length < 1.0:
@@ -388,13 +448,18 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
             at_bound = np.abs(current[hit]) >= 0.5 * C
             states[hit] = np.where(at_bound, 2 * states[hit], 0)
             current[hit] = np.where(at_bound, np.sign(states[hit]) * C, 0.0)
+            fresh = False
             continue
         rho, b = _residuals(y, K_free, current[free], bounded_term, states, epsilon, b, free)
         entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
         if not (entering_positive.any() or entering_negative.any()):
-            return CrossoverResult(current, b, step, True, int(free.size))
+            if fresh:
+                return CrossoverResult(current, b, step, True, int(free.size))
+            fresh = True  # confirm once with the bounded term recomputed from scratch
+            continue
         states[entering_positive] = 1
         states[entering_negative] = -1
+        fresh = False
     return CrossoverResult(current, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
 
 
@@ -486,24 +551,27 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
 
 def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                           kernel: str = "rbf", gamma: float = 1.0, degree: int = 3, coef0: float = 0.0,
-                          tol: float = 1e-8, factor_tol: float = 1e-6, max_rank: int | None = None,
+                          tol: float = 1e-8, factor_tol: float = 1e-5, max_rank: int | None = None,
                           max_iter: int = 100) -> ExactFit:
     """The fastest exact path: a low-rank interior point when the kernel allows it, the dense one otherwise.
 
     A pivoted Cholesky factor of rank at most ``max_rank`` (default ``n // 8``) is tried first;
     if its relative trace error reaches ``factor_tol``, the interior point runs on
     :math:`LL^\top` in :math:`O(nr^2)` per iteration and the crossover, which uses exact kernel
-    columns of the support vectors only, turns its solution into the exact optimum. When the factor
-    does not reach ``factor_tol`` or the crossover does not settle, the full Gram matrix is formed
-    and :func:`solve_exact` runs. ``times_s`` adds the factorisation (``factor_s``) and Gram
-    (``gram_s``) times.
+    columns of the support vectors only, turns its solution into the exact optimum: the factor
+    only guides the search (a coarser one means more crossover steps, not another answer). When
+    the factor does not reach ``factor_tol`` or the crossover does not settle, the full Gram
+    matrix is formed and :func:`solve_exact` runs. ``times_s`` adds the factorisation
+    (``factor_s``) and Gram (``gram_s``) times.
     """
     from svrqp.formulations.low_rank import pivoted_cholesky
     from svrqp.kernel_columns import KernelColumns
     from svrqp.kernels import gram
 
     X = np.asarray(X, dtype=float)
+    y = np.asarray(y, dtype=float)
     n = X.shape[0]
+    _check(y, C, epsilon, n)
     parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
     start = time.perf_counter()
     columns = KernelColumns(X, **parameters)

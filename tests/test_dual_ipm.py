@@ -6,14 +6,22 @@ import numpy as np
 import pytest
 from sklearn.svm import SVR
 
-from svrqp import dual_ipm
+from svrqp import bench, dual_ipm
 from svrqp.exceptions import ProblemError
 from svrqp.formulations.epsilon_svr import dual_objective
 from svrqp.formulations.low_rank import pivoted_cholesky
 from svrqp.kernel_columns import KernelColumns
 from svrqp.kernels import gram
 
-from problems import SVR_CASES, thermal_two_sensors
+from problems import SVR_CASES, SVRCase, thermal_two_sensors
+
+
+def warm_up_few_support() -> SVRCase:
+    """600 samples of the benchmark's S0-like warm-up set (10 temperatures): smooth, so most points
+    lie inside the tube and the support vectors are a small fraction — the working-set path's case."""
+    X, y = bench.thermal(600, 10, seed=0)
+    return SVRCase("warm_up_few_support", X, y, C=10.0, epsilon=0.1, gamma=bench.resolve_gamma("scale", X),
+                   why="few support vectors, low numerical rank")
 
 
 def libsvm_beta(case) -> tuple[np.ndarray, float]:
@@ -70,7 +78,7 @@ def test_solve_exact_from_data_matches_the_dense_path(case_factory):
 
 
 def test_low_rank_path_forms_no_gram_and_falls_back_when_the_factor_is_poor():
-    case = thermal_two_sensors()  # two smooth features: a low numerical rank
+    case = warm_up_few_support()
     low_rank = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
                                               factor_tol=1e-8, max_rank=len(case.y))
     assert low_rank.times_s["gram_s"] == 0.0
@@ -120,3 +128,15 @@ def test_invalid_parameters_are_rejected(C, epsilon):
     case = thermal_two_sensors()
     with pytest.raises(ProblemError):
         dual_ipm.interior_point(dual_ipm.DenseKernel(gram(case.X, gamma=case.gamma)), case.y, C, epsilon)
+
+
+@pytest.mark.parametrize("factor_tol", [1e-3, 1e-5])
+def test_a_coarse_factor_still_gives_the_exact_optimum(factor_tol):
+    """The factor only guides the search: a rough one gives a longer crossover, never another answer."""
+    case = warm_up_few_support()
+    K = gram(case.X, gamma=case.gamma)
+    fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
+                                         factor_tol=factor_tol, max_rank=len(case.y))
+    assert fit.crossover.exact and fit.times_s["gram_s"] == 0.0
+    assert_exact_kkt(K, case.y, fit.beta, fit.intercept, case.C, case.epsilon)
+    assert_matches_libsvm(case, K, fit.beta, fit.intercept)
