@@ -171,9 +171,13 @@ def _check(y: NDArray[np.float64], C: float, epsilon: float, n: int) -> None:
 
 
 def _max_step(x: NDArray, dx: NDArray) -> float:
-    """Largest step in [0, 1] keeping ``x + step * dx >= 0``."""
-    negative = dx < 0
-    return float(min(1.0, np.min(-x[negative] / dx[negative], initial=np.inf)))
+    """Largest step in [0, 1] keeping ``x + step * dx >= 0``, for ``x > 0`` (an interior point).
+
+    The step is :math:`1/\\max_i(-dx_i/x_i)` when that maximum exceeds 1: one division and one
+    reduction, no boolean masks (this runs eight times per iteration on vectors of length n).
+    """
+    worst = float(np.max(-dx / x))
+    return 1.0 if worst <= 1.0 else 1.0 / worst
 
 
 def interior_point(kernel: KernelOperator, y: NDArray[np.float64], C: float, epsilon: float, *,
