@@ -55,24 +55,11 @@ def export_model(
 class ExportMixin:
     """Adds :meth:`export` to an estimator (``class EpsilonSVR(ExportMixin, _KernelModel)``)."""
 
-    def export(
-        self,
-        path: str | Path,
-        format: str | None = None,
-        *,
-        X: ArrayLike | None = None,
-        y: ArrayLike | None = None,
-        feature_names: Sequence[str] | None = None,
-        feature_units: Sequence[str | None] | None = None,
-        target_name: str | None = None,
-        target_unit: str | None = None,
-        probes: ArrayLike | None = None,
-        overwrite: bool = False,
-    ) -> list[Path]:
+    def export(self, path: str | Path, format: str | None = None, **options: Any) -> list[Path]:
         """Write this fitted model as an auditable ``svrqp.model/1`` JSON, a CSV table or C source.
 
-        See :func:`svrqp.export.export_model` for the parameters.
+        ``options`` are the keyword arguments of :func:`svrqp.export.export_model` (``X``, ``y``,
+        ``feature_names``, ``feature_units``, ``target_name``, ``target_unit``, ``probes``,
+        ``overwrite``), forwarded unchanged, so the two cannot drift apart.
         """
-        return export_model(self, path, format, X=X, y=y, feature_names=feature_names,
-                            feature_units=feature_units, target_name=target_name, target_unit=target_unit,
-                            probes=probes, overwrite=overwrite)
+        return export_model(self, path, format, **options)
