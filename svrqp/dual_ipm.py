@@ -415,8 +415,12 @@ def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
 
 
 def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
-    """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result."""
-    beta, b, fresh = np.zeros(y.size), 0.0, False
+    """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result.
+
+    Gives up as soon as the number of state changes stops shrinking: away from the optimum the
+    method can swing large sets back and forth, and each such step costs a large free-set solve.
+    """
+    beta, b, fresh, previous_changes = np.zeros(y.size), 0.0, False, y.size + 1
     for step in range(1, max_steps + 1):
         free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states, fresh)
         beta = fixed.copy()
@@ -435,7 +439,10 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
                 return CrossoverResult(beta, b, step, True, int(free.size))
             fresh = True  # confirm once with the bounded term recomputed from scratch
             continue
-        states, fresh = new_states, False
+        changes = int(np.count_nonzero(new_states != states))
+        if changes >= previous_changes:
+            return CrossoverResult(beta, b, step, False, int(free.size))
+        states, fresh, previous_changes = new_states, False, changes
     return CrossoverResult(beta, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
 
 
