@@ -127,8 +127,7 @@ class FactoredKernel:
     def shifted_solver(self, shift: NDArray[np.float64]) -> Callable[[NDArray], NDArray]:
         """A solver of :math:`(LL^\\top + \\operatorname{diag}(\\text{shift}))\\,x = \\text{rhs}` (Woodbury)."""
         d = 1.0 / shift
-        DL = self.L * d[:, None]
-        # I + L^T D L by a symmetric rank-k update (half the flops of a general product), lower triangle only
+        # I + L^T D L as the Gram matrix of D^{1/2} L (lower triangle; no n×r product with D kept)
         core = scipy.linalg.blas.dsyrk(1.0, (self.L * np.sqrt(d)[:, None]).T, trans=0, lower=1)
         core.flat[:: core.shape[0] + 1] += 1.0
         try:
@@ -137,8 +136,8 @@ class FactoredKernel:
             raise SingularSystemError("I + L^T D L is not positive definite") from None
 
         def solve(rhs: NDArray) -> NDArray:
-            Drhs = rhs * (d if rhs.ndim == 1 else d[:, None])
-            return Drhs - DL @ scipy.linalg.cho_solve(factor, self.L.T @ Drhs, check_finite=False)
+            Drhs = rhs * d
+            return Drhs - d * (self.L @ scipy.linalg.cho_solve(factor, self.L.T @ Drhs, check_finite=False))
 
         return solve
 
