@@ -27,27 +27,6 @@ def test_factor_trace_error_is_the_trace_of_the_residual():
     assert len(set(factor.pivots.tolist())) == factor.rank
 
 
-@pytest.mark.parametrize("block_size", [4, 7, 64])
-def test_blocks_choose_the_same_pivots_as_one_at_a_time(block_size):
-    """Greedy order is kept: a block stops where a candidate is no longer the largest residual."""
-    case = diabetes()
-    one = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=40, tol=0.0)
-    blocked = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=40, tol=0.0,
-                                        block_size=block_size)
-    np.testing.assert_array_equal(blocked.pivots, one.pivots)
-    np.testing.assert_allclose(blocked.L, one.L, atol=1e-10)
-    K = gram(case.X, gamma=case.gamma)
-    assert blocked.trace_error == pytest.approx(np.trace(K - blocked.L @ blocked.L.T), rel=1e-8)
-
-
-def test_blocked_factor_stops_at_the_tolerance_like_one_at_a_time():
-    case = thermal_two_sensors()
-    one = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=1e-4)
-    blocked = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=1e-4,
-                                        block_size=16)
-    assert blocked.rank == one.rank and blocked.relative_trace_error <= 1e-4
-
-
 def test_full_factor_reproduces_the_gram_matrix_and_stops_at_the_tolerance():
     case = thermal_two_sensors()
     K = gram(case.X, gamma=case.gamma)
@@ -89,7 +68,5 @@ def test_bad_arguments_are_rejected():
     columns = KernelColumns(case.X, gamma=case.gamma)
     with pytest.raises(ProblemError, match="max_rank"):
         low_rank.pivoted_cholesky(columns, max_rank=0)
-    with pytest.raises(ProblemError, match="block_size"):
-        low_rank.pivoted_cholesky(columns, max_rank=3, block_size=0)
     with pytest.raises(ProblemError, match="rows"):
         low_rank.dual_low_rank(np.ones((3, 2)), case.y, case.C, case.epsilon)

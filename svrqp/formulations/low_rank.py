@@ -40,7 +40,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
@@ -70,9 +69,8 @@ class LowRankFactor:
         return self.trace_error / self.trace if self.trace > 0 else 0.0
 
 
-def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8,
-                     block_size: int = 1) -> LowRankFactor:
-    r"""Greedy pivoted Cholesky of the Gram matrix behind ``columns`` (module docstring).
+def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8) -> LowRankFactor:
+    """Greedy pivoted Cholesky of the Gram matrix behind ``columns`` (module docstring).
 
     Parameters
     ----------
@@ -81,66 +79,33 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
     max_rank
         Largest number of columns of L.
     tol
-        Stop when :math:`\operatorname{tr}(K - LL^\top) \le` ``tol`` · :math:`\operatorname{tr} K`.
-    block_size
-        Candidates evaluated together (see :func:`_greedy_block`): the same pivots as one at a
-        time, with matrix-matrix instead of matrix-vector products; a block may evaluate up to
-        ``block_size`` columns it does not use (they stay in ``columns``' cache).
+        Stop when :math:`\\operatorname{tr}(K - LL^\\top) \\le` ``tol`` · :math:`\\operatorname{tr} K`.
     """
     n = columns.n
     if max_rank < 1:
         raise ProblemError(f"max_rank must be at least 1, got {max_rank}")
     if not tol >= 0:
         raise ProblemError(f"tol must be non-negative, got {tol}")
-    if block_size < 1:
-        raise ProblemError(f"block_size must be at least 1, got {block_size}")
     max_rank = min(max_rank, n)
     residual = columns.diagonal().astype(float)
     trace = float(residual.sum())
     L = np.zeros((n, max_rank), order="F")
-    pivots: list[int] = []
-    while len(pivots) < max_rank and residual.sum() > tol * trace:
-        new_pivots, L_new = _greedy_block(columns, L[:, :len(pivots)], residual,
-                                          min(block_size, max_rank - len(pivots)))
-        if not new_pivots.size:
+    pivots = []
+    for k in range(max_rank):
+        if residual.sum() <= tol * trace:
+            break
+        pivot = int(np.argmax(residual))
+        if residual[pivot] <= 0.0:
             break  # the remaining residual is rounding noise
-        # Keep the columns up to the one that brings the trace under the tolerance, as one at a time would.
-        remaining = residual.sum() - np.cumsum(np.einsum("ij,ij->j", L_new, L_new))
-        keep = min(new_pivots.size, int(np.searchsorted(-remaining, -tol * trace)) + 1)
-        rank = len(pivots)
-        L[:, rank:rank + keep] = L_new[:, :keep]
-        residual -= np.einsum("ij,ij->i", L_new[:, :keep], L_new[:, :keep])
-        residual[new_pivots[:keep]] = 0.0
+        column = columns(np.array([pivot]))[:, 0] - L[:, :k] @ L[pivot, :k]
+        L[:, k] = column / np.sqrt(residual[pivot])
+        residual -= L[:, k] ** 2
+        residual[pivot] = 0.0
         np.maximum(residual, 0.0, out=residual)  # rounding can leave tiny negatives
-        pivots.extend(new_pivots[:keep].tolist())
+        pivots.append(pivot)
     rank = len(pivots)
     return LowRankFactor(np.ascontiguousarray(L[:, :rank]), np.array(pivots, dtype=np.intp),
                          float(residual.sum()), trace)
-
-
-def _greedy_block(columns: KernelColumns, L: NDArray[np.float64], residual: NDArray[np.float64],
-                  width: int) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-    r"""The next greedy pivots among the ``width`` largest residuals, and their columns of L.
-
-    The candidates' residual columns :math:`G = K_{:,P} - L L_{P,:}^\top` come from one matrix
-    product; LAPACK's pivoted Cholesky of the small block :math:`G_{P,:} = R^\top R` (``pstrf``)
-    takes them in greedy order, and the new columns are :math:`G_{:,\pi} R^{-1}`. It stops at the
-    first candidate whose residual falls below the largest residual outside the block: residuals
-    only decrease, so every pivot taken is the argmax over all points, the one-at-a-time choice.
-    """
-    order = np.argsort(residual)[::-1]
-    candidates = order[:width][residual[order[:width]] > 0.0]
-    if not candidates.size:
-        return candidates, np.zeros((L.shape[0], 0))
-    G = columns(candidates) - L @ L[candidates].T
-    S = G[candidates]
-    outside = float(residual[order[width]]) if order.size > width else 0.0
-    floor = np.finfo(float).eps * candidates.size * float(np.max(np.diag(S)))  # LAPACK's own rounding floor
-    R, permutation, rank, _ = scipy.linalg.lapack.dpstrf(S, tol=max(outside, floor), lower=0)
-    taken = permutation[:rank] - 1  # LAPACK counts from 1
-    L_new = scipy.linalg.solve_triangular(R[:rank, :rank], G[:, taken].T, trans="T", lower=False,
-                                          check_finite=False).T
-    return candidates[taken], L_new
 
 
 def dual_low_rank(L: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
