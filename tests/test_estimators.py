@@ -77,12 +77,11 @@ def test_non_psd_precomputed_kernel_is_rejected(Model):
         Model(kernel="precomputed").fit(K, np.array([1.0, 2.0, 3.0]))
 
 
-def test_precomputed_kernel_equals_the_built_in_one():
-    from svrqp.kernels import gram
-
-    built_in = EpsilonSVR(C=10.0, gamma=2.0).fit(X_OK, Y_OK)
+@pytest.mark.parametrize("solver", ["clarabel", "dual_ipm"])
+def test_precomputed_kernel_equals_the_built_in_one(solver):
+    built_in = EpsilonSVR(C=10.0, gamma=2.0, solver=solver).fit(X_OK, Y_OK)
     K = gram(X_OK, gamma=2.0)
-    pre = EpsilonSVR(C=10.0, kernel="precomputed").fit(K, Y_OK)
+    pre = EpsilonSVR(C=10.0, kernel="precomputed", solver=solver).fit(K, Y_OK)
     np.testing.assert_allclose(pre.predict(K), built_in.predict(X_OK), atol=1e-9)
 
 
