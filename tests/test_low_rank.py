@@ -70,3 +70,21 @@ def test_bad_arguments_are_rejected():
         low_rank.pivoted_cholesky(columns, max_rank=0)
     with pytest.raises(ProblemError, match="rows"):
         low_rank.dual_low_rank(np.ones((3, 2)), case.y, case.C, case.epsilon)
+
+
+def test_pivot_expansion_is_the_factored_model_and_the_exact_one_at_full_rank():
+    """Σ_j c_j k(x_j, x) equals L Lᵀ β on the training points (any rank) and K β at full rank."""
+    case = diabetes()
+    rng = np.random.default_rng(5)
+    beta = rng.uniform(-case.C, case.C, len(case.y))
+    truncated = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=15, tol=0.0)
+    c = low_rank.pivot_coefficients(truncated, beta)
+    pivot_kernel = gram(case.X, case.X[truncated.pivots], gamma=case.gamma)  # independent of L
+    np.testing.assert_allclose(pivot_kernel @ c, truncated.L @ (truncated.L.T @ beta), rtol=1e-8, atol=1e-8)
+    full = low_rank.pivoted_cholesky(KernelColumns(case.X, gamma=case.gamma), max_rank=len(case.y), tol=1e-14)
+    c_full = low_rank.pivot_coefficients(full, beta)
+    K = gram(case.X, gamma=case.gamma)
+    np.testing.assert_allclose(gram(case.X, case.X[full.pivots], gamma=case.gamma) @ c_full, K @ beta,
+                               atol=1e-6 * np.abs(K @ beta).max())
+    with pytest.raises(ProblemError, match="beta"):
+        low_rank.pivot_coefficients(truncated, beta[:-1])

@@ -27,8 +27,20 @@ as a QP in :math:`x = [\alpha; \alpha^*; w]`: :math:`P = \operatorname{diag}(0, 
 :math:`q = [\varepsilon\mathbf 1 + y;\ \varepsilon\mathbf 1 - y;\ 0]`,
 :math:`A = \begin{bmatrix} -L^\top & L^\top & -I_r \\ -\mathbf 1^\top & \mathbf 1^\top & 0\end{bmatrix}`,
 :math:`b = 0`. Its size is :math:`2n + r` with :math:`O(nr)` nonzeros (the dense problem has
-:math:`n^2`). The decision function keeps the exact kernel:
-:math:`f(x) = \sum_i \beta_i k(x_i, x) + b`.
+:math:`n^2`). Two decision functions: the exact kernel,
+:math:`f(x) = \sum_i \beta_i k(x_i, x) + b`, right when the factor is accurate; and the model
+that was actually optimised, over the pivots :math:`P` only. The greedy factor reproduces the pivot
+columns exactly, :math:`K_{:,P} = L L_{P,:}^\top` with :math:`L_{P,:}` lower triangular, so the
+Nyström feature of any :math:`x` is :math:`\varphi(x) = L_{P,:}^{-1} k(x_P, x)` (row :math:`i` of L
+for a training point) and
+
+.. math::
+
+    f(x) = \varphi(x)^\top w + b = \sum_{j \in P} c_j\, k(x_j, x) + b,
+    \qquad c = L_{P,:}^{-\top} L^\top \beta ,
+
+:func:`pivot_coefficients` — r kernel evaluations per prediction, and consistent with the
+factored objective however large :math:`\operatorname{tr}(K - LL^\top)` is.
 
 **Effect of the approximation.** For any feasible :math:`\beta`, the objectives with :math:`K` and
 with :math:`LL^\top` differ by :math:`\tfrac12\beta^\top E\beta \le \tfrac12 \lVert\beta\rVert^2 \operatorname{tr}E
@@ -40,6 +52,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
@@ -135,6 +148,27 @@ def dual_low_rank(L: NDArray[np.float64], y: NDArray[np.float64], C: float, epsi
 def beta_from_solution(n: int, x: NDArray[np.float64]) -> NDArray[np.float64]:
     r""":math:`\beta = \alpha^* - \alpha` from a solution :math:`x = [\alpha; \alpha^*; w]`."""
     return x[n:2 * n] - x[:n]
+
+
+def pivot_coefficients(factor: LowRankFactor, beta: NDArray[np.float64]) -> NDArray[np.float64]:
+    r""":math:`c = L_{P,:}^{-\top} L^\top \beta`: the factored model as :math:`\sum_{j \in P} c_j k(x_j, x) + b`.
+
+    Parameters
+    ----------
+    factor
+        The pivoted Cholesky factor the dual was solved with.
+    beta
+        Its solution :math:`\alpha^* - \alpha`, shape ``(n,)``.
+
+    Returns
+    -------
+    ndarray of shape ``(rank,)``
+        Coefficients of the pivots ``factor.pivots``, in that order.
+    """
+    if beta.shape != (factor.L.shape[0],):
+        raise ProblemError(f"beta must have {factor.L.shape[0]} entries, got shape {beta.shape}")
+    w = factor.L.T @ beta
+    return scipy.linalg.solve_triangular(factor.L[factor.pivots], w, trans="T", lower=True, check_finite=False)
 
 
 def objective_error_bound(factor: LowRankFactor, n: int, C: float) -> float:
