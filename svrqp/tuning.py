@@ -211,9 +211,10 @@ KKT_TOL = 1e-8
 def _kkt_holds(K: NDArray, y: NDArray, beta: NDArray, b: float, C: float, epsilon: float) -> bool:
     r"""Every ε-SVR optimality condition at (β, b), checked here rather than trusted from the crossover.
 
-    The crossover's own check omits :math:`\mathbf 1^\top\beta = 0` when no coefficient is free
-    (an all-bound active set guessed from another C can be unbalanced), so it is re-checked with
-    the tube conditions: zeros inside the tube, free coefficients on it, bounded ones outside.
+    A warm start guessed from another C is far from the states the crossover was designed to
+    start from (an interior point's), so its answer is re-checked from first principles: the
+    equality :math:`\mathbf 1^\top\beta = 0`, the box, zeros inside the tube, free coefficients
+    on it, bounded ones outside.
     """
     slack = KKT_TOL * (1.0 + float(np.max(np.abs(y))))
     if abs(float(beta.sum())) > KKT_TOL * C * beta.size or np.max(np.abs(beta)) > C:

@@ -140,3 +140,20 @@ def test_a_coarse_factor_still_gives_the_exact_optimum(factor_tol):
     assert fit.crossover.exact and fit.times_s["gram_s"] == 0.0
     assert_exact_kkt(K, case.y, fit.beta, fit.intercept, case.C, case.epsilon)
     assert_matches_libsvm(case, K, fit.beta, fit.intercept)
+
+
+def test_crossover_never_calls_an_unbalanced_all_bound_guess_exact():
+    """With no free coefficient the free-set solve cannot restore 1ᵀβ = 0: such states are no optimum.
+
+    Two unrelated points (K = I) with the same target, both guessed at +C: the midpoint bias puts
+    both residuals exactly on the tube edge, so no KKT condition flags them, yet 1ᵀβ = 2C. The
+    integer C also checks that an int C does not overflow the int8 states.
+    """
+    K, y, C = np.eye(2), np.array([10.0, 10.0]), 1
+    for fast_steps, max_steps in ((10, 0), (8, 200)):
+        result = dual_ipm.crossover(lambda idx: K[:, idx], y, C, 0.1, np.array([1.0, 1.0]),
+                                    fast_steps=fast_steps, max_steps=max_steps)
+        assert not result.exact
+    fit = dual_ipm.solve_exact(K, y, C, 0.1)  # from the interior point the optimum β = 0 is found
+    assert fit.crossover.exact
+    assert_exact_kkt(K, y, fit.beta, fit.intercept, C, 0.1)
