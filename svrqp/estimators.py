@@ -346,7 +346,10 @@ class LSSVR(ExportMixin, _KernelModel):
             alpha, b = (x[1:], float(x[0])) if self.fit_intercept else (x, 0.0)
         else:
             start = time.perf_counter()
-            alpha, b, info = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept)
+            # A Gram matrix of our own is not needed afterwards (problem_ holds a copy): factor it in
+            # place; a precomputed kernel is the caller's array and is left alone.
+            alpha, b, info = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept,
+                                                         overwrite_K=self.kernel != "precomputed")
             self.solution_ = Solution(
                 x=np.concatenate([[b], alpha]), y=None, z=None, z_box=None, objective=0.0,
                 status="optimal",

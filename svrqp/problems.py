@@ -57,7 +57,7 @@ def _as_matrix(M: Any, name: str) -> Matrix | None:
         M = np.asarray(M)
         if M.dtype == object or not np.issubdtype(M.dtype, np.number):
             raise ProblemError(f"{name} must be numeric, got dtype {M.dtype}")
-        M = np.atleast_2d(M.astype(float))
+        M = np.atleast_2d(M.astype(float, copy=False))
         values = M
     if M.ndim != 2:
         raise ProblemError(f"{name} must be a 2-D matrix, got shape {M.shape}")

@@ -180,3 +180,12 @@ def test_dual_ipm_model_exports_and_verifies(tmp_path):
     [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
     report = verify(path)
     assert report.ok, [check for check in report.checks if not check.ok]
+
+
+def test_lssvr_leaves_a_precomputed_kernel_untouched():
+    """The Cholesky factorisation works in place on svrqp's own Gram matrix, never on the caller's."""
+    case = thermal_two_sensors()
+    K = gram(case.X, gamma=case.gamma)
+    before = K.copy()
+    LSSVR(C=10.0, kernel="precomputed").fit(K, case.y)
+    np.testing.assert_array_equal(K, before)
