@@ -16,7 +16,6 @@ from svrqp.exceptions import ProblemError
 from svrqp.kernels import (
     check_kernel_parameters,
     finish_in_place,
-    gram,
     left_factor,
     right_factor,
 )
@@ -47,10 +46,18 @@ class KernelColumns:
         return self.X.shape[0]
 
     def diagonal(self) -> NDArray[np.float64]:
-        """:math:`K_{ii}` for every sample, from small diagonal blocks (no column is formed)."""
-        block = 256
-        return np.concatenate([np.diag(gram(self.X[start:start + block], **self.parameters))
-                               for start in range(0, self.n, block)])
+        """:math:`K_{ii}` for every sample, in closed form (no column is formed).
+
+        RBF: :math:`k(x, x) = 1`; linear: :math:`\\lVert x\\rVert^2`; polynomial:
+        :math:`(\\gamma\\lVert x\\rVert^2 + c)^d`.
+        """
+        kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
+        if kernel == "rbf":
+            return np.ones(self.n)
+        squared_norms = np.einsum("ij,ij->i", self.X, self.X)
+        if kernel == "linear":
+            return squared_norms
+        return (gamma * squared_norms + self.parameters["coef0"]) ** int(self.parameters["degree"])
 
     def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
         idx = np.asarray(idx, dtype=np.intp).ravel()
