@@ -137,9 +137,8 @@ def main() -> None:
         f"{machine['python']}, OPENBLAS_CORETYPE = {machine['OPENBLAS_CORETYPE']}. BLAS (threadpoolctl): {blas}. "
         "Versions: " + ", ".join(f"{name} {value}" for name, value in package_versions().items()) + ".",
         ("## Limitations\n\n"
-        "The fit includes input validation, the stored KKT matrix `problem_` (an (n+1)x(n+1) copy, and "
-        "`LinearSystem` copies it once more while validating it), the copy of Omega + I/C that the "
-        "factorisation overwrites, the Schur-complement solves and the certificate (one symmetric "
+        "The fit includes input validation, the stored KKT matrix `problem_` (an (n+1)x(n+1) copy), the "
+        "Cholesky factorisation in place of the fit's own Gram matrix, the Schur-complement solves and the certificate (one symmetric "
         "matrix-vector product); the floors are the Gram build and the factorisation only. The reference "
         "floor's `cho_factor` copies the C-ordered K to Fortran order inside scipy (what `overwrite_a=True` "
         "gives a C-ordered array); the tight floor avoids that copy. Peak memory is tracemalloc's count of "
