@@ -27,6 +27,8 @@ SKLEARN_KERNELS = [
      lambda A, B=None: polynomial_kernel(A, B, degree=1, gamma=0.8, coef0=-0.5)),
     ({"kernel": "rbf", "gamma": 0.7}, lambda A, B=None: rbf_kernel(A, B, gamma=0.7)),
 ]
+#: Stable test ids (pytest-xdist workers must collect the same names; a function's repr holds its address).
+SKLEARN_KERNEL_IDS = ["linear", "poly-degree-3", "poly-degree-1-negative-coef0", "rbf"]
 
 
 @pytest.fixture
@@ -42,14 +44,14 @@ def test_gram_matrices_equal_scikit_learn():
     np.testing.assert_allclose(gram(X, Y, kernel="rbf", gamma=0.7), rbf_kernel(X, Y, gamma=0.7), rtol=1e-12, atol=1e-15)
 
 
-@pytest.mark.parametrize("parameters, reference", SKLEARN_KERNELS, ids=lambda p: str(p)[:30])
+@pytest.mark.parametrize("parameters, reference", SKLEARN_KERNELS, ids=SKLEARN_KERNEL_IDS)
 def test_blocked_gram_equals_scikit_learn_symmetric_and_rectangular(tiny_blocks, parameters, reference):
     np.testing.assert_allclose(gram(X, **parameters), reference(X), rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(gram(X, Y, **parameters), reference(X, Y), rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(gram(Y, X, **parameters), reference(Y, X), rtol=1e-12, atol=1e-14)
 
 
-@pytest.mark.parametrize("parameters, reference", SKLEARN_KERNELS, ids=lambda p: str(p)[:30])
+@pytest.mark.parametrize("parameters, reference", SKLEARN_KERNELS, ids=SKLEARN_KERNEL_IDS)
 def test_training_gram_is_exactly_symmetric_for_every_kernel(tiny_blocks, parameters, reference):
     K = gram(X, **parameters)
     np.testing.assert_array_equal(K, K.T)
