@@ -41,6 +41,14 @@ def test_nothing_is_named_without_a_measured_cause(suite, name):
     assert not row["named"], f"{name}: named {row['verdict']!r}"
 
 
+def test_a_significant_candidate_whose_shrink_interval_holds_zero_is_not_named(suite):
+    """Held-out null scenario where a decoy passes the surrogate test (q = 0.03) while its out-of-sample
+    shrink interval is −4 % … 12 %: the verdict needs both, so nothing is named."""
+    scenario = next(s for s in suite.scenarios(grid="holdout") if s.name == "tp-null-10")
+    row = suite.evaluate(scenario)
+    assert not row["named"], f"named {row['verdict']!r}"
+
+
 def test_labels_come_from_the_simulator(suite):
     case = suite.case_for(_scenario(suite, "tp-nut_heating-2"))
     assert case.truth[0] == "nut_C" and "axis_duty_pct" in case.truth

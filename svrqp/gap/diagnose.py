@@ -12,7 +12,9 @@
    is left, and a refit of the model family with the effect as an input
    (:mod:`svrqp.gap.quantify`); every significant cause is compared with the top one by a
    paired block-bootstrap test of their out-of-sample losses (:mod:`svrqp.gap.compare`,
-   :func:`mark_ties`).
+   :func:`mark_ties`). A verdict names a cause only when its shrink interval also excludes
+   zero: significance says the candidate carries information, the interval that the real-row
+   error actually shrinks.
 
 Causes that cannot be told apart
     Two kinds of evidence answer "is it this column or that one?". The conditional tests of
@@ -329,6 +331,14 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
                    f"{attr.MIN_AMPLITUDE:g}× the noise).")
         return Verdict(column=None, reason=reason), None
     top = causes[0]
+    if top.shrink_ci[0] <= 0.0:
+        # Significance says the candidate carries information; the interval says whether the
+        # real-row error actually shrinks. A verdict must claim both (naming a decoy is worse than null).
+        reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} passes the significance "
+                  f"test (q = {top.p_value:.2g}), but the out-of-sample shrink of the real-row RMSE it brings, "
+                  f"{top.shrink:.0%} (95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}), is not "
+                  "distinguishable from zero; no cause is named.")
+        return Verdict(column=None, reason=reason), None
     refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)
     after = errors_after[top.column]
     residual_gate = gate(after, groups, baseline.train_reference, train_groups)
