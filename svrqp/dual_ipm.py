@@ -327,33 +327,19 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
 
 
 class _KernelAccess:
-    """Kernel columns for the crossover, cached, and the bounded term :math:`K_{:,B}\\beta_B` kept up to date.
+    """Kernel columns for the crossover and the bounded term :math:`K_{:,B}\\beta_B`, kept up to date.
 
-    Each active-set step changes few states, so the free columns are mostly those of the last
-    step and the bounded term changes by a few columns: computing only what changed makes a step
-    cost :math:`O(n\\,\\Delta)` kernel entries instead of :math:`O(n\\,(|F| + |B|))`.
+    Each active-set step changes few states, so the bounded term changes by a few columns:
+    updating it by the change only makes a step cost :math:`O(n\\,(|F| + \\Delta))` kernel entries
+    instead of :math:`O(n\\,(|F| + |B|))`. Columns are served by ``columns`` (a
+    :class:`svrqp.kernel_columns.KernelColumns` caches them; a dense K is indexed).
     """
 
     def __init__(self, columns: Callable[[NDArray[np.intp]], NDArray[np.float64]],
                  products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]], n: int) -> None:
-        self._columns, self._products, self.n = columns, products, n
-        self._slots: dict[int, int] = {}  # sample index -> column of _store
-        self._store = np.empty((n, 0), order="F")
+        self.free_columns, self._products, self.n = columns, products, n
         self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
         self.bounded_term = np.zeros(n)
-
-    def free_columns(self, free: NDArray[np.intp]) -> NDArray[np.float64]:
-        """:math:`K_{:,F}`, computing only the columns not already cached."""
-        if len(self._slots) + free.size > 4 * free.size + 256:  # keep memory near O(n |F|)
-            kept = [i for i in free.tolist() if i in self._slots]
-            self._store = np.asfortranarray(self._store[:, [self._slots[i] for i in kept]])
-            self._slots = {i: slot for slot, i in enumerate(kept)}
-        missing = [i for i in free.tolist() if i not in self._slots]
-        if missing:
-            start = len(self._slots)
-            self._store = np.concatenate([self._store, self._columns(np.array(missing, dtype=np.intp))], axis=1)
-            self._slots.update({i: start + k for k, i in enumerate(missing)})
-        return self._store[:, [self._slots[i] for i in free.tolist()]]
 
     def update_bounded(self, fixed: NDArray[np.float64], *, fresh: bool = False) -> NDArray[np.float64]:
         """:math:`K \\cdot` ``fixed`` (``fixed`` is ±C on the bounded set, 0 elsewhere), updated by the change only.
@@ -585,7 +571,7 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
 
 def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                           kernel: str = "rbf", gamma: float = 1.0, degree: int = 3, coef0: float = 0.0,
-                          tol: float = 1e-8, factor_tol: float = 1e-5, max_rank: int | None = None,
+                          tol: float = 1e-8, factor_tol: float = 3e-5, max_rank: int | None = None,
                           max_iter: int = 100) -> ExactFit:
     """The fastest exact path: a low-rank interior point when the kernel allows it, the dense one otherwise.
 

@@ -37,7 +37,10 @@ class KernelColumns:
         self.parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
             self._left = left_factor(self.X, kernel, gamma, coef0)  # shared by every column block
-        self._cache: dict[int, NDArray[np.float64]] = {}
+        # The cache: column j of K is _store[:, _slot[j]]. One Fortran array (capacity doubled as it
+        # fills) so that serving many cached columns is one gather, not a stack of small arrays.
+        self._slot: dict[int, int] = {}
+        self._store = np.empty((self.X.shape[0], 0), order="F")
         self.evaluated = 0  # number of columns computed (not served from the cache)
 
     @property
@@ -60,16 +63,20 @@ class KernelColumns:
         return (gamma * squared_norms + self.parameters["coef0"]) ** int(self.parameters["degree"])
 
     def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        """:math:`K_{:, idx}`, shape ``(n, len(idx))``; columns not yet cached are computed in one block."""
         idx = np.asarray(idx, dtype=np.intp).ravel()
-        missing = np.array([j for j in dict.fromkeys(idx.tolist()) if j not in self._cache], dtype=np.intp)
-        if missing.size:
+        missing = [j for j in dict.fromkeys(idx.tolist()) if j not in self._slot]
+        if missing:
             kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
             with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
                 block = self._left @ right_factor(self.X[missing], kernel, gamma).T
             finish_in_place(block, kernel, self.parameters["degree"])
-            for position, j in enumerate(missing.tolist()):
-                self._cache[j] = block[:, position]
-            self.evaluated += missing.size
-        if idx.size == 0:
-            return np.zeros((self.n, 0))
-        return np.column_stack([self._cache[j] for j in idx.tolist()])
+            used = len(self._slot)
+            if used + len(missing) > self._store.shape[1]:
+                grown = np.empty((self.n, max(2 * self._store.shape[1], used + len(missing))), order="F")
+                grown[:, :used] = self._store[:, :used]
+                self._store = grown
+            self._store[:, used:used + len(missing)] = block
+            self._slot.update((j, used + k) for k, j in enumerate(missing))
+            self.evaluated += len(missing)
+        return self._store[:, [self._slot[j] for j in idx.tolist()]]
