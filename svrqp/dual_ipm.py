@@ -572,7 +572,7 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
 def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                           kernel: str = "rbf", gamma: float = 1.0, degree: int = 3, coef0: float = 0.0,
                           tol: float = 1e-8, factor_tol: float = 3e-5, max_rank: int | None = None,
-                          max_iter: int = 100) -> ExactFit:
+                          max_iter: int = 100, K: NDArray[np.float64] | None = None) -> ExactFit:
     """The fastest exact path: a low-rank interior point when the kernel allows it, the dense one otherwise.
 
     A pivoted Cholesky factor of rank at most ``max_rank`` (default ``n // 8``) is tried first;
@@ -581,8 +581,8 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     columns of the support vectors only, turns its solution into the exact optimum: the factor
     only guides the search (a coarser one means more crossover steps, not another answer). When
     the factor does not reach ``factor_tol`` or the crossover does not settle, the full Gram
-    matrix is formed and :func:`solve_exact` runs. ``times_s`` adds the factorisation
-    (``factor_s``) and Gram (``gram_s``) times.
+    matrix is formed (or ``K`` used, when the caller already holds it) and :func:`solve_exact`
+    runs. ``times_s`` adds the factorisation (``factor_s``) and Gram (``gram_s``) times.
     """
     from svrqp.formulations.low_rank import pivoted_cholesky
     from svrqp.kernel_columns import KernelColumns
@@ -603,7 +603,7 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
             fit.times_s.update(factor_s=factor_s, gram_s=0.0)
             return fit
     start = time.perf_counter()
-    K = gram(X, **parameters)
+    K = gram(X, **parameters) if K is None else K
     gram_s = time.perf_counter() - start
     fit = solve_exact(K, y, C, epsilon, tol=tol, max_iter=max_iter)
     fit.times_s.update(factor_s=factor_s, gram_s=gram_s)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import time
 from importlib.metadata import version
 from numbers import Integral, Real
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -79,9 +80,15 @@ def dual_qp_point(formulation: str, K: NDArray[np.float64], y: NDArray[np.float6
 
 
 def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-                   formulation: str = "split", tol: float = 1e-8,
-                   check_tol: float | None = None) -> epsilon_svr.DualFit:
-    """Solve the ε-SVR dual with :func:`svrqp.dual_ipm.solve_exact` and certify it on the QP ``formulation``.
+                   formulation: str = "split", tol: float = 1e-8, check_tol: float | None = None,
+                   X: NDArray[np.float64] | None = None,
+                   kernel_parameters: dict[str, Any] | None = None) -> epsilon_svr.DualFit:
+    """Solve the ε-SVR dual with :mod:`svrqp.dual_ipm` and certify it on the QP ``formulation``.
+
+    With the inputs ``X`` and the ``kernel_parameters`` of K (an RBF or polynomial kernel),
+    :func:`svrqp.dual_ipm.solve_exact_from_data` runs: a low-rank interior point guides the exact
+    crossover when the kernel's numerical rank is low (smooth data such as temperatures), and
+    ``K`` is used on its dense fallback. Otherwise :func:`svrqp.dual_ipm.solve_exact` runs on ``K``.
 
     Returns the same :class:`~svrqp.formulations.epsilon_svr.DualFit` as
     :func:`~svrqp.formulations.epsilon_svr.solve_dual` (``polished`` says whether the crossover
@@ -96,7 +103,10 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
     start = time.perf_counter()
     problem = epsilon_svr.build(formulation, y, C, epsilon, K=K)
     build_time = time.perf_counter() - start
-    fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
+    if X is None:
+        fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
+    else:
+        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, tol=tol, K=K, **(kernel_parameters or {}))
     x, y_eq, z_box = dual_qp_point(formulation, K, y, fit.beta, fit.intercept, epsilon)
     solution = Solution(
         x=x, y=y_eq, z=None, z_box=z_box, objective=problem.objective(x), status="optimal",
@@ -104,7 +114,8 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
         backend_version=f"svrqp {__version__}",
         settings={"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
                   "ipm_converged": fit.ipm.converged, "crossover_steps": fit.crossover.steps,
-                  "crossover_exact": fit.crossover.exact},
+                  "crossover_exact": fit.crossover.exact,
+                  "low_rank_path": fit.times_s.get("gram_s") == 0.0},
         build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations,
     )
     _require_certificates(solution, problem, check_tol)
@@ -260,9 +271,12 @@ class EpsilonSVR(ExportMixin, _KernelModel):
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
         if self.solver == DUAL_IPM:
+            low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
             beta, b, self.problem_, self.solution_, self.polished_ = solve_dual_ipm(
                 self._training_gram(X), y, self.C, self.epsilon, formulation=self.formulation, tol=self.tol,
-                check_tol=self.check_tol)
+                check_tol=self.check_tol, X=X if low_rank_possible else None,
+                kernel_parameters={"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
+                                   "coef0": self.coef0})
         elif self.formulation == "primal":
             self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
             self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol, check_tol=self.check_tol)

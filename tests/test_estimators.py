@@ -189,3 +189,19 @@ def test_lssvr_leaves_a_precomputed_kernel_untouched():
     before = K.copy()
     LSSVR(C=10.0, kernel="precomputed").fit(K, case.y)
     np.testing.assert_array_equal(K, before)
+
+
+def test_dual_ipm_estimator_on_smooth_data_takes_the_low_rank_path_and_matches_libsvm():
+    """1500 samples of the S0-like warm-up set (10 temperatures, few support vectors): the fit goes
+    through a low-rank interior point and the exact crossover, and agrees with SVR(tol=1e-8)."""
+    from sklearn.svm import SVR
+
+    from svrqp import bench
+
+    X, y = bench.thermal(1500, 10, seed=0)
+    ours = EpsilonSVR(C=10.0, epsilon=0.1, solver="dual_ipm").fit(X, y)
+    reference = SVR(C=10.0, epsilon=0.1, tol=1e-8).fit(X, y)
+    assert ours.solution_.settings["crossover_exact"]
+    assert ours.solution_.settings["low_rank_path"]
+    assert np.max(np.abs(ours.predict(X) - reference.predict(X))) <= 1e-5 * y.std()
+    assert ours.solution_.residuals["gap_rel"] <= 1e-10
