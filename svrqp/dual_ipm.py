@@ -595,7 +595,7 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
     start = time.perf_counter()
     columns = KernelColumns(X, **parameters)
-    factor = pivoted_cholesky(columns, max_rank=max_rank or max(1, n // 8), tol=factor_tol)
+    factor = pivoted_cholesky(columns, max_rank=max_rank or max(1, n // 8), tol=factor_tol, give_up=True)
     factor_s = time.perf_counter() - start
     if factor.relative_trace_error <= factor_tol:
         fit = _interior_point_then_crossover(FactoredKernel(factor.L), columns, y, C, epsilon, tol, max_iter)

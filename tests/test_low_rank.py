@@ -88,3 +88,22 @@ def test_pivot_expansion_is_the_factored_model_and_the_exact_one_at_full_rank():
                                atol=1e-6 * np.abs(K @ beta).max())
     with pytest.raises(ProblemError, match="beta"):
         low_rank.pivot_coefficients(truncated, beta[:-1])
+
+
+def test_give_up_stops_early_only_when_the_tolerance_is_out_of_reach():
+    """Friedman #1 (10 independent features, a slowly decaying RBF spectrum) cannot reach 3e-5 within
+    n/8 columns: with give_up the factorisation stops at the first check instead of filling n/8.
+    The smooth warm-up set reaches it: give_up changes nothing there."""
+    from svrqp import bench
+
+    X, _ = bench.friedman1(1000, 10, seed=0)
+    columns = KernelColumns(X, gamma=bench.resolve_gamma("scale", X))
+    full = low_rank.pivoted_cholesky(columns, max_rank=125, tol=3e-5)
+    early = low_rank.pivoted_cholesky(columns, max_rank=125, tol=3e-5, give_up=True)
+    assert full.rank == 125 and full.relative_trace_error > 3e-5
+    assert early.rank < full.rank and early.relative_trace_error > 3e-5
+    X, _ = bench.thermal(1000, 10, seed=0)
+    columns = KernelColumns(X, gamma=bench.resolve_gamma("scale", X))
+    reached = low_rank.pivoted_cholesky(columns, max_rank=125, tol=3e-5, give_up=True)
+    assert reached.relative_trace_error <= 3e-5
+    np.testing.assert_array_equal(reached.pivots, low_rank.pivoted_cholesky(columns, max_rank=125, tol=3e-5).pivots)

@@ -82,7 +82,17 @@ class LowRankFactor:
         return self.trace_error / self.trace if self.trace > 0 else 0.0
 
 
-def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8) -> LowRankFactor:
+#: With ``give_up``, the decay of the residual trace is checked at ranks 32, 64, 128, …
+GIVE_UP_FIRST_CHECK = 32
+
+#: … and the factorisation stops when a geometric decay at the rate seen since half that rank
+#: would need more than this multiple of ``max_rank`` to reach ``tol``. Kernel spectra decay
+#: faster than geometrically when they decay at all, so the projection errs on the side of going on.
+GIVE_UP_MARGIN = 2.0
+
+
+def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8,
+                     give_up: bool = False) -> LowRankFactor:
     """Greedy pivoted Cholesky of the Gram matrix behind ``columns`` (module docstring).
 
     Parameters
@@ -93,6 +103,11 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
         Largest number of columns of L.
     tol
         Stop when :math:`\\operatorname{tr}(K - LL^\\top) \\le` ``tol`` · :math:`\\operatorname{tr} K`.
+    give_up
+        Also stop as soon as the decay of the residual trace shows that ``tol`` is out of reach
+        within ``max_rank`` (see :data:`GIVE_UP_MARGIN`): for a caller that only wants a factor
+        if it is good, such as :func:`svrqp.dual_ipm.solve_exact_from_data`. The factor returned
+        then misses ``tol`` (its ``relative_trace_error`` says by how much).
     """
     n = columns.n
     if max_rank < 1:
@@ -104,9 +119,16 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
     trace = float(residual.sum())
     L = np.zeros((n, max_rank), order="F")
     pivots = []
+    remaining_at: dict[int, float] = {}  # residual trace at ranks 16, 32, 64, …
     for k in range(max_rank):
-        if residual.sum() <= tol * trace:
+        remaining = float(residual.sum())
+        if remaining <= tol * trace:
             break
+        if k >= GIVE_UP_FIRST_CHECK // 2 and k & (k - 1) == 0:  # a power of two
+            remaining_at[k] = remaining
+            if give_up and k >= GIVE_UP_FIRST_CHECK and _out_of_reach(remaining_at[k // 2], remaining, k,
+                                                                     tol * trace, max_rank):
+                break
         pivot = int(np.argmax(residual))
         if residual[pivot] <= 0.0:
             break  # the remaining residual is rounding noise
@@ -119,6 +141,16 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
     rank = len(pivots)
     return LowRankFactor(np.ascontiguousarray(L[:, :rank]), np.array(pivots, dtype=np.intp),
                          float(residual.sum()), trace)
+
+
+def _out_of_reach(earlier: float, now: float, k: int, target: float, max_rank: int) -> bool:
+    """Whether the trace, falling from ``earlier`` (rank k/2) to ``now`` (rank k) at a geometric
+    rate, would need more than ``GIVE_UP_MARGIN * max_rank`` columns to reach ``target``."""
+    if now >= earlier:
+        return True
+    rate_per_column = np.log(now / earlier) / (k / 2)  # negative
+    needed = k + np.log(target / now) / rate_per_column
+    return bool(needed > GIVE_UP_MARGIN * max_rank)
 
 
 def dual_low_rank(L: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
