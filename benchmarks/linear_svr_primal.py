@@ -24,7 +24,12 @@ from threadpoolctl import threadpool_limits
 
 from svrqp import dual_ipm
 from svrqp.bench import beta_certificates, make_case
-from svrqp.bench_report import machine_info, markdown_table, package_versions
+from svrqp.bench_report import (
+    machine_info,
+    machine_sentence,
+    markdown_table,
+    package_versions,
+)
 from svrqp.exceptions import SolverError
 from svrqp.formulations import epsilon_svr
 from svrqp.solve import solve_qp
@@ -101,6 +106,7 @@ def main() -> None:
     with threadpool_limits(1):
         rows = [run_linear_svr(case, 1e-4), run_linear_svr(case, 1e-8, TIGHT_MAX_ITER), run_dual_ipm(case)]
         rows += [run_primal_qp(case, backend) for backend in args.backends.split(",")]
+        machine = machine_info()  # inside the limit, so the thread counts recorded are the ones used
     table = pd.DataFrame(rows)
     best = table.loc[table["method"].str.contains("/") & (table["error"] == ""), "objective"].min()
     table["objective_gap_rel"] = (table["objective"] - best) / abs(best)
@@ -108,7 +114,6 @@ def main() -> None:
     table["ratio_to_LinearSVR_default"] = table["time_s"] / reference_time
     tight_label = f"LinearSVR(tol=1e-08, max_iter={TIGHT_MAX_ITER})"
     table["ratio_to_LinearSVR_tight"] = table["time_s"] / float(table.loc[table["method"] == tight_label, "time_s"].iloc[0])
-    machine = machine_info()
     output.write_text("\n\n".join([
         "# Linear-kernel epsilon-SVR: svrqp against LinearSVR",
         (f"friedman1, n = {args.n}, d = 10 (standardised), C = {case.C:g}, epsilon = {case.epsilon:g}; "
@@ -116,9 +121,7 @@ def main() -> None:
         "`objective` is the primal objective of our problem at each model's (w, b); "
         "`objective_gap_rel` is relative to the lowest svrqp objective."),
         markdown_table(table),
-        f"Machine: {machine['cpu']}, {machine['cores_usable']} usable cores, OPENBLAS_CORETYPE = "
-        f"{machine['OPENBLAS_CORETYPE']}. Versions: "
-        + ", ".join(f"{name} {value}" for name, value in package_versions(set(args.backends.split(","))).items()),
+        machine_sentence(machine, package_versions(set(args.backends.split(",")))),
         ("## Limitations\n\nOne run each on a machine shared with other work (ratios within this run). "
         "LinearSVR (scikit-learn defaults: tol = 1e-4, max_iter = 1000) penalises its intercept, so it "
         "solves a neighbouring problem; its time is the reference of the ratio (with the defaults it stops at "

@@ -33,7 +33,12 @@ from threadpoolctl import threadpool_limits
 
 from svrqp import dual_ipm
 from svrqp.bench import GENERATORS, resolve_gamma
-from svrqp.bench_report import machine_info, markdown_table, package_versions
+from svrqp.bench_report import (
+    machine_info,
+    machine_sentence,
+    markdown_table,
+    package_versions,
+)
 from svrqp.formulations.epsilon_svr import dual_objective
 from svrqp.formulations.low_rank import (
     objective_error_bound,
@@ -144,8 +149,6 @@ def main() -> None:
     frame = pd.DataFrame(rows)
     frame.to_csv(output.with_suffix(".csv"), index=False)
     large, exact_row, small = rows
-    blas = ", ".join(f"{pool['internal_api']} {pool['version']} ({pool['architecture']}, {pool['num_threads']} "
-                     f"thread(s))" for pool in machine["thread_pools"] if pool["user_api"] == "blas")
     summary = (
         f"RBF, gamma = {gamma:.3g} (scale), C = {C:g}, epsilon = {EPSILON:g}, d = 10; greedy pivoted Cholesky "
         f"to relative trace error {args.factor_tol:g} or rank "
@@ -174,9 +177,7 @@ def main() -> None:
         f"# Low-rank epsilon-SVR at n = {args.n} ({args.dataset})",
         summary,
         markdown_table(frame),
-        f"Machine: {machine['cpu']}, {machine['cores_usable']} usable cores, {machine['platform']}, Python "
-        f"{machine['python']}, OPENBLAS_CORETYPE = {machine['OPENBLAS_CORETYPE']}. BLAS (threadpoolctl): {blas}. "
-        "Versions: " + ", ".join(f"{name} {value}" for name, value in package_versions().items()) + ".",
+        machine_sentence(machine, package_versions()),
         limitations,
     ]) + "\n")
     print(output.read_text())

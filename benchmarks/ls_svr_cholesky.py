@@ -29,7 +29,12 @@ from threadpoolctl import threadpool_limits
 
 from svrqp import LSSVR
 from svrqp.bench import make_case
-from svrqp.bench_report import machine_info, markdown_table, package_versions
+from svrqp.bench_report import (
+    machine_info,
+    machine_sentence,
+    markdown_table,
+    package_versions,
+)
 from svrqp.formulations.ls_svr import solve_cholesky_schur
 from svrqp.kernels import gram
 
@@ -123,8 +128,6 @@ def main() -> None:
         for name, runs in times.items()])
     frame.to_csv(output.with_suffix(".csv"), index=False)
     fit = frame.set_index("method").loc["LSSVR.fit"]
-    blas = ", ".join(f"{pool['internal_api']} {pool['version']} ({pool['architecture']}, {pool['num_threads']} "
-                     f"thread(s))" for pool in machine["thread_pools"] if pool["user_api"] == "blas")
     output.write_text("\n\n".join([
         "# LS-SVR: fit time against Gram build + one Cholesky",
         (f"Dataset friedman1 (n = {args.n}, d = 10, standardised), RBF, C = {case.C:g}, gamma = {case.gamma:.3g} "
@@ -133,9 +136,7 @@ def main() -> None:
         f"repeat of each), {fit['ratio_to_tight_floor']:.2f} x the tight floor; peak memory "
         f"{fit['peak_in_nxn_matrices']:.2f} n x n matrices (an n x n float64 matrix is {matrix_bytes / 2**20:.0f} MB)."),
         markdown_table(frame),
-        f"Machine: {machine['cpu']}, {machine['cores_usable']} usable cores, {machine['platform']}, Python "
-        f"{machine['python']}, OPENBLAS_CORETYPE = {machine['OPENBLAS_CORETYPE']}. BLAS (threadpoolctl): {blas}. "
-        "Versions: " + ", ".join(f"{name} {value}" for name, value in package_versions().items()) + ".",
+        machine_sentence(machine, package_versions()),
         ("## Limitations\n\n"
         "The fit includes input validation, the stored KKT matrix `problem_` (an (n+1)x(n+1) copy), the "
         "Cholesky factorisation in place of the fit's own Gram matrix, the Schur-complement solves and the certificate (one symmetric "

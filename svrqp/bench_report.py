@@ -74,6 +74,16 @@ def package_versions(backends: set[str] | None = None) -> dict[str, str]:
     return versions
 
 
+def machine_sentence(machine: dict[str, Any], versions: dict[str, str]) -> str:
+    """One paragraph for a results file: CPU, usable cores, platform, Python, ``OPENBLAS_CORETYPE``,
+    the BLAS libraries with their kernel and threads (from :func:`machine_info`) and ``versions``."""
+    blas = ", ".join(f"{pool['internal_api']} {pool['version']} ({pool['architecture']}, {pool['num_threads']} "
+                     f"thread(s))" for pool in machine["thread_pools"] if pool["user_api"] == "blas")
+    return (f"Machine: {machine['cpu']}, {machine['cores_usable']} usable cores, {machine['platform']}, Python "
+            f"{machine['python']}, OPENBLAS_CORETYPE = {machine['OPENBLAS_CORETYPE']}. BLAS (threadpoolctl): {blas}. "
+            "Versions: " + ", ".join(f"{name} {value}" for name, value in versions.items()) + ".")
+
+
 def markdown_table(table: pd.DataFrame, float_format: str = "{:.3g}") -> str:
     """A GitHub Markdown table (no extra dependency): floats in ``float_format``."""
     def cell(value: Any) -> str:
