@@ -73,6 +73,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError, SingularSystemError
+from svrqp.formulations.epsilon_svr import check_parameters
 
 #: Fraction of the distance to the boundary that one interior-point step may cover.
 STEP_TO_BOUNDARY = 0.995
@@ -161,12 +162,9 @@ class IPMResult:
 
 
 def _check(y: NDArray[np.float64], C: float, epsilon: float, n: int) -> None:
-    if y.shape != (n,) or not np.all(np.isfinite(y)):
-        raise ProblemError(f"y must be a finite vector of length {n}")
-    if not np.isfinite(C) or C <= 0:
-        raise ProblemError(f"C must be a finite positive number, got {C!r}")
-    if not np.isfinite(epsilon) or epsilon < 0:
-        raise ProblemError(f"epsilon must be a finite non-negative number, got {epsilon!r}")
+    check_parameters(y, C, epsilon)
+    if y.shape != (n,):
+        raise ProblemError(f"y must be a finite vector of length {n}, got shape {y.shape}")
 
 
 def _max_step(x: NDArray, dx: NDArray) -> float:
@@ -535,6 +533,7 @@ class ExactFit:
     ipm: IPMResult
     crossover: CrossoverResult
     times_s: dict[str, float]
+    low_rank: bool = False  # whether the interior point ran on a low-rank factor (no Gram matrix formed)
 
 
 def solve_exact(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
@@ -601,6 +600,7 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
         fit = _interior_point_then_crossover(FactoredKernel(factor.L), columns, y, C, epsilon, tol, max_iter)
         if fit.crossover.exact:
             fit.times_s.update(factor_s=factor_s, gram_s=0.0)
+            fit.low_rank = True
             return fit
     start = time.perf_counter()
     K = gram(X, **parameters) if K is None else K

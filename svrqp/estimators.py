@@ -115,7 +115,7 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
         settings={"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
                   "ipm_converged": fit.ipm.converged, "crossover_steps": fit.crossover.steps,
                   "crossover_exact": fit.crossover.exact,
-                  "low_rank_path": fit.times_s.get("gram_s") == 0.0},
+                  "low_rank_path": fit.low_rank},
         build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations,
     )
     _require_certificates(solution, problem, check_tol)
