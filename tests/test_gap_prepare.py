@@ -104,3 +104,19 @@ def test_without_order_the_row_position_is_used(table):
 def test_a_model_feature_may_be_a_candidate(table):
     data = prepare(table, **(ARGS | {"candidates": ["spindle_C", "air_C"]}))
     assert data.candidates == ["spindle_C", "air_C"]
+
+
+def test_train_query_selects_by_position_when_index_labels_repeat(table):
+    # pd.concat of per-run tables repeats index labels; a label-based mask would take every
+    # row whose label also occurs in run r0 (here: all of them) as a train row.
+    repeated = pd.concat([run.reset_index(drop=True) for _, run in table.groupby("run", sort=False)])
+    assert repeated.index.duplicated().any()
+    data = prepare(repeated, **ARGS)
+    assert data.is_train.sum() == (table["run"] == "r0").sum()
+    assert {data.group_labels[g] for g in data.groups[data.is_train]} == {"r0"}
+
+
+def test_a_datetime_order_gets_a_hint_to_give_elapsed_time(table):
+    stamped = table.assign(stamp=pd.Timestamp("2026-01-05") + pd.to_timedelta(table["time_min"], unit="min"))
+    with pytest.raises(ProblemError, match=r"order: .*'stamp'.*dates or durations.*time_min"):
+        prepare(stamped, **(ARGS | {"order": "stamp"}))

@@ -101,3 +101,17 @@ def test_summary_is_one_sentence(report, null_report):
         assert text.count(". ") == 0 and text.endswith(".")
     assert "air_C" in report.summary and "shrinks the error" in report.summary
     assert math.isfinite(report.runtime_s) and report.runtime_s > 0
+
+
+@pytest.mark.parametrize("how", ["prediction equals the target", "constant target"])
+def test_a_model_without_error_gives_a_valid_report_and_no_verdict(how):
+    table = null_problem()
+    if how == "constant target":
+        args, table = ARGS, table.assign(error_um=1.5)
+    else:
+        args = {k: v for k, v in ARGS.items() if k != "features"} | {"prediction": "prediction_um"}
+        table = table.assign(prediction_um=table["error_um"])
+    result = diagnose(table, **args)
+    jsonschema.validate(json.loads(result.to_json()), load_schema())
+    assert result.verdict.column is None and result.causes == []
+    assert "reproduces the real rows exactly" in result.verdict.reason

@@ -181,13 +181,19 @@ def diagnose(
     gap = gate(r, groups, baseline.train_reference, data.groups[data.is_train])
     report_progress("localising", 0.15)
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
-    report_progress("testing candidates", 0.2)
-    attribution = attribute(AttributionProblem(r, B, folds, groups, gap.train_rmse, rng), build_banks(data, taus))
-    report_progress("quantifying", 0.85)
-    causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
-    causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
     detected = gap_detected(gap)
-    verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected)
+    if _reproduced_exactly(r, data.y):
+        causes, errors_after, residual_gate, remaining = [], {}, None, []
+        verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
+                                              "rounding); there is no gap and no cause is named.")
+    else:
+        report_progress("testing candidates", 0.2)
+        attribution = attribute(AttributionProblem(r, B, folds, groups, gap.train_rmse, rng), build_banks(data, taus))
+        report_progress("quantifying", 0.85)
+        causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
+        causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
+        verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected)
+        remaining = [e.test.column for e in attribution.accepted[1:]] if verdict.column else []
     report_progress("reporting", 0.98)
 
     series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels, data.is_train,
@@ -212,7 +218,7 @@ def diagnose(
         causes=causes,
         verdict=verdict,
         residual_gate=residual_gate,
-        remaining=[e.test.column for e in attribution.accepted[1:]] if verdict.column else [],
+        remaining=remaining,
         summary=_summary(data, gap, detected, where, verdict),
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
@@ -224,6 +230,15 @@ def diagnose(
     report.runtime_s = time.perf_counter() - started
     report_progress("done", 1.0)
     return report
+
+
+def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
+    """Whether the real-row residual is zero to rounding (relative to the target's magnitude).
+
+    Every later step divides by the residual's sum of squares; a model (or prediction) that
+    reproduces the measurements has no gap to explain.
+    """
+    return bool(np.sqrt(np.mean(r**2)) <= 1e-10 * np.max(np.abs(y)))
 
 
 def _representatives(attribution: Attribution) -> list[Evidence]:

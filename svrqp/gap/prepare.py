@@ -111,17 +111,22 @@ def _check_columns(df: pd.DataFrame, names: list[str], option: str) -> None:
 def _check_numeric(df: pd.DataFrame, names: list[str], option: str) -> None:
     bad = [n for n in names if not (pd.api.types.is_numeric_dtype(df[n]) or pd.api.types.is_bool_dtype(df[n]))]
     if bad:
-        raise ProblemError(f"{option}: column(s) {bad} are not numeric")
+        dates = [n for n in bad if pd.api.types.is_datetime64_any_dtype(df[n]) or pd.api.types.is_timedelta64_dtype(df[n])]
+        hint = (f"; {dates} hold dates or durations: give the elapsed time as a number with its unit in the name "
+                "(e.g. time_min)") if dates else ""
+        raise ProblemError(f"{option}: column(s) {bad} are not numeric{hint}")
 
 
 def _train_mask(df: pd.DataFrame, train: str | np.ndarray | pd.Series) -> np.ndarray:
     """Boolean mask of the train rows from a pandas query (or a boolean mask)."""
     if isinstance(train, str):
+        # Positions, not index labels: a concatenated table may repeat its labels.
+        by_position = df.reset_index(drop=True)
         try:
-            selected = df.query(train)
+            selected = by_position.query(train)
         except Exception as err:  # pandas raises many types for a bad expression
             raise ProblemError(f"train: cannot evaluate query {train!r}: {err}") from err
-        return df.index.isin(selected.index)
+        return by_position.index.isin(selected.index)
     mask = np.asarray(train)
     if mask.dtype != bool or mask.shape != (len(df),):
         raise ProblemError("train: give a pandas query string or a boolean mask with one entry per row")
