@@ -63,8 +63,14 @@ def test_non_numeric_candidate(table):
 def test_features_and_prediction_are_exclusive(table):
     with pytest.raises(ProblemError, match="either features"):
         prepare(table, **(ARGS | {"prediction": "air_C"}))
-    with pytest.raises(ProblemError, match="either features"):
-        prepare(table, **(ARGS | {"features": None}))
+    for nothing in (None, []):
+        with pytest.raises(ProblemError, match="give the model's features .* or a prediction column"):
+            prepare(table, **(ARGS | {"features": nothing}))
+
+
+def test_a_column_without_any_finite_value_is_named(table):
+    with pytest.raises(ProblemError, match=r"\['nut_C'\] hold no finite value"):
+        prepare(table.assign(nut_C=np.nan), **ARGS)
 
 
 def test_target_cannot_be_a_candidate(table):

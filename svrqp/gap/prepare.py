@@ -165,8 +165,10 @@ def prepare(
         raise ProblemError("df: expected a pandas DataFrame")
     features = _as_list(features)
     candidates = _as_list(candidates)
-    if (len(features) > 0) == (prediction is not None):
+    if features and prediction is not None:
         raise ProblemError("give either features (a model is fitted) or prediction (a column), not both")
+    if not features and prediction is None:
+        raise ProblemError("give the model's features (at least one column) or a prediction column")
     if not candidates:
         raise ProblemError("candidates: at least one candidate column is required")
     if len(set(candidates)) != len(candidates) or len(set(features)) != len(features):
@@ -199,7 +201,11 @@ def prepare(
 
     is_train = _train_mask(df, train)
     values = df[numeric].astype(float).to_numpy()
-    keep = np.isfinite(values).all(axis=1)
+    finite = np.isfinite(values)
+    empty = [name for name, any_finite in zip(numeric, finite.any(axis=0), strict=True) if not any_finite]
+    if empty:
+        raise ProblemError(f"column(s) {empty} hold no finite value (every row would be dropped)")
+    keep = finite.all(axis=1)
     if group is not None:
         keep &= df[group].notna().to_numpy()
     n_dropped = int((~keep).sum())
