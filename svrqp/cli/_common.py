@@ -8,7 +8,7 @@ from typing import Any
 import pandas as pd
 
 from svrqp.estimators import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
-from svrqp.exceptions import ProblemError
+from svrqp.exceptions import BackendNotAvailableError, ProblemError
 from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
 
 #: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
@@ -25,7 +25,11 @@ def read_table(path: str | Path) -> pd.DataFrame:
     if not path.exists():
         raise FileNotFoundError(f"input file not found: {path}")
     if path.suffix.lower() in {".parquet", ".pq"}:
-        return pd.read_parquet(path)
+        try:
+            return pd.read_parquet(path)
+        except ImportError as err:
+            raise BackendNotAvailableError(
+                f"reading {path.name} needs a Parquet engine: pip install 'svrqp[parquet]' (pyarrow)") from err
     return pd.read_csv(path)
 
 

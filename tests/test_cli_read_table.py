@@ -1,0 +1,42 @@
+"""Reading the input tables of every subcommand (svrqp.cli._common.read_table): CSV and Parquet."""
+
+import pandas as pd
+import pytest
+
+from svrqp import datasets
+from svrqp.cli._common import read_table
+from svrqp.exceptions import BackendNotAvailableError
+
+
+@pytest.fixture(scope="module")
+def table():
+    """The miao2013 data set (simulated; 753 rows, a text column and floats)."""
+    return datasets.load("miao2013")
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_written_table_reads_back_unchanged(table, tmp_path, suffix):
+    path = tmp_path / f"miao{suffix}"
+    if suffix == ".csv":
+        table.to_csv(path, index=False)
+    else:
+        pytest.importorskip("pyarrow")
+        table.to_parquet(path, index=False)
+    pd.testing.assert_frame_equal(read_table(path), table.reset_index(drop=True), check_exact=False, rtol=1e-12)
+
+
+def test_a_missing_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="input file not found: .*absent.csv"):
+        read_table(tmp_path / "absent.csv")
+
+
+def test_without_a_parquet_engine_the_extra_is_named(table, tmp_path, monkeypatch):
+    path = tmp_path / "miao.parquet"
+    path.write_bytes(b"PAR1")
+
+    def no_engine(*args, **kwargs):
+        raise ImportError("Unable to find a usable engine; tried using: 'pyarrow', 'fastparquet'.")
+
+    monkeypatch.setattr(pd, "read_parquet", no_engine)
+    with pytest.raises(BackendNotAvailableError, match=r"svrqp\[parquet\]"):
+        read_table(path)
