@@ -56,10 +56,14 @@ condition (a zero with :math:`|\rho_i| > \varepsilon`, a bound with :math:`\rho`
 moves every free coefficient whose solution changed sign or left the box, all at once: a few steps
 from a good start, without a guarantee. The feasible active-set method instead steps towards the
 free-set solution only as far as signs and box allow, fixing the coefficient that blocks: while
-the free-set systems are nonsingular the objective never increases, so it cannot cycle. When no
-state changes, every KKT condition holds to rounding; when the step limit is reached the caller
-keeps the interior-point solution (a degenerate problem such as a linear kernel with more free
-points than features plus one has singular free-set systems and many optimal :math:`\beta`).
+the free-set systems are nonsingular the objective never increases, so it cannot cycle. A
+singular free-set system (coinciding inputs, or a linear kernel with more free points than
+features plus one) is either consistent — many optimal :math:`\beta`, the least-squares one is
+taken — or inconsistent: coinciding inputs with different targets cannot all sit on the tube
+edge, the free-set objective then falls without bound along a null-space direction of the
+bordered system, and the feasible method moves along it until a coefficient blocks. When no
+state changes and every free coefficient sits on its tube edge, every KKT condition holds to
+rounding; when the step limit is reached the caller keeps the interior-point solution.
 """
 
 from __future__ import annotations
@@ -355,14 +359,15 @@ class _KernelAccess:
 
 
 def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False):
-    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, and K_{:,bounded} beta_bounded."""
+    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, K_{:,bounded} beta_bounded,
+    and the direction in which the free-set objective is unbounded below (None when it is not)."""
     free = np.flatnonzero(np.abs(states) == 1)
     fixed = np.where(np.abs(states) == 2, np.sign(states) * C, 0.0)
     K_free = kernel.free_columns(free)
     bounded_term = kernel.update_bounded(fixed, fresh=fresh)
     rhs = y[free] - epsilon * states[free] - bounded_term[free]
-    target, b = _bordered_solve(K_free[free], rhs, -float(fixed.sum()))
-    return free, fixed, K_free, bounded_term, target, b
+    target, b, unbounded = _bordered_solve(K_free[free], rhs, -float(fixed.sum()))
+    return free, fixed, K_free, bounded_term, target, b, unbounded
 
 
 #: At most this many KKT violators (the worst ones) enter the free set in one step, beyond the
@@ -406,7 +411,10 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
     """
     beta, b, fresh, previous_changes = np.zeros(y.size), 0.0, False, y.size + 1
     for step in range(1, max_steps + 1):
-        free, fixed, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states, fresh)
+        free, fixed, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states,
+                                                                                     fresh)
+        if unbounded is not None:  # no free-set optimum to jump to: the feasible method moves along it
+            return CrossoverResult(beta, b, step, False, int(free.size))
         beta = fixed.copy()
         beta[free] = target
         rho, b = _residuals(y, K_free, target, bounded_term, states, epsilon, b, free)
@@ -420,7 +428,8 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
         new_states[entering_negative] = -1
         if np.array_equal(new_states, states):
             if fresh or not _balanced(beta, C):
-                return CrossoverResult(beta, b, step, _balanced(beta, C), int(free.size))
+                exact = _balanced(beta, C) and _free_equalities_hold(rho, states, epsilon, slack)
+                return CrossoverResult(beta, b, step, exact, int(free.size))
             fresh = True  # confirm once with the bounded term recomputed from scratch
             continue
         changes = int(np.count_nonzero(new_states != states))
@@ -435,9 +444,13 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
     current = np.where(np.abs(states) == 2, np.sign(states) * C, np.where(states == 0, 0.0, beta))
     b, fresh = 0.0, False
     for step in range(1, max_steps + 1):
-        free, _, K_free, bounded_term, target, b = _free_set_solution(kernel, y, C, epsilon, states, fresh)
-        length, blocking = _step_to_sign_or_box(current[free], target - current[free], states[free], C)
-        current[free] += length * (target - current[free])
+        free, _, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states, fresh)
+        if unbounded is None:
+            direction = target - current[free]
+        else:  # scaled so that the largest coordinate would cross the whole box: a coefficient must block
+            direction = unbounded * (2.0 * C / np.max(np.abs(unbounded)))
+        length, blocking = _step_to_sign_or_box(current[free], direction, states[free], C)
+        current[free] += length * direction
         if length < 1.0:
             hit = free[blocking]
             at_bound = np.abs(current[hit]) >= 0.5 * C
@@ -449,7 +462,8 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
         entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
         if not (entering_positive.any() or entering_negative.any()):
             if fresh or not _balanced(current, C):
-                return CrossoverResult(current, b, step, _balanced(current, C), int(free.size))
+                exact = _balanced(current, C) and _free_equalities_hold(rho, states, epsilon, slack)
+                return CrossoverResult(current, b, step, exact, int(free.size))
             fresh = True  # confirm once with the bounded term recomputed from scratch
             continue
         states[entering_positive] = 1
@@ -466,6 +480,17 @@ def _balanced(beta: NDArray[np.float64], C: float) -> bool:
 
 #: Relative tolerance of the equality :math:`\mathbf 1^\top\beta = 0` in the crossover's final check.
 BALANCE_TOL = 1e-9
+
+
+def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8], epsilon: float,
+                          slack: float) -> bool:
+    """Whether every free coefficient sits on its tube edge, :math:`y_i - f(x_i) = \varepsilon s_i`.
+
+    The free-set solve makes this hold unless its system was inconsistent (coinciding inputs with
+    different targets both free), which the final check must not take on trust.
+    """
+    free = np.abs(states) == 1
+    return bool(np.all(np.abs(residual[free] - epsilon * states[free]) <= slack))
 
 
 def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64], signs: NDArray[np.int8],
@@ -493,19 +518,28 @@ def _midpoint_bias(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: 
 #: Below this ratio of the smallest to the largest squared Cholesky pivot, K_FF counts as singular.
 SINGULAR_PIVOT_RATIO = 1e-12
 
+#: A singular free-set system whose least-squares residual exceeds this (relative to its right-hand
+#: side) is inconsistent: its objective has no minimum on the free set.
+INCONSISTENT_TOL = 1e-9
+
 
 def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: float
-                    ) -> tuple[NDArray[np.float64], float]:
-    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}`.
+                    ) -> tuple[NDArray[np.float64], float, NDArray[np.float64] | None]:
+    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}`: ``(x, b, unbounded)``.
 
-    Cholesky of :math:`K_{FF}` and the Schur complement for b; when :math:`K_{FF}` is singular
-    (a linear kernel with more free points than features, or coinciding points) the system has
-    many solutions and the minimum-norm one is taken (least squares, which is exact for a
-    consistent system); the crossover re-checks every KKT condition either way.
+    Cholesky of :math:`K_{FF}` and the Schur complement for b. When :math:`K_{FF}` is singular
+    (a linear kernel with more free points than features, or coinciding points) the least-squares
+    solution is taken. If the system is consistent it is one of its many exact solutions and
+    ``unbounded`` is None. If not (coinciding inputs with different targets), the residual
+    :math:`w = v - Mz` of the bordered system :math:`Mz = v` lies in the null space of the
+    symmetric :math:`M`, and its first :math:`m` entries :math:`d` satisfy
+    :math:`K_{FF}d \\propto \\mathbf 1,\\ \\mathbf 1^\\top d = 0`: along :math:`d` the free-set
+    objective :math:`\\tfrac12 x^\\top K_{FF}x - \\text{rhs}^\\top x` falls at the constant rate
+    :math:`\\|w\\|^2` with no minimum, and ``unbounded`` is :math:`d`.
     """
     m = rhs.size
     if m == 0:
-        return np.zeros(0), 0.0  # no free SV: the caller sets b by the midpoint rule
+        return np.zeros(0), 0.0, None  # no free SV: the caller sets b by the midpoint rule
     try:
         factor = scipy.linalg.cho_factor(K_FF, lower=True, check_finite=False)
         pivots = np.abs(np.diag(factor[0])) ** 2
@@ -513,15 +547,18 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
             solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]), check_finite=False)
             mu, nu = solution[:, 0], solution[:, 1]
             b = (mu.sum() - total) / nu.sum()
-            return mu - b * nu, float(b)
+            return mu - b * nu, float(b), None
     except np.linalg.LinAlgError:
         pass
     M = np.zeros((m + 1, m + 1))
     M[:m, :m] = K_FF
     M[:m, m] = M[m, :m] = 1.0
-    x = scipy.linalg.lstsq(M, np.concatenate([rhs, [total]]), cond=SINGULAR_PIVOT_RATIO, check_finite=False,
+    v = np.concatenate([rhs, [total]])
+    x = scipy.linalg.lstsq(M, v, cond=SINGULAR_PIVOT_RATIO, check_finite=False,
                          lapack_driver="gelsy")[0]  # QR with column pivoting: several times faster than the SVD
-    return x[:m], float(x[m])
+    w = v - M @ x
+    consistent = np.max(np.abs(w)) <= INCONSISTENT_TOL * (1.0 + np.max(np.abs(v)))
+    return x[:m], float(x[m]), None if consistent else w[:m]
 
 
 @dataclass
