@@ -3,6 +3,8 @@
 import dataclasses
 import json
 import math
+import os
+import stat
 
 import jsonschema
 import pytest
@@ -77,6 +79,16 @@ def test_write_json_refuses_to_overwrite_without_force(report, tmp_path):
         report.write_json(path)
     report.write_json(path, force=True)
     assert json.loads(path.read_text())["verdict"]["column"] == "air_C"
+
+
+def test_written_files_get_the_usual_permissions_and_leave_no_temporary_file(report, tmp_path):
+    old_mask = os.umask(0o022)
+    try:
+        path = report.write_json(tmp_path / "gap.json")
+    finally:
+        os.umask(old_mask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
+    assert [p.name for p in tmp_path.iterdir()] == ["gap.json"]
 
 
 def test_html_is_self_contained_with_two_figures(report, tmp_path):
