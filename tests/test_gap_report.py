@@ -127,3 +127,4 @@ def test_a_model_without_error_gives_a_valid_report_and_no_verdict(how):
     jsonschema.validate(json.loads(result.to_json()), load_schema())
     assert result.verdict.column is None and result.causes == []
     assert "reproduces the real rows exactly" in result.verdict.reason
+    assert "reproduces error_um exactly" in result.summary and result.to_dict()["gap"]["ratio"] is None

@@ -182,7 +182,8 @@ def diagnose(
     report_progress("localising", 0.15)
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
     detected = gap_detected(gap)
-    if _reproduced_exactly(r, data.y):
+    exact = _reproduced_exactly(r, data.y)
+    if exact:
         causes, errors_after, residual_gate, remaining = [], {}, None, []
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
                                               "rounding); there is no gap and no cause is named.")
@@ -219,7 +220,7 @@ def diagnose(
         verdict=verdict,
         residual_gate=residual_gate,
         remaining=remaining,
-        summary=_summary(data, gap, detected, where, verdict),
+        summary=_summary(data, gap, detected, where, verdict, exact),
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
             "max_surrogates": attr.MAX_SURROGATES, "n_folds": len(folds), "taus": taus.tolist(), "seed": seed,
@@ -383,9 +384,13 @@ def _tau_text(tau: float | None, order_name: str) -> str:
     return f" (τ = {tau:.3g} {unit})"
 
 
-def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region], verdict: Verdict) -> str:
+def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region], verdict: Verdict,
+             exact: bool) -> str:
     """The gap in one sentence: how large, where, and what explains it."""
     unit = axis_label(data.target).rpartition("(")[2].rstrip(")")
+    if exact:
+        return (f"On the {int(data.is_real.sum())} real rows the model reproduces {data.target} exactly (zero "
+                "residual): there is no gap and no cause is named.")
     text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is {gap.real_rmse:.3g} {unit} RMS "
             f"against {gap.train_rmse:.3g} {unit} on the train rows")
     top = where[0] if where else None

@@ -174,7 +174,7 @@ def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_gro
     return GateResult(
         train_rmse=train_rmse,
         real_rmse=real_rmse,
-        ratio=real_rmse / train_rmse if train_rmse > 0 else float("inf"),
+        ratio=real_rmse / train_rmse if train_rmse > 0 else (float("inf") if real_rmse > 0 else float("nan")),
         p_excess=excess_error_pvalue(real, real_groups, train, train_groups),
         noise_rmse=float(np.sqrt(successive_difference_variance(real, real_groups))),
         p_noise=noise_pvalue(real, real_groups),
