@@ -7,6 +7,7 @@ import os
 import stat
 
 import jsonschema
+import numpy as np
 import pytest
 from gap_problems import CANDIDATES, air_lag_problem, null_problem
 
@@ -128,3 +129,30 @@ def test_a_model_without_error_gives_a_valid_report_and_no_verdict(how):
     assert result.verdict.column is None and result.causes == []
     assert "reproduces the real rows exactly" in result.verdict.reason
     assert "reproduces error_um exactly" in result.summary and result.to_dict()["gap"]["ratio"] is None
+
+
+def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
+    """The base alone, re-derived with scikit-learn: least squares on the base columns, predicted on
+    each blocked fold by cross_val_predict over the same folds (PredefinedSplit). The engine adds a
+    ridge of 1e-8 per training row (svrqp.gap.discrepancy.RIDGE), worth 1e-7 of the RMSE here; with
+    it set to zero the two agree to 1e-13."""
+    from sklearn.linear_model import LinearRegression
+    from sklearn.model_selection import PredefinedSplit, cross_val_predict
+
+    from svrqp.gap.baseline import fit_baseline
+    from svrqp.gap.blocks import blocked_folds
+    from svrqp.gap.diagnose import base_design
+    from svrqp.gap.prepare import prepare
+
+    data = prepare(air_lag_problem(), **ARGS)
+    baseline = fit_baseline(data, "mlr")
+    r, groups = baseline.residual[data.is_real], data.groups[data.is_real]
+    fold_of = np.empty(r.size, dtype=int)
+    for k, test in enumerate(blocked_folds(groups)):
+        fold_of[test] = k
+    predicted = cross_val_predict(LinearRegression(fit_intercept=False), base_design(data, baseline), r,
+                                  cv=PredefinedSplit(fold_of))
+    rmse_after = np.sqrt(np.mean((r - predicted) ** 2))
+    assert report.base.rmse_after == pytest.approx(rmse_after, rel=1e-6)
+    assert report.base.shrink == pytest.approx(1 - rmse_after / np.sqrt(np.mean(r**2)), rel=1e-6)
+    assert "base alone" in report.to_markdown() and report.to_dict()["base"]["shrink"] == report.base.shrink

@@ -33,7 +33,9 @@ The discrepancy models of steps 4–5 use the base regressors "offsets + the mod
 (raw and smoothed, + its prediction for a non-linear model)" in features mode, so an effect
 gets credit only for what a linear recalibration of the model itself cannot do, and the
 offsets alone in prediction mode (:func:`recalibration_inputs`, :func:`base_design`). Each
-cause's shrink is for that effect alone added to this base.
+cause's shrink is for that effect alone added to this base, against the model's raw residual;
+the report's ``base`` says what the base alone already does (out of sample), so that a reader
+can tell the effect's own part from that of the offsets and the recalibration.
 """
 
 from __future__ import annotations
@@ -56,12 +58,13 @@ from svrqp.gap.attribute import (
 from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
 from svrqp.gap.compare import paired_loss_test
+from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.figures import Series, axis_label
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink, refit_shrink
-from svrqp.gap.report import Cause, GapReport, Verdict
+from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
 from svrqp.gap.transforms import smooth, tau_grid
 
 Progress = Callable[[str, float], None]
@@ -183,6 +186,7 @@ def diagnose(
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
     detected = gap_detected(gap)
     exact = _reproduced_exactly(r, data.y)
+    base = _base_fit(data, r, B, folds, exact)
     if exact:
         causes, errors_after, residual_gate, remaining = [], {}, None, []
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
@@ -193,7 +197,7 @@ def diagnose(
         report_progress("quantifying", 0.85)
         causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
         causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
-        verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected)
+        verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected, base)
         remaining = [e.test.column for e in attribution.accepted[1:]] if verdict.column else []
     report_progress("reporting", 0.98)
 
@@ -220,6 +224,7 @@ def diagnose(
         verdict=verdict,
         residual_gate=residual_gate,
         remaining=remaining,
+        base=base,
         summary=_summary(data, gap, detected, where, verdict, exact),
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
@@ -329,7 +334,21 @@ def _joined(note: str | None, text: str) -> str:
 
 
 
-def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected) -> tuple[Verdict, GateResult | None]:
+def _base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray], exact: bool) -> BaseFit:
+    """The base discrepancy model alone, out of sample (what every cause's shrink includes)."""
+    groups = data.groups[data.is_real]
+    offsets = "one offset" if holds_out_groups(groups) else f"one offset per {data.group_name or 'group'}"
+    description = offsets if data.prediction is not None else f"{offsets} and a recalibration of the model's inputs"
+    rmse_before = float(np.sqrt(np.mean(r**2)))
+    if exact:
+        return BaseFit(description, 0.0, 0.0)
+    errors = CrossValidatedDiscrepancy(r, B, folds).errors_base
+    rmse_after = float(np.sqrt(np.mean(errors**2)))
+    return BaseFit(description, rmse_after, 1.0 - rmse_after / rmse_before)
+
+
+def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
+             base: BaseFit) -> tuple[Verdict, GateResult | None]:
     train_groups = data.groups[data.is_train]
     if not detected:
         reason = (f"No gap beyond chance: the real-row RMSE {gap.real_rmse:.3g} is not significantly above the "
@@ -360,8 +379,8 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
     residual_gate = gate(after, groups, baseline.train_reference, train_groups)
     reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} explains the gap "
               f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
-              f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}); refitting the model with it as an "
-              f"input shrinks it by {refit:.0%}.")
+              f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}), of which the base alone ({base.description}) "
+              f"gives {base.shrink:.0%}; refitting the model with it as an input shrinks it by {refit:.0%}.")
     tied = [c.column for c in causes[1:] if c.ambiguous]
     if tied:
         reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "

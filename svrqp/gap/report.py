@@ -71,6 +71,29 @@ class Verdict:
     ambiguous_with: list[str] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class BaseFit:
+    """What the discrepancy base alone does, before any candidate is added.
+
+    Every cause's shrink is for the base *plus* that effect, measured against the model's raw
+    residual; the base (per-group offsets and, in features mode, a recalibration of the model's
+    own inputs) already takes part of the error, and a cause's ``gain`` is what it adds.
+
+    Attributes
+    ----------
+    description : str
+        The base's columns in words.
+    rmse_after : float
+        Out-of-sample real-row RMSE of the base alone.
+    shrink : float
+        ``1 - rmse_after / rmse_before`` (``rmse_before`` = the model's real-row RMSE).
+    """
+
+    description: str
+    rmse_after: float
+    shrink: float
+
+
 @dataclass
 class GapReport:
     """Result of :func:`svrqp.gap.diagnose`.
@@ -99,6 +122,7 @@ class GapReport:
     verdict: Verdict
     residual_gate: GateResult | None
     remaining: list[str]
+    base: BaseFit
     summary: str
     settings: dict[str, Any]
     runtime_s: float
@@ -133,6 +157,7 @@ class GapReport:
             "causes": [asdict(c) for c in self.causes],
             "verdict": asdict(self.verdict),
             "residual_gate": residual_gate,
+            "base": asdict(self.base),
             "summary": self.summary,
             "settings": self.settings,
             "runtime_s": self.runtime_s,
@@ -203,11 +228,17 @@ class GapReport:
         tables = self._tables()
         out = [f"# Gap diagnosis of `{self.target}`", "", self.summary, "", "## Gap", "", _md_table(*tables["gap"]),
                "", f"![measured, model and residual]({figure_names['gap']})", "", "## Where", "",
-               _md_table(*tables["where"]), "", "## Causes", "", _md_table(*tables["causes"]), ""]
+               _md_table(*tables["where"]), "", "## Causes", "", self._base_sentence(), "", _md_table(*tables["causes"]), ""]
         if "before_after" in figure_names:
             out += [f"![before and after]({figure_names['before_after']})", ""]
         out += ["## Verdict", "", f"{self.verdict.reason}", ""]
         return "\n".join(out)
+
+    def _base_sentence(self) -> str:
+        """How to read the shrink column: what the base alone already does."""
+        return (f"Each shrink is that of the discrepancy model \"base + the effect\" against the model's raw "
+                f"residual; the base alone ({self.base.description}) shrinks it by {self.base.shrink:.0%} out of "
+                "sample, and a cause's gain is the share of what the base leaves that the effect removes.")
 
     def _html(self) -> str:
         figures = self._figures()
@@ -215,7 +246,8 @@ class GapReport:
         img = {k: f'<img alt="{k}" src="data:image/png;base64,{base64.b64encode(v).decode()}">' for k, v in figures.items()}
         parts = [f"<h1>Gap diagnosis of <code>{html.escape(self.target)}</code></h1>", f"<p>{html.escape(self.summary)}</p>",
                  "<h2>Gap</h2>", _html_table(*tables["gap"]), img["gap"], "<h2>Where</h2>", _html_table(*tables["where"]),
-                 "<h2>Causes</h2>", _html_table(*tables["causes"]), img.get("before_after", ""),
+                 "<h2>Causes</h2>", f"<p>{html.escape(self._base_sentence())}</p>", _html_table(*tables["causes"]),
+                 img.get("before_after", ""),
                  "<h2>Verdict</h2>", f"<p>{html.escape(self.verdict.reason)}</p>"]
         style = "body{font-family:sans-serif;max-width:60em;margin:2em auto}table{border-collapse:collapse}" \
                 "td,th{border:1px solid #ccc;padding:0.2em 0.5em}img{max-width:100%}"
