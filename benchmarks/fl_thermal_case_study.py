@@ -316,7 +316,9 @@ def report_section(title: str, report: GapReport) -> list[str]:
                    "detected" if report.gap_detected else "not detected"]]), "",
         "Where the squared error concentrates:", "",
         md_table(["column", "low", "high", "RMSE (μm)", "share", "rows"], where) if where else "(no region)", "",
-        f"Top {min(TOP_CAUSES, len(report.causes))} causes (shrink = out-of-sample, 95 % CI):", "",
+        (f"Top {min(TOP_CAUSES, len(report.causes))} causes (shrink = out-of-sample, 95 % CI; the base alone — "
+         f"{report.base.description} — shrinks the error by {report.base.shrink:.0%}, and every shrink below "
+         "includes it):"), "",
         md_table(["rank", "column", "transform", "τ (min)", "q (BH)", "shrink", "significant",
                   "cannot be told apart"], causes), "",
         f"**Verdict:** {v.reason}", "",
