@@ -13,6 +13,7 @@ import pytest
 
 from svrqp import datasets
 from svrqp.cli import main
+from svrqp.demo.report import verdict_label
 from svrqp.demo.run import prepare_directory
 from svrqp.export import predict, read_document, verify
 from svrqp.gap.report import load_schema as load_gap_schema
@@ -122,3 +123,12 @@ def test_a_file_in_place_of_the_directory_is_refused(tmp_path):
     (tmp_path / "demo-output").write_text("a user's file")
     with pytest.raises(FileExistsError, match="not a directory"):
         prepare_directory(tmp_path / "demo-output", force=True)
+
+
+@pytest.mark.parametrize("verdict, label", [
+    ({"column": "T8_C", "transform": "lag"}, "T8_C (lag)"),
+    ({"column": None, "ambiguous_with": ["T2_C", "T4_C"]}, "none named — several candidates cannot be told apart"),
+    ({"column": None, "ambiguous_with": []}, "no cause beyond chance"),
+], ids=["named", "tied", "none"])
+def test_verdict_label_says_why_nothing_is_named(verdict, label):
+    assert verdict_label(verdict) == label

@@ -11,7 +11,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from svrqp.demo import run_demo
-from svrqp.demo.report import SIMULATED_NOTE
+from svrqp.demo.report import SIMULATED_NOTE, verdict_label
 
 
 def _s0_table(s0: dict[str, Any]) -> Table:
@@ -44,9 +44,8 @@ def print_summary(console: Console, results: dict[str, Any], out: Path) -> None:
     verify = results["export"]["verify"]
     console.print(f"Export — {', '.join(results['export']['files'])}: verify "
                   f"{'OK' if verify['ok'] else 'FAIL'} (largest probe deviation {verify['max_deviation']:.3g}).")
-    verdict = results["gap"]["verdict"]
-    console.print(f"Gap (summer MLR on autumn x3) — verdict: {verdict['column'] or 'no cause beyond chance'}"
-                  + (f" ({verdict['transform']})" if verdict["column"] else "") + f". {results['gap']['summary']}")
+    console.print(f"Gap (summer MLR on autumn x3) — verdict: {verdict_label(results['gap']['verdict'])}. "
+                  f"{results['gap']['summary']}")
     console.print(f"Everything is in {out}/ — open {out / 'report.html'} ({results['runtime_s']:.0f} s).")
 
 

@@ -87,12 +87,18 @@ def _export(export: dict[str, Any]) -> str:
               f"{cross['max_abs_deviation']:.3g} μm (std of the target {cross['target_std']:.3g} μm).</p>")
 
 
+def verdict_label(verdict: dict[str, Any]) -> str:
+    """The gap verdict in a few words: the named effect, or why none is named."""
+    if verdict.get("column"):
+        return f"{verdict['column']} ({verdict.get('transform')})"
+    if verdict.get("ambiguous_with"):
+        return "none named — several candidates cannot be told apart"
+    return "no cause beyond chance"
+
+
 def _gap(gap: dict[str, Any]) -> str:
-    verdict = gap["verdict"]
-    named = verdict.get("column")
     return ("<h2>Gap diagnosis: why the summer MLR misses autumn</h2>"
-            f"<p>Verdict: <b>{html.escape(str(named) if named else 'no cause beyond chance')}</b>"
-            + (f" ({html.escape(str(verdict.get('transform')))})" if named else "")
+            f"<p>Verdict: <b>{html.escape(verdict_label(gap['verdict']))}</b>"
             + f"</p><p>{html.escape(gap['summary'])}</p>"
             + f"<p>Full report: {_link(gap['html'])}; JSON: {_link(gap['json'])}.</p>")
 
