@@ -134,6 +134,7 @@ def test_solver_help_names_the_fast_exact_path():
     (["--features", "T7_C", "--train", "batch ==="], "cannot evaluate query"),
     (["--features", "T7_C", "--train", "time_min * 2"], "must give True/False"),
     (["--features", "T5_C"], r"--features: unknown column\(s\) \['T5_C'\]"),
+    (["--features", "T7_C,batch"], r"--features: column\(s\) \['batch'\] are not numeric"),
     (["--features", "T7_C", "--standardize"], "applies to svr and lssvr only"),
     (["--features", "T7_C", "--model", "ridge"], "--model must be one of"),
     (["--features", "T7_C", "--model", "svr", "--gamma", "-1"], "--gamma must be positive"),

@@ -33,8 +33,8 @@ def read_table(path: str | Path) -> pd.DataFrame:
     return pd.read_csv(path)
 
 
-def split_columns(text: str | None, table: pd.DataFrame, option: str) -> list[str]:
-    """Split ``"a,b,c"`` into column names and check that each is in ``table``."""
+def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: bool = False) -> list[str]:
+    """Split ``"a,b,c"`` into column names and check that each is in ``table`` (and numeric, if asked)."""
     if text is None or not text.strip():
         return []
     names = [name.strip() for name in text.split(",") if name.strip()]
@@ -43,6 +43,11 @@ def split_columns(text: str | None, table: pd.DataFrame, option: str) -> list[st
         raise ProblemError(
             f"{option}: unknown column(s) {missing}; available: {list(table.columns)}"
         )
+    if numeric:
+        text_columns = [name for name in names if not (pd.api.types.is_numeric_dtype(table[name])
+                                                     or pd.api.types.is_bool_dtype(table[name]))]
+        if text_columns:
+            raise ProblemError(f"{option}: column(s) {text_columns} are not numeric")
     return names
 
 

@@ -76,8 +76,8 @@ def register(app: typer.Typer) -> None:
             if target is None or features is None:
                 raise ProblemError("a data table needs --target and --features")
             table = read_table(source)
-            columns = split_columns(features, table, "--features")
-            split_columns(target, table, "--target")
+            columns = split_columns(features, table, "--features", numeric=True)
+            split_columns(target, table, "--target", numeric=True)
             estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
                                        forgetting=forgetting, solver=solver)
             fitted_model = make_pipeline(StandardScaler(), estimator) if standardize else estimator

@@ -112,10 +112,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
         table = read_table(data)
-        columns = split_columns(features, table, "--features")
+        columns = split_columns(features, table, "--features", numeric=True)
         if not columns:
             raise ProblemError("--features: give at least one column")
-        split_columns(target, table, "--target")
+        split_columns(target, table, "--target", numeric=True)
         if standardize and model not in ("svr", "lssvr"):
             raise ProblemError("--standardize applies to svr and lssvr only")
         estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,

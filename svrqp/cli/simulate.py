@@ -200,10 +200,10 @@ def register(app: typer.Typer) -> None:
         check_output(out, force)
         table = read_table(data)
         if target is not None:
-            split_columns(target, table, "--target")
+            split_columns(target, table, "--target", numeric=True)
         if group is not None:
             split_columns(group, table, "--group")
-        chosen = split_columns(temperatures, table, "--temperatures") if temperatures else None
+        chosen = split_columns(temperatures, table, "--temperatures", numeric=True) if temperatures else None
         figure = plot_table(table, target=target, temperatures=chosen, group=group)
         figure.savefig(out, dpi=120, bbox_inches="tight")
         import matplotlib.pyplot as plt

@@ -123,10 +123,10 @@ def tune(
     _writable(plot, force)
     _writable(json_path, force)
     table = read_table(data)
-    names = split_columns(features, table, "--features")
+    names = split_columns(features, table, "--features", numeric=True)
     if not names:
         raise ProblemError("--features: give at least one column")
-    split_columns(target, table, "--target")
+    split_columns(target, table, "--target", numeric=True)
     X, y = table[names].to_numpy(dtype=float), table[target].to_numpy(dtype=float)
     values = {name: _numbers(given or DEFAULTS[method][name], f"--{name}")
               for name, given in (("C", C), ("gamma", gamma), ("epsilon", epsilon))}
