@@ -49,6 +49,17 @@ def test_a_significant_candidate_whose_shrink_interval_holds_zero_is_not_named(s
     assert not row["named"], f"named {row['verdict']!r}"
 
 
+def test_a_candidate_that_loses_to_the_base_out_of_sample_is_not_named(suite):
+    """Null features-mode case with one train and one real run of 600 min (AR noise): the lag of the
+    axis duty passes the surrogate test (q = 0.03) and the raw shrink interval excludes zero, but
+    added to the base (offsets, recalibration) it makes the out-of-sample error worse (−16 %)."""
+    scenario = suite.Scenario(name="edge-null", family="thermal/features", kind="null", effect=None, snr=2.0,
+                              runs=2, run_min=600.0, ar=True, seed=90026)
+    report = suite.diagnose_case(scenario, suite.case_for(scenario))
+    assert report.verdict.column is None
+    assert "beyond what the base alone" in report.verdict.reason
+
+
 def test_labels_come_from_the_simulator(suite):
     case = suite.case_for(_scenario(suite, "tp-nut_heating-2"))
     assert case.truth[0] == "nut_C" and "axis_duty_pct" in case.truth

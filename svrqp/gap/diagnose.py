@@ -13,8 +13,9 @@
    (:mod:`svrqp.gap.quantify`); every significant cause is compared with the top one by a
    paired block-bootstrap test of their out-of-sample losses (:mod:`svrqp.gap.compare`,
    :func:`mark_ties`). A verdict names a cause only when its shrink interval also excludes
-   zero: significance says the candidate carries information, the interval that the real-row
-   error actually shrinks.
+   zero — significance says the candidate carries information, the interval that the real-row
+   error actually shrinks — and when the interval of its shrink *beyond the base alone*
+   (:func:`_base_fit`) excludes zero as well: the effect must beat the base it is added to.
 
 Causes that cannot be told apart
     Two kinds of evidence answer "is it this column or that one?". The conditional tests of
@@ -63,7 +64,7 @@ from svrqp.gap.figures import Series, axis_label
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
-from svrqp.gap.quantify import estimate_shrink, refit_shrink
+from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
 from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
 from svrqp.gap.transforms import smooth, tau_grid
 
@@ -186,7 +187,7 @@ def diagnose(
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
     detected = gap_detected(gap)
     exact = _reproduced_exactly(r, data.y)
-    base = _base_fit(data, r, B, folds, exact)
+    base, base_errors = _base_fit(data, r, B, folds, exact)
     if exact:
         causes, errors_after, residual_gate, remaining = [], {}, None, []
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
@@ -197,7 +198,8 @@ def diagnose(
         report_progress("quantifying", 0.85)
         causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
         causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
-        verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected, base)
+        verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
+                                          base, base_errors, rng)
         remaining = [e.test.column for e in attribution.accepted[1:]] if verdict.column else []
     report_progress("reporting", 0.98)
 
@@ -334,21 +336,22 @@ def _joined(note: str | None, text: str) -> str:
 
 
 
-def _base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray], exact: bool) -> BaseFit:
-    """The base discrepancy model alone, out of sample (what every cause's shrink includes)."""
+def _base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
+              exact: bool) -> tuple[BaseFit, np.ndarray]:
+    """The base discrepancy model alone, out of sample (what every cause's shrink includes), and its errors."""
     groups = data.groups[data.is_real]
     offsets = "one offset" if holds_out_groups(groups) else f"one offset per {data.group_name or 'group'}"
     description = offsets if data.prediction is not None else f"{offsets} and a recalibration of the model's inputs"
     rmse_before = float(np.sqrt(np.mean(r**2)))
     if exact:
-        return BaseFit(description, 0.0, 0.0)
+        return BaseFit(description, 0.0, 0.0), np.zeros_like(r)
     errors = CrossValidatedDiscrepancy(r, B, folds).errors_base
     rmse_after = float(np.sqrt(np.mean(errors**2)))
-    return BaseFit(description, rmse_after, 1.0 - rmse_after / rmse_before)
+    return BaseFit(description, rmse_after, 1.0 - rmse_after / rmse_before), errors
 
 
 def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
-             base: BaseFit) -> tuple[Verdict, GateResult | None]:
+             base: BaseFit, base_errors: np.ndarray, rng: np.random.Generator) -> tuple[Verdict, GateResult | None]:
     train_groups = data.groups[data.is_train]
     if not detected:
         reason = (f"No gap beyond chance: the real-row RMSE {gap.real_rmse:.3g} is not significantly above the "
@@ -374,20 +377,32 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
                   f"{top.shrink:.0%} (95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}), is not "
                   "distinguishable from zero; no cause is named.")
         return Verdict(column=None, reason=reason), None
-    refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)
     after = errors_after[top.column]
+    beyond = 1.0 - float(np.sqrt(np.mean(after**2) / np.mean(base_errors**2)))
+    beyond_ci = shrink_interval(base_errors, after, groups, rng)
+    if beyond_ci[0] <= 0.0:
+        # The effect must beat the base it is added to, out of sample: the test's gain picks the best
+        # variant on all rows, the nested estimate chooses it inside each fold and can lose.
+        reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} passes the significance "
+                  f"test (q = {top.p_value:.2g}), but out of sample it does not shrink the real-row error beyond "
+                  f"what the base alone ({base.description}) leaves: {beyond:.0%} (95 % CI {beyond_ci[0]:.0%} … "
+                  f"{beyond_ci[1]:.0%}); no cause is named.")
+        return Verdict(column=None, reason=reason), None
+    refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)
     residual_gate = gate(after, groups, baseline.train_reference, train_groups)
     reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} explains the gap "
               f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
-              f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}), of which the base alone ({base.description}) "
-              f"gives {base.shrink:.0%}; refitting the model with it as an input shrinks it by {refit:.0%}.")
+              f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}) — {beyond:.0%} beyond the base alone "
+              f"({base.description}; 95 % CI {beyond_ci[0]:.0%} … {beyond_ci[1]:.0%}), which gives {base.shrink:.0%}; "
+              f"refitting the model with it as an input shrinks it by {refit:.0%}.")
     tied = [c.column for c in causes[1:] if c.ambiguous]
     if tied:
         reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "
                    "out-of-sample losses); the verdict stays on it because the conditional tests, on the evidence "
                    "where the candidates decorrelate, favour it or credit each with its own information.")
     return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, shrink=top.shrink,
-                   shrink_ci=top.shrink_ci, refit_shrink=refit, rmse_before=top.rmse_before,
+                   shrink_ci=top.shrink_ci, shrink_beyond_base=beyond, shrink_beyond_base_ci=beyond_ci,
+                   refit_shrink=refit, rmse_before=top.rmse_before,
                    rmse_after=top.rmse_after, p_value=top.p_value, ambiguous_with=tied), residual_gate
 
 

@@ -64,6 +64,8 @@ class Verdict:
     tau: float | None = None
     shrink: float | None = None
     shrink_ci: tuple[float, float] | None = None
+    shrink_beyond_base: float | None = None
+    shrink_beyond_base_ci: tuple[float, float] | None = None
     refit_shrink: float | None = None
     rmse_before: float | None = None
     rmse_after: float | None = None
