@@ -53,7 +53,8 @@ for reference, the best IoU a single interval of the order axis could reach); sh
 Three grids: :data:`DEVELOPMENT`, on which the method was developed (its numbers are optimistic
 by construction); :data:`HOLDOUT` — other seeds, other SNR levels, run counts and lengths — run
 to check the first versions of the method and again after later changes (so no longer quite
-unseen); and :data:`FRESH`, with seeds never used before, run once after the last change.
+unseen); and :data:`FRESH`, with seeds never used before, run only to check changes already
+made on the other grids (three times so far; docs/gap.md says after which changes).
 
 Run: ``python benchmarks/gap_suite.py [--grid development|holdout|fresh]`` (writes
 ``benchmarks/results/gap_suite[_holdout|_fresh].{csv,md}``); ``--quick`` runs every tenth scenario,
@@ -317,7 +318,7 @@ HOLDOUT = {"seed": 7000, "snr": (0.75, 3.0, 6.0, 1.25, 2.5), "runs": (4, 3, 6), 
 
 FRESH = {"seed": 41000, "snr": (1.0, 0.75, 2.0, 5.0, 1.25), "runs": (3, 4, 5), "run_min": (360.0, 200.0, 300.0),
          "ar": 1}
-"""A third grid with seeds never used before, run once after the last change of the method."""
+"""A third grid, seeds unused elsewhere: run only to check changes made on the others, never to tune them."""
 
 GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH}
 """Every grid by name."""
@@ -519,7 +520,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="Run every tenth scenario only.")
     parser.add_argument("--grid", choices=tuple(GRIDS), default="development",
-                        help="Scenario grid: development, holdout or fresh (run once, after the last method change).")
+                        help="Scenario grid: development, holdout or fresh (only to check a change, never to tune).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Folder for gap_suite.csv and gap_suite.md.")
     args = parser.parse_args(argv)
