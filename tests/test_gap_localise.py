@@ -19,7 +19,7 @@ def _transient_residual(seed=0):
 
 def test_a_start_up_transient_is_found_at_the_start():
     e = _transient_residual()
-    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS))
+    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS)
     first = where[0]
     assert first.column == "time_min"
     assert first.low == 0.0 and first.high <= 40.0
@@ -28,7 +28,7 @@ def test_a_start_up_transient_is_found_at_the_start():
 
 def test_region_numbers_are_computed_on_every_real_row():
     e = _transient_residual()
-    first = localise(e, "time_min", T, {}, blocked_folds(GROUPS))[0]
+    first = localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS)[0]
     inside = (T >= first.low) & (T <= first.high)
     assert first.n == inside.sum()
     assert first.rmse == pytest.approx(np.sqrt(np.mean(e[inside] ** 2)))
@@ -37,7 +37,7 @@ def test_region_numbers_are_computed_on_every_real_row():
 
 def test_uniform_error_is_reported_as_the_whole_range():
     e = np.random.default_rng(1).normal(size=T.size)
-    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS))
+    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS)
     assert any(r.column == "time_min" for r in where)
     spans = [r for r in where if r.column == "time_min"]
     # either nothing stands out (one region, everything) or what stands out is weak
@@ -47,7 +47,7 @@ def test_uniform_error_is_reported_as_the_whole_range():
 def test_a_candidate_region_is_reported_when_error_follows_it():
     e = _transient_residual()
     hot = np.where(T < 20, 40.0, 25.0) + np.random.default_rng(2).normal(scale=0.5, size=T.size)
-    where = localise(e, "time_min", T, {"spindle_C": hot}, blocked_folds(GROUPS))
+    where = localise(e, "time_min", T, {"spindle_C": hot}, blocked_folds(GROUPS), GROUPS)
     spindle = [r for r in where if r.column == "spindle_C"]
     assert spindle and spindle[0].low > 35.0
 
@@ -60,3 +60,15 @@ def test_regions_are_scored_on_held_out_rows():
     for region in regions_on("time_min", T, e, fit_rows):
         assert isinstance(region, Region)
         assert region.enrichment == pytest.approx(1.0, abs=0.6)
+
+
+def test_a_stretch_where_only_one_of_two_runs_goes_wrong_is_one_region():
+    """Run 1 steps 3 μm away at 150 min, run 0 stays at the noise: pooled along time, the error
+    concentrates on 150 … 299. Scoring each stretch on the rows of both runs keeps it one region
+    (blocks interleaved within runs scored stretches on one run only and cut holes into it)."""
+    rng = np.random.default_rng(0)
+    e = 0.2 * rng.normal(size=T.size) + np.where((GROUPS == 1) & (T >= 150), 3.0, 0.0)
+    spans = [r for r in localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS) if r.column == "time_min"]
+    assert len(spans) == 1
+    assert 140 <= spans[0].low <= 165 and spans[0].high == T.max()
+    assert spans[0].share > 0.9  # blocks interleaved within runs gave 183 … 269 and 58 %

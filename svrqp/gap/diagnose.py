@@ -184,7 +184,8 @@ def diagnose(
 
     gap = gate(r, groups, baseline.train_reference, data.groups[data.is_train])
     report_progress("localising", 0.15)
-    where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds)
+    where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds,
+                     groups)
     detected = gap_detected(gap)
     exact = _reproduced_exactly(r, data.y)
     base, base_errors = _base_fit(data, r, B, folds, exact)

@@ -3,16 +3,22 @@ r"""Where along the order axis (or a candidate column) the real-row error concen
 For a column :math:`u` (the ``--order`` axis first, then each candidate) an *error tree* — a
 regression tree of the squared residual :math:`e^2` on :math:`u` alone, with at most
 :data:`MAX_LEAVES` leaves of at least :data:`MIN_LEAF_FRACTION` of the rows — cuts the range of
-:math:`u` into intervals. The tree is fitted on one half of the real rows (the even
-cross-validation folds, so whole groups or blocks) and *scored on the other half*: an
-interval counts as a region of concentrated error only if the held-out rows in it have a mean
-squared error above the held-out overall mean,
+:math:`u` into intervals. The tree is fitted on one half of the real rows and *scored on the
+other half*: an interval counts as a region of concentrated error only if the held-out rows in
+it have a mean squared error above the held-out overall mean,
 
 .. math::
 
     \kappa_I = \frac{\overline{e^2}\big|_{I,\ \mathrm{held\ out}}}{\overline{e^2}\big|_{\mathrm{held\ out}}} > 1 .
 
-Adjacent such intervals are merged. Each region is reported with its bounds (the smallest and
+The halves: with enough groups to hold whole ones out, the even cross-validation folds (whole
+groups) fit and the odd ones score — a region must recur in other runs. With fewer groups the
+order axis is cut into :data:`ORDER_BLOCKS` blocks of equal row counts, pooled over the
+groups, and alternate blocks fit and score: every stretch of the axis is then scored on the rows
+of *every* group. (Blocks interleaved within each group would score a stretch on the rows of
+one group and fit it on another's, so a stretch where only one of two runs goes wrong could
+never count.) An interval without any held-out row joins an enriched neighbour when its fitting
+rows are above their own mean. Adjacent enriched intervals are merged. Each region is reported with its bounds (the smallest and
 largest value of :math:`u` among the real rows inside), its RMSE, its share of the total
 squared error :math:`\sum_{i\in I} e_i^2 / \sum_i e_i^2` and its number of rows, all over
 every real row. When no interval stands out on the order axis the error is spread evenly and
@@ -27,6 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.tree import DecisionTreeRegressor
 
+from svrqp.gap.blocks import holds_out_groups
+
 MAX_LEAVES = 6
 """Most intervals an error tree cuts a column into."""
 
@@ -38,6 +46,9 @@ CANDIDATE_MIN_ENRICHMENT = 1.5
 
 MAX_CANDIDATE_REGIONS = 5
 """Most candidate-column regions reported (highest share first)."""
+
+ORDER_BLOCKS = 20
+"""With few groups, alternate blocks of this many along the order axis fit and score the trees."""
 
 
 @dataclass(frozen=True)
@@ -103,9 +114,16 @@ def regions_on(column: str, u: np.ndarray, e: np.ndarray, fit_rows: np.ndarray) 
     cell = np.searchsorted(cuts, u, side="left")  # interval index of every row
     overall = e2[held].mean()
     enriched = np.zeros(cuts.size + 1, dtype=bool)
+    unscored = np.zeros(cuts.size + 1, dtype=bool)
     for c in range(cuts.size + 1):
         rows = held & (cell == c)
+        unscored[c] = not rows.any()
         enriched[c] = rows.any() and overall > 0 and e2[rows].mean() > overall
+    # An interval with no held-out row (short, inside one fitting block) joins an enriched
+    # neighbour when its own fitting rows are above their mean too: it cannot be scored alone.
+    high_on_fit = [unscored[c] and e2[fit_rows & (cell == c)].mean() > e2[fit_rows].mean() for c in range(cuts.size + 1)]
+    for c in np.flatnonzero(high_on_fit):
+        enriched[c] = (c > 0 and enriched[c - 1]) or (c < cuts.size and enriched[c + 1])
     regions = []
     c = 0
     while c <= cuts.size:
@@ -135,12 +153,25 @@ def _region(column: str, u: np.ndarray, e2: np.ndarray, inside: np.ndarray, held
     )
 
 
+def fit_half(order: np.ndarray, folds: list[np.ndarray], groups: np.ndarray) -> np.ndarray:
+    """Rows the error trees are fitted on (the others score them); see the module docstring."""
+    fit_rows = np.zeros(order.size, dtype=bool)
+    if holds_out_groups(groups):
+        for f, test in enumerate(folds):
+            fit_rows[test] = f % 2 == 0
+        return fit_rows
+    edges = np.quantile(order, np.linspace(0.0, 1.0, ORDER_BLOCKS + 1)[1:-1])
+    block = np.searchsorted(edges, order, side="right")  # equal order values share a block
+    return block % 2 == 0
+
+
 def localise(
     e: np.ndarray,
     order_name: str,
     order: np.ndarray,
     candidates: dict[str, np.ndarray],
     folds: list[np.ndarray],
+    groups: np.ndarray,
 ) -> list[Region]:
     """Ranked regions of concentrated real-row error: order axis first, then candidates.
 
@@ -155,8 +186,9 @@ def localise(
     candidates : dict
         Candidate name → values on the real rows.
     folds : list of ndarray
-        Blocked cross-validation folds of the real rows; even folds fit the trees, odd folds
-        score them.
+        Blocked cross-validation folds of the real rows.
+    groups : ndarray of int
+        Group code per real row (:func:`fit_half` says which rows fit and which score).
 
     Returns
     -------
@@ -165,9 +197,7 @@ def localise(
         candidate regions with enrichment of at least :data:`CANDIDATE_MIN_ENRICHMENT`, by
         decreasing share.
     """
-    fit_rows = np.zeros(len(e), dtype=bool)
-    for f, test in enumerate(folds):
-        fit_rows[test] = f % 2 == 0
+    fit_rows = fit_half(order, folds, groups)
     on_order = sorted(regions_on(order_name, order, e, fit_rows), key=lambda r: -r.share)
     if not on_order:
         everything = np.ones(len(e), dtype=bool)
