@@ -54,7 +54,7 @@ Three grids: :data:`DEVELOPMENT`, on which the method was developed (its numbers
 by construction); :data:`HOLDOUT` — other seeds, other SNR levels, run counts and lengths — run
 to check the first versions of the method and again after later changes (so no longer quite
 unseen); and :data:`FRESH`, with seeds never used before, run only to check changes already
-made on the other grids (three times so far; docs/gap.md says after which changes).
+made on the other grids (four times so far, each listed in docs/gap.md).
 
 Run: ``python benchmarks/gap_suite.py [--grid development|holdout|fresh]`` (writes
 ``benchmarks/results/gap_suite[_holdout|_fresh].{csv,md}``); ``--quick`` runs every tenth scenario,
