@@ -97,8 +97,13 @@ def test_short_groups_are_dropped_and_counted(table):
 def test_repeated_order_within_a_group(table):
     repeated = table.copy()
     repeated.loc[3, "time_min"] = repeated.loc[2, "time_min"]
-    with pytest.raises(ProblemError, match="repeated values"):
+    with pytest.raises(ProblemError, match="repeated value .* within group 'r0'; each row of a group needs"):
         prepare(repeated, **ARGS)
+
+
+def test_runs_restarting_the_order_axis_without_a_group_get_a_hint(table):
+    with pytest.raises(ProblemError, match="within group 'all'; if each run restarts the order axis, name the run"):
+        prepare(table, **(ARGS | {"group": None}))
 
 
 def test_without_order_the_row_position_is_used(table):

@@ -241,7 +241,10 @@ def prepare(
     repeated = same_group & (np.diff(t_raw) <= 0)
     if repeated.any():
         label = group_labels[codes[1:][repeated][0]]
-        raise ProblemError(f"order: repeated values of {order!r} within group {label!r}")
+        value = t_raw[1:][repeated][0]
+        hint = ("; if each run restarts the order axis, name the run column with group (--group)" if group is None
+                else "; each row of a group needs its own order value")
+        raise ProblemError(f"order: repeated value {value:g} of {order!r} within group {label!r}{hint}")
 
     n_train = int(is_train.sum())
     if n_train == 0:
