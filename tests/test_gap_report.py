@@ -156,3 +156,23 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
     assert report.base.rmse_after == pytest.approx(rmse_after, rel=1e-6)
     assert report.base.shrink == pytest.approx(1 - rmse_after / np.sqrt(np.mean(r**2)), rel=1e-6)
     assert "base alone" in report.to_markdown() and report.to_dict()["base"]["shrink"] == report.base.shrink
+
+
+@pytest.mark.parametrize("name, unit, label", [
+    ("error_um", "µm", "error (µm)"),
+    ("Fehler_µm", "µm", "Fehler (µm)"),
+    ("spindle_box_C", "°C", "spindle box (°C)"),
+    ("time_min", "min", "time (min)"),
+    ("deviation", None, "deviation (units of the column)"),
+    ("row", "rows", "row within group (count)"),
+], ids=["um", "micro sign", "C", "min", "no unit", "row"])
+def test_units_are_read_off_column_names(name, unit, label):
+    from svrqp.gap.figures import axis_label, unit_of
+
+    assert unit_of(name) == unit and axis_label(name) == label
+
+
+def test_a_target_without_a_unit_is_summarised_without_one():
+    table = air_lag_problem().rename(columns={"error_um": "deviation"})
+    result = diagnose(table, **(ARGS | {"target": "deviation"}))
+    assert "units of the column" not in result.summary and "RMS against" in result.summary

@@ -60,7 +60,7 @@ from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
 from svrqp.gap.compare import paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.figures import Series, axis_label
+from svrqp.gap.figures import Series, unit_of
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
@@ -415,19 +415,23 @@ def _names(columns: list[str]) -> str:
 def _tau_text(tau: float | None, order_name: str) -> str:
     if tau is None:
         return ""
-    unit = axis_label(order_name).rpartition("(")[2].rstrip(")")
-    return f" (τ = {tau:.3g} {unit})"
+    return f" (τ = {_quantity(tau, unit_of(order_name))})"
+
+
+def _quantity(value: float, unit: str | None) -> str:
+    """``4.09 µm``, or the bare number for a column whose name carries no unit."""
+    return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
 
 
 def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region], verdict: Verdict,
              exact: bool) -> str:
     """The gap in one sentence: how large, where, and what explains it."""
-    unit = axis_label(data.target).rpartition("(")[2].rstrip(")")
+    unit = unit_of(data.target)
     if exact:
         return (f"On the {int(data.is_real.sum())} real rows the model reproduces {data.target} exactly (zero "
                 "residual): there is no gap and no cause is named.")
-    text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is {gap.real_rmse:.3g} {unit} RMS "
-            f"against {gap.train_rmse:.3g} {unit} on the train rows")
+    text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is "
+            f"{_quantity(gap.real_rmse, unit)} RMS against {_quantity(gap.train_rmse, unit)} on the train rows")
     top = where[0] if where else None
     if top is not None and top.share < 0.999:
         text += f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error)"

@@ -13,17 +13,26 @@ import numpy as np
 
 from svrqp.gap.transforms import group_slices
 
-UNITS = {"um": "µm", "mm": "mm", "min": "min", "s": "s", "h": "h", "C": "°C", "K": "K", "rpm": "rpm", "pct": "%"}
-"""Column-name suffixes read as units (``error_um`` → µm)."""
+UNITS = {"um": "µm", "µm": "µm", "μm": "µm", "mm": "mm", "min": "min", "s": "s", "h": "h", "C": "°C", "°C": "°C",
+         "degC": "°C", "K": "K", "rpm": "rpm", "pct": "%", "urad": "µrad", "arcsec": "″"}
+"""Column-name suffixes read as units (``error_um`` → µm; the micro sign and Greek mu both count)."""
+
+
+def unit_of(name: str) -> str | None:
+    """Unit of a column from its name's suffix (``"error_um"`` → ``"µm"``), None when there is none."""
+    if name == "row":
+        return "rows"
+    stem, _, suffix = name.rpartition("_")
+    return UNITS.get(suffix) if stem else None
 
 
 def axis_label(name: str) -> str:
     """Axis label of a column: ``"time_min"`` → ``"time (min)"``; ``"row"`` → row position."""
     if name == "row":
         return "row within group (count)"
-    stem, _, suffix = name.rpartition("_")
-    if stem and suffix in UNITS:
-        return f"{stem.replace('_', ' ')} ({UNITS[suffix]})"
+    unit = unit_of(name)
+    if unit is not None:
+        return f"{name.rpartition('_')[0].replace('_', ' ')} ({unit})"
     return f"{name} (units of the column)"
 
 
