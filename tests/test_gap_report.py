@@ -156,6 +156,11 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
     assert report.base.rmse_after == pytest.approx(rmse_after, rel=1e-6)
     assert report.base.shrink == pytest.approx(1 - rmse_after / np.sqrt(np.mean(r**2)), rel=1e-6)
     assert "base alone" in report.to_markdown() and report.to_dict()["base"]["shrink"] == report.base.shrink
+    for cause in report.causes:
+        assert cause.shrink_beyond_base == pytest.approx(1 - cause.rmse_after / rmse_after, rel=1e-6)
+    assert report.verdict.shrink_beyond_base == pytest.approx(report.causes[0].shrink_beyond_base)
+    low, high = report.verdict.shrink_beyond_base_ci
+    assert 0 < low <= report.verdict.shrink_beyond_base <= high
 
 
 @pytest.mark.parametrize("name, unit, label", [

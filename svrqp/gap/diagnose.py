@@ -197,7 +197,7 @@ def diagnose(
         report_progress("testing candidates", 0.2)
         attribution = attribute(AttributionProblem(r, B, folds, groups, gap.train_rmse, rng), build_banks(data, taus))
         report_progress("quantifying", 0.85)
-        causes, errors_after = _causes(attribution, r, B, folds, groups, rng)
+        causes, errors_after = _causes(attribution, r, B, folds, groups, rng, base_errors)
         causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
         verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
                                           base, base_errors, rng)
@@ -268,8 +268,13 @@ def _best(evidence: list[Evidence], column: str) -> Evidence:
     return max(own, key=lambda e: (e.passes, e.test.gain))
 
 
-def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[str, np.ndarray]]:
-    """The causes table: one row per column, each shrink for that effect alone added to the base."""
+def _causes(attribution, r, B, folds, groups, rng, base_errors) -> tuple[list[Cause], dict[str, np.ndarray]]:
+    """The causes table: one row per column, each shrink for that effect alone added to the base.
+
+    ``shrink_beyond_base`` is the same out-of-sample error against the base alone's: the
+    effect's own part, which can be negative when the effect does worse than the base.
+    """
+    base_rmse = float(np.sqrt(np.mean(base_errors**2)))
     causes, errors_after = [], {}
     for ev in _representatives(attribution):
         shrink = estimate_shrink(r, B, ev.test.bank.Z, ev.test.bank.partner, folds, groups, rng)
@@ -280,6 +285,7 @@ def _causes(attribution, r, B, folds, groups, rng) -> tuple[list[Cause], dict[st
             gain=ev.test.gain, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
             shrink=shrink.shrink, shrink_ci=(shrink.ci_low, shrink.ci_high), round=ev.round,
             note=attribution.notes.get(ev.test.column),
+            shrink_beyond_base=1.0 - shrink.rmse_after / base_rmse if base_rmse > 0 else None,
         ))
     return causes, errors_after
 

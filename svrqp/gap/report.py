@@ -21,7 +21,7 @@ from typing import Any
 import jsonschema
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap.figures import Series, axis_label, before_after_figure, gap_figure
+from svrqp.gap.figures import Series, before_after_figure, gap_figure, unit_of
 from svrqp.gap.gate import GateResult
 from svrqp.gap.localise import Region
 
@@ -52,6 +52,7 @@ class Cause:
     note: str | None = None
     ambiguous: bool = False
     p_paired: float | None = None
+    shrink_beyond_base: float | None = None
 
 
 @dataclass(frozen=True)
@@ -212,12 +213,16 @@ class GapReport:
         return figures
 
     def _tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:
-        unit = axis_label(self.target)
-        where = (["column", "low", "high", f"RMSE {unit}", "share", "n"],
+        unit = unit_of(self.target)
+        rmse = f"RMSE ({unit})" if unit else "RMSE"
+        where = (["column", "low", "high", rmse, "share", "n"],
                  [[r.column, _num(r.low), _num(r.high), _num(r.rmse), f"{r.share:.0%}", str(r.n)] for r in self.where])
-        causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"RMSE after {unit}", "shrink (95 % CI)", "note"],
+        causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"{rmse} after", "shrink (95 % CI)",
+                   "beyond the base", "note"],
                   [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.gain), _num(c.rmse_after),
-                    f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})", c.note or ("significant" if c.significant else "")]
+                    f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
+                    "–" if c.shrink_beyond_base is None else f"{c.shrink_beyond_base:.0%}",
+                    c.note or ("significant" if c.significant else "")]
                    for i, c in enumerate(self.causes)])
         g = self.gap
         gap = (["train RMSE", "real RMSE", "ratio", "p (excess over train)", "noise RMSE", "p (excess over noise)",
@@ -240,7 +245,8 @@ class GapReport:
         """How to read the shrink column: what the base alone already does."""
         return (f"Each shrink is that of the discrepancy model \"base + the effect\" against the model's raw "
                 f"residual; the base alone ({self.base.description}) shrinks it by {self.base.shrink:.0%} out of "
-                "sample, and a cause's gain is the share of what the base leaves that the effect removes.")
+                "sample, and \"beyond the base\" is what the effect removes of what the base leaves, out of sample "
+                "(negative: it does worse than the base).")
 
     def _html(self) -> str:
         figures = self._figures()
