@@ -302,7 +302,7 @@ def report_section(title: str, report: GapReport) -> list[str]:
     g, v = report.gap, report.verdict
     causes = [[str(i + 1), f"`{c.column}`", c.transform, "–" if c.tau is None else f"{c.tau:.3g}",
                f"{c.p_value:.2g}", f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
-               "yes" if c.significant else "no", "yes" if c.ambiguous else "no"]
+               pct(c.shrink_beyond_base), "yes" if c.significant else "no", "yes" if c.ambiguous else "no"]
               for i, c in enumerate(report.causes[:TOP_CAUSES])]
     where = [[f"`{r.column}`", f"{r.low:.4g}", f"{r.high:.4g}", f"{r.rmse:.3g}", f"{r.share:.0%}", str(r.n)]
              for r in report.where]
@@ -319,7 +319,7 @@ def report_section(title: str, report: GapReport) -> list[str]:
         (f"Top {min(TOP_CAUSES, len(report.causes))} causes (shrink = out-of-sample, 95 % CI; the base alone — "
          f"{report.base.description} — shrinks the error by {report.base.shrink:.0%}, and every shrink below "
          "includes it):"), "",
-        md_table(["rank", "column", "transform", "τ (min)", "q (BH)", "shrink", "significant",
+        md_table(["rank", "column", "transform", "τ (min)", "q (BH)", "shrink", "beyond the base", "significant",
                   "cannot be told apart"], causes), "",
         f"**Verdict:** {v.reason}", "",
     ]
