@@ -797,8 +797,25 @@ pd.DataFrame(result["where"]).head(5)
 """),
         code(r"""
 causes = pd.DataFrame(result["causes"])
-causes[[c for c in ("column", "transform", "tau", "p_value", "rmse_before", "rmse_after", "shrink", "shrink_ci", "note")
-         if c in causes]].head(6)
+causes[[c for c in ("column", "transform", "tau", "p_value", "rmse_before", "rmse_after", "shrink", "shrink_ci",
+                    "shrink_beyond_base", "note") if c in causes]].head(6)
+"""),
+        md(r"""
+### How much of the shrink is the effect's own?
+
+Every shrink above is that of a discrepancy model "base + effect" against the model's raw
+residual. The *base* — here one offset per batch and a recalibration of the model's own inputs —
+already takes part of the error on its own: with two real batches an offset between them cannot
+be attributed to any candidate, so it is not credited to one. `shrink_beyond_base` is what the
+effect removes of what the base leaves, out of sample; the verdict needs its interval to exclude
+zero.
+"""),
+        code(r"""
+print("base alone:", result["base"]["description"], "→ shrink", round(result["base"]["shrink"], 3))
+verdict = result["verdict"]
+if verdict["column"] is not None:
+    print(f"verdict {verdict['column']} ({verdict['transform']}): shrink {verdict['shrink']:.3f}, "
+          f"beyond the base {verdict['shrink_beyond_base']:.3f}, 95 % CI {verdict['shrink_beyond_base_ci']}")
 """),
         md(r"""
 ## Checking the answer against the truth
