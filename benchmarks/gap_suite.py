@@ -250,6 +250,9 @@ def thermal_case(s: Scenario) -> Case:
             alone = _simulate_runs(configs, seeds, s.run_min, sensor_noise=0.0, **(scales | {s.effect: 1.0}))
             same = _simulate_runs(configs, seeds, s.run_min, sensor_noise=0.0, **(scales | dict.fromkeys(sharing, 1.0)))
             truth, decoys = label_columns(s.effect, df, alone, same, real)
+            if not truth:
+                raise ValueError(f"{s.name}: no column carries the withheld effect on the real rows (share < "
+                                 f"{TRUTH_SHARE_MIN}); the scenario has no right answer")
             picked = rng.choice(decoys, min(s.n_decoys, len(decoys)), replace=False)
             candidates = tuple(rng.permutation([truth[0], *picked]))
     else:
@@ -365,11 +368,11 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
 # ----------------------------------------------------------------------- evaluation
 
 
-def diagnose_case(s: Scenario, case: Case):
+def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
     """Run the diagnosis the way a user would on this scenario."""
     gantry = s.family.startswith("gantry")
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
-              "order": "time_s" if gantry else "time_min", "group": "run"}
+              "order": "time_s" if gantry else "time_min", "group": "run", "surrogates": surrogates}
     if s.family.endswith("prediction"):
         return diagnose(case.table, prediction="prediction_um", **common)
     return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)

@@ -15,6 +15,7 @@ from gap_problems import (
     thermal_runs,
 )
 
+from svrqp.exceptions import ProblemError
 from svrqp.gap import diagnose
 from svrqp.gap.attribute import CandidateBank, SurrogateTest, run_tests
 from svrqp.gap.blocks import blocked_folds
@@ -103,3 +104,37 @@ def test_same_seed_gives_the_same_report():
     second = diagnose(df, candidates=CANDIDATES, seed=3, **ARGS).to_dict()
     first.pop("runtime_s"), second.pop("runtime_s")
     assert first == second
+
+
+def _p_value(r, x, groups, surrogates, seed=0):
+    rng = np.random.default_rng(seed)
+    bank = CandidateBank("x", "level", None, ((x - x.mean()) / x.std())[:, None])
+    test = SurrogateTest(CrossValidatedDiscrepancy(r, np.ones((r.size, 1)), blocked_folds(groups)), bank, groups, rng,
+                         surrogates)
+    return run_tests([test], 499, lambda p: p < 0.0)[0].p_value
+
+
+def test_continuous_surrogates_do_not_count_a_shared_drift_as_evidence():
+    """Residual and candidate both rise through every run, and nothing else relates them. Rotated,
+    the candidate jumps at the seam and fits the rise worse than the original, so plain rotations
+    call the drift significant; lifted at the seam, the surrogates keep the rise and do not."""
+    rng = np.random.default_rng(6)
+    groups = np.repeat([0, 1, 2], 200)
+    ramp = np.tile(np.linspace(0.0, 1.0, 200), 3)
+    x = ramp + 0.02 * np.cumsum(rng.normal(size=600))
+    r = ramp + 0.3 * rng.normal(size=600)
+    assert _p_value(r, x, groups, "rotation") < 0.01
+    assert _p_value(r, x, groups, "continuous") > 0.05
+
+
+def test_continuous_surrogates_keep_the_evidence_of_a_matching_shape():
+    rng = np.random.default_rng(7)
+    groups = np.repeat([0, 1, 2], 200)
+    x = np.cumsum(rng.normal(size=600))
+    r = x + 2.0 * rng.normal(size=600)
+    assert _p_value(r, x, groups, "continuous") <= 1 / 500 + 1e-12
+
+
+def test_unknown_surrogate_kind_is_named():
+    with pytest.raises(ProblemError, match="surrogates must be one of"):
+        diagnose(thermal_runs("none", seed=3), candidates=CANDIDATES, surrogates="bootstrap", **ARGS)

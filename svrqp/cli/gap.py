@@ -7,7 +7,8 @@
               --candidates COL[,COL…] [--order COL] [--group COL]
               --json OUT.json [--report OUT.html]
 
-``--seed`` and ``--force`` are additions: the seed of the surrogates and bootstrap, and
+``--seed``, ``--surrogates`` and ``--force`` are additions: the seed of the surrogates and
+bootstrap, how the significance tests draw surrogates (:mod:`svrqp.gap.attribute`), and
 permission to overwrite existing output files.
 """
 
@@ -56,6 +57,9 @@ def gap(
     report: Path = typer.Option(
         None, "--report", help="Also write a report: .html (self-contained) or .md (with PNG figures beside it)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the surrogate tests and the bootstrap."),
+    surrogates: str = typer.Option(
+        "rotation", "--surrogates", help="rotation (default) | continuous: rotations made continuous at the seam, "
+        "safer when the true cause may be missing and candidates drift within a run (less power on slow effects)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
 ) -> None:
     """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
@@ -85,6 +89,7 @@ def gap(
             group=_one(group, table, "--group"),
             model=model or "mlr",
             seed=seed,
+            surrogates=surrogates,
             progress=lambda stage, done: progress.update(task, completed=done, description=stage),
         )
     written = [result.write_json(json_out, force=force)]

@@ -36,6 +36,17 @@ Significance by surrogates that keep autocorrelation
     A periodic candidate (a chiller cycling at a fixed period) would match itself at shifts
     of whole periods; :func:`~svrqp.gap.blocks.circular_shifts` avoids such shifts.
 
+    A rotation is a fair draw only for a candidate that is stationary within a run. One that
+    drifts (a temperature that wanders like a random walk, or ends a run far from where it
+    began) is rotated into a series with a jump at the seam, which fits a smooth residual worse
+    than the unbroken original — so drifting decoys look significant. ``surrogates="continuous"``
+    (:data:`SURROGATE_KINDS`) lifts the part that wraps round by the group's end-minus-start
+    change, so every surrogate is continuous: the rotation then moves the candidate's
+    *increments*, which is a fair draw for a drifting candidate and a conservative one for a
+    stationary one (the lift adds a slow component the original lacks). It is the safer
+    choice when the true cause may be missing from the candidates; it costs power on slow,
+    trend-like effects (benchmarks/results/gap_stress.md gives both sides).
+
 Multiple testing and effect floor
     Benjamini–Hochberg over all candidate × transform tests of a round (:data:`ALPHA`).
     A test counts as evidence only if its adjusted p-value is below :data:`ALPHA` and the
@@ -79,10 +90,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import false_discovery_control
 
+from svrqp.exceptions import ProblemError
 from svrqp.gap.blocks import circular_shifts
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transforms import lag, rate
+from svrqp.gap.transforms import group_slices, lag, rate
+
+SURROGATE_KINDS = ("rotation", "continuous")
+"""Surrogate schemes of the significance tests (module docstring)."""
 
 ALPHA = 0.05
 """Level of every test; Benjamini–Hochberg false-discovery rate within a round."""
@@ -253,10 +268,12 @@ class SurrogateTest:
         Group code per real row.
     rng : numpy.random.Generator
         Source of the shifts.
+    surrogates : {"rotation", "continuous"}
+        Plain rotations, or rotations lifted at the seam (module docstring).
     """
 
     def __init__(self, cv: CrossValidatedDiscrepancy, bank: CandidateBank, groups: np.ndarray,
-                 rng: np.random.Generator):
+                 rng: np.random.Generator, surrogates: str = "rotation"):
         self.cv, self.bank, self.groups, self.rng = cv, bank, groups, rng
         partner = None if bank.partner is None else bank.partner[:, None]
         self.gains = cv.gain(bank.Z[:, None, :], partner)[0]
@@ -264,6 +281,15 @@ class SurrogateTest:
         self.observed = float(self.gains[self.variant])
         self._signature = bank.Z[:, self.variant] if bank.partner is None else bank.partner
         self._hits = np.zeros(0, dtype=bool)
+        if surrogates not in SURROGATE_KINDS:
+            raise ProblemError(f"surrogates must be one of {SURROGATE_KINDS}, got {surrogates!r}")
+        # "continuous": the part that wraps round is lifted by its group's end-minus-start change.
+        slices = group_slices(groups)
+        self._first_row = np.concatenate([np.full(sl.stop - sl.start, sl.start) for sl in slices])
+        last = np.concatenate([np.full(sl.stop - sl.start, sl.stop - 1) for sl in slices])
+        self._continuous = surrogates == "continuous"
+        self._step_Z = bank.Z[last] - bank.Z[self._first_row]
+        self._step_partner = None if bank.partner is None else (bank.partner[last] - bank.partner[self._first_row])[:, None]
 
     @property
     def drawn(self) -> int:
@@ -283,7 +309,12 @@ class SurrogateTest:
             size = min(chunk, count - start)
             rows = circular_shifts(self.groups, size, self.rng, self._signature).T  # surrogate s reads rows[:, s]
             partner = None if self.bank.partner is None else self.bank.partner[rows]
-            surrogate = self.cv.gain(self.bank.Z[rows], partner).max(axis=1)
+            Z = self.bank.Z[rows]
+            if self._continuous:
+                wrapped = rows < rows[self._first_row]  # read from before the group's rotation point
+                Z = Z + wrapped[:, :, None] * self._step_Z[:, None, :]
+                partner = None if partner is None else partner + wrapped * self._step_partner
+            surrogate = self.cv.gain(Z, partner).max(axis=1)
             self._hits = np.concatenate([self._hits, surrogate >= self.observed])
 
     @property
@@ -342,6 +373,8 @@ class AttributionProblem:
         Noise level for the absolute floor (the train reference RMSE).
     rng : numpy.random.Generator
         Source of the surrogates.
+    surrogates : {"rotation", "continuous"}
+        Plain rotations, or rotations made continuous at the seam (module docstring).
     """
 
     r: np.ndarray
@@ -350,6 +383,7 @@ class AttributionProblem:
     groups: np.ndarray
     noise_rmse: float
     rng: np.random.Generator
+    surrogates: str = "rotation"
 
     def scorer(self, given: list[np.ndarray] = ()) -> CrossValidatedDiscrepancy:
         """Cross-validated scorer of the residual against the base plus the blocks ``given``."""
@@ -373,7 +407,8 @@ def _test_round(
     if not banks:
         return []
     cv = problem.scorer(given)
-    tests = run_tests([SurrogateTest(cv, bank, problem.groups, problem.rng) for bank in banks], MAX_SURROGATES,
+    tests = run_tests([SurrogateTest(cv, bank, problem.groups, problem.rng, problem.surrogates) for bank in banks],
+                      MAX_SURROGATES,
                       _benjamini_hochberg)
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
@@ -434,7 +469,8 @@ class _Conditional:
         self.problem = problem
 
     def test(self, bank: CandidateBank, given: list[np.ndarray]) -> TestOutcome:
-        test = SurrogateTest(self.problem.scorer(given), bank, self.problem.groups, self.problem.rng)
+        test = SurrogateTest(self.problem.scorer(given), bank, self.problem.groups, self.problem.rng,
+                             self.problem.surrogates)
         return run_tests([test], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0]
 
     def adds(self, bank: CandidateBank, given: list[np.ndarray]) -> bool:

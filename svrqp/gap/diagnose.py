@@ -48,6 +48,7 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 
+from svrqp.exceptions import ProblemError
 from svrqp.gap import attribute as attr
 from svrqp.gap.attribute import (
     Attribution,
@@ -131,6 +132,7 @@ def diagnose(
     group: str | None = None,
     model: str = "mlr",
     seed: int = 0,
+    surrogates: str = "rotation",
     progress: Progress | None = None,
 ) -> GapReport:
     """Diagnose the gap between a model (or a simulation) and real measurements.
@@ -160,6 +162,11 @@ def diagnose(
         Baseline model family (features mode).
     seed : int
         Seed of the surrogates and the bootstrap (results are reproducible).
+    surrogates : {"rotation", "continuous"}
+        How the significance tests draw surrogates (:mod:`svrqp.gap.attribute`): plain
+        rotations within each group (the default), or rotations made continuous at the seam —
+        safer when the true cause may be missing from the candidates and some of them drift
+        within a run, at some loss of power on slow, trend-like effects.
     progress : callable, optional
         Called as ``progress(stage, fraction_done)``.
 
@@ -167,6 +174,8 @@ def diagnose(
     -------
     GapReport
     """
+    if surrogates not in attr.SURROGATE_KINDS:
+        raise ProblemError(f"surrogates must be one of {attr.SURROGATE_KINDS}, got {surrogates!r}")
     started = time.perf_counter()
     report_progress = progress or (lambda stage, done: None)
     rng = np.random.default_rng(seed)
@@ -195,7 +204,8 @@ def diagnose(
                                               "rounding); there is no gap and no cause is named.")
     else:
         report_progress("testing candidates", 0.2)
-        attribution = attribute(AttributionProblem(r, B, folds, groups, gap.train_rmse, rng), build_banks(data, taus))
+        problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, rng, surrogates)
+        attribution = attribute(problem, build_banks(data, taus))
         report_progress("quantifying", 0.85)
         causes, errors_after = _causes(attribution, r, B, folds, groups, rng, base_errors)
         causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
@@ -231,7 +241,8 @@ def diagnose(
         summary=_summary(data, gap, detected, where, verdict, exact),
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
-            "max_surrogates": attr.MAX_SURROGATES, "n_folds": len(folds), "taus": taus.tolist(), "seed": seed,
+            "max_surrogates": attr.MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
+            "taus": taus.tolist(), "seed": seed,
         },
         runtime_s=0.0,
         series=series,
