@@ -378,11 +378,11 @@ def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
     return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
 
 
-def evaluate(s: Scenario) -> dict:
+def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
     """Simulate, diagnose and score one scenario."""
     case = case_for(s)
     started = time.perf_counter()
-    report = diagnose_case(s, case)
+    report = diagnose_case(s, case, surrogates)
     runtime = time.perf_counter() - started
     verdict = report.verdict.column
     causes = [c.column for c in report.causes]
@@ -526,15 +526,19 @@ def main(argv: list[str] | None = None) -> int:
                         help="Scenario grid: development, holdout or fresh (only to check a change, never to tune).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Folder for gap_suite.csv and gap_suite.md.")
+    parser.add_argument("--surrogates", choices=("rotation", "continuous"), default="rotation",
+                        help="Surrogate scheme of the tests; a non-default one writes files suffixed with its name.")
     args = parser.parse_args(argv)
     grid = scenarios(args.quick, args.grid)
     started = time.perf_counter()
-    rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s) for s in grid)
+    rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
     name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh"}[args.grid]
+    name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
     table.to_csv(args.out / f"{name}.csv", index=False)
     title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid"}[args.grid]
+    title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"
     n_real, n_tests, seconds = timing_case()
     text += (f"\nPerformance case (issue target ≤ 20 s on 2 cores): {n_real} real rows, {n_tests} candidate × "
