@@ -484,7 +484,7 @@ BALANCE_TOL = 1e-9
 
 def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8], epsilon: float,
                           slack: float) -> bool:
-    """Whether every free coefficient sits on its tube edge, :math:`y_i - f(x_i) = \varepsilon s_i`.
+    """Whether every free coefficient sits on its tube edge, :math:`y_i - f(x_i) = \\varepsilon s_i`.
 
     The free-set solve makes this hold unless its system was inconsistent (coinciding inputs with
     different targets both free), which the final check must not take on trust.

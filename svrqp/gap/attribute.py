@@ -99,6 +99,12 @@ from svrqp.gap.transforms import group_slices, lag, rate
 SURROGATE_KINDS = ("rotation", "continuous")
 """Surrogate schemes of the significance tests (module docstring)."""
 
+
+def check_surrogates(kind: str) -> None:
+    """Raise :class:`ProblemError` unless ``kind`` is one of :data:`SURROGATE_KINDS`."""
+    if kind not in SURROGATE_KINDS:
+        raise ProblemError(f"surrogates must be one of {SURROGATE_KINDS}, got {kind!r}")
+
 ALPHA = 0.05
 """Level of every test; Benjamini–Hochberg false-discovery rate within a round."""
 
@@ -281,15 +287,15 @@ class SurrogateTest:
         self.observed = float(self.gains[self.variant])
         self._signature = bank.Z[:, self.variant] if bank.partner is None else bank.partner
         self._hits = np.zeros(0, dtype=bool)
-        if surrogates not in SURROGATE_KINDS:
-            raise ProblemError(f"surrogates must be one of {SURROGATE_KINDS}, got {surrogates!r}")
-        # "continuous": the part that wraps round is lifted by its group's end-minus-start change.
-        slices = group_slices(groups)
-        self._first_row = np.concatenate([np.full(sl.stop - sl.start, sl.start) for sl in slices])
-        last = np.concatenate([np.full(sl.stop - sl.start, sl.stop - 1) for sl in slices])
+        check_surrogates(surrogates)
         self._continuous = surrogates == "continuous"
-        self._step_Z = bank.Z[last] - bank.Z[self._first_row]
-        self._step_partner = None if bank.partner is None else (bank.partner[last] - bank.partner[self._first_row])[:, None]
+        if self._continuous:  # the part that wraps round is lifted by its group's end-minus-start change
+            slices = group_slices(groups)
+            self._first_row = np.concatenate([np.full(sl.stop - sl.start, sl.start) for sl in slices])
+            last = np.concatenate([np.full(sl.stop - sl.start, sl.stop - 1) for sl in slices])
+            self._step_Z = bank.Z[last] - bank.Z[self._first_row]
+            self._step_partner = None if bank.partner is None else \
+                (bank.partner[last] - bank.partner[self._first_row])[:, None]
 
     @property
     def drawn(self) -> int:

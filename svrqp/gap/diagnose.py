@@ -48,7 +48,6 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 
-from svrqp.exceptions import ProblemError
 from svrqp.gap import attribute as attr
 from svrqp.gap.attribute import (
     Attribution,
@@ -174,8 +173,7 @@ def diagnose(
     -------
     GapReport
     """
-    if surrogates not in attr.SURROGATE_KINDS:
-        raise ProblemError(f"surrogates must be one of {attr.SURROGATE_KINDS}, got {surrogates!r}")
+    attr.check_surrogates(surrogates)  # before the work, not after it
     started = time.perf_counter()
     report_progress = progress or (lambda stage, done: None)
     rng = np.random.default_rng(seed)
@@ -396,14 +394,14 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
                   "distinguishable from zero; no cause is named.")
         return Verdict(column=None, reason=reason), None
     after = errors_after[top.column]
-    beyond = 1.0 - float(np.sqrt(np.mean(after**2) / np.mean(base_errors**2)))
+    beyond = top.shrink_beyond_base
     beyond_ci = shrink_interval(base_errors, after, groups, rng)
-    if beyond_ci[0] <= 0.0:
+    if beyond is None or beyond_ci[0] <= 0.0:  # None: the base alone leaves no error to remove
         # The effect must beat the base it is added to, out of sample: the test's gain picks the best
         # variant on all rows, the nested estimate chooses it inside each fold and can lose.
         reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} passes the significance "
                   f"test (q = {top.p_value:.2g}), but out of sample it does not shrink the real-row error beyond "
-                  f"what the base alone ({base.description}) leaves: {beyond:.0%} (95 % CI {beyond_ci[0]:.0%} … "
+                  f"what the base alone ({base.description}) leaves: {beyond or 0.0:.0%} (95 % CI {beyond_ci[0]:.0%} … "
                   f"{beyond_ci[1]:.0%}); no cause is named.")
         return Verdict(column=None, reason=reason), None
     refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)

@@ -18,8 +18,9 @@ groups, and alternate blocks fit and score: every stretch of the axis is then sc
 of *every* group. (Blocks interleaved within each group would score a stretch on the rows of
 one group and fit it on another's, so a stretch where only one of two runs goes wrong could
 never count.) An interval without any held-out row joins an enriched neighbour when its fitting
-rows are above their own mean. Adjacent enriched intervals are merged. Each region is reported with its bounds (the smallest and
-largest value of :math:`u` among the real rows inside), its RMSE, its share of the total
+rows are above their own mean. Adjacent enriched intervals are merged. Each region is reported
+with its bounds (the smallest and largest value of :math:`u` among the real rows inside), its
+RMSE, its share of the total
 squared error :math:`\sum_{i\in I} e_i^2 / \sum_i e_i^2` and its number of rows, all over
 every real row. When no interval stands out on the order axis the error is spread evenly and
 the whole range is reported as one region. Candidate-column regions are reported only when
@@ -121,7 +122,8 @@ def regions_on(column: str, u: np.ndarray, e: np.ndarray, fit_rows: np.ndarray) 
         enriched[c] = rows.any() and overall > 0 and e2[rows].mean() > overall
     # An interval with no held-out row (short, inside one fitting block) joins an enriched
     # neighbour when its own fitting rows are above their mean too: it cannot be scored alone.
-    high_on_fit = [unscored[c] and e2[fit_rows & (cell == c)].mean() > e2[fit_rows].mean() for c in range(cuts.size + 1)]
+    fit_mean = e2[fit_rows].mean()
+    high_on_fit = [unscored[c] and e2[fit_rows & (cell == c)].mean() > fit_mean for c in range(cuts.size + 1)]
     for c in np.flatnonzero(high_on_fit):
         enriched[c] = (c > 0 and enriched[c - 1]) or (c < cuts.size and enriched[c + 1])
     regions = []

@@ -80,7 +80,8 @@ class BaseFit:
 
     Every cause's shrink is for the base *plus* that effect, measured against the model's raw
     residual; the base (per-group offsets and, in features mode, a recalibration of the model's
-    own inputs) already takes part of the error, and a cause's ``gain`` is what it adds.
+    own inputs) already takes part of the error, and a cause's ``shrink_beyond_base`` is what it
+    adds, out of sample.
 
     Attributes
     ----------
