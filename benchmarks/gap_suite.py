@@ -81,6 +81,7 @@ from svrqp.gap import diagnose
 from svrqp.gap.baseline import fit_baseline
 from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.diagnose import base_design
+from svrqp.gap.discrepancy import nested_errors
 from svrqp.gap.prepare import prepare
 from svrqp.gap.quantify import estimate_shrink
 from svrqp.machine import ThermalConfig, simulate_thermal
@@ -444,8 +445,9 @@ def _oracle_shrink(s: Scenario, case: Case) -> float:
     r, groups = baseline.residual[real], data.groups[real]
     effect = data.C[real]
     effect = (effect - effect.mean()) / effect.std()
-    return estimate_shrink(r, base_design(data, baseline), effect, None, blocked_folds(groups), groups,
-                           np.random.default_rng(0)).shrink
+    folds = blocked_folds(groups)
+    after = nested_errors(r, base_design(data, baseline), effect, None, folds, groups)
+    return estimate_shrink(r, after, groups, np.random.default_rng(0)).shrink
 
 
 # -------------------------------------------------------------------------- summary

@@ -103,3 +103,52 @@ def null_problem(seed: int = 3) -> pd.DataFrame:
 
 CANDIDATES = ["air_C", "coolant_C", "nut_C", "speed_rpm"]
 """Candidates of the closed-form problems (the truth is ``air_C`` for the air effects)."""
+
+
+AXIS_POSITIONS_MM = np.arange(0.0, 501.0, 10.0)
+SCALE_UM_PER_K_MM = 11.5e-3
+"""Steel scale expansion, 11.5e-6 /K, in μm per kelvin per millimetre of travel."""
+
+
+def axis_passes(effect: str = "none", runs: int = 7, noise_um: float = 0.3, seed: int = 0) -> pd.DataFrame:
+    """Laser passes along a linear axis, each at its own axis temperature and table load.
+
+    Every pass measures the positioning error at :data:`AXIS_POSITIONS_MM` (``x_mm``, the
+    order axis). ``prediction_um`` is the geometric error map, the same for every pass
+    (a slope and a smooth wave); ``axis_C`` holds the axis temperature of the pass (constant
+    through it, read with 0.01 °C noise), ``load_kg`` and ``humidity_pct`` are further
+    per-pass readings unrelated to the error. Pass ``p0`` is the train pass, at 20 °C.
+
+    Parameters
+    ----------
+    effect : {"none", "scale"}
+        ``scale``: the scale's thermal expansion ``SCALE_UM_PER_K_MM * (axis_C - 20) * x_mm``,
+        a profile along the pass that the pass's temperature scales.
+    runs : int
+        Number of passes.
+    noise_um : float
+        Standard deviation of the white reading noise.
+    seed : int
+        Seed of every random draw.
+    """
+    rng = np.random.default_rng(seed)
+    x = AXIS_POSITIONS_MM
+    geometry = 0.01 * x + 1.5 * np.sin(2 * np.pi * x / 350.0)
+    tables = []
+    for run in range(runs):
+        axis = 20.0 if run == 0 else 20.0 + 8.0 * rng.random()
+        contribution = SCALE_UM_PER_K_MM * (axis - 20.0) * x if effect == "scale" else np.zeros(x.size)
+        tables.append(pd.DataFrame({
+            "run": f"p{run}", "x_mm": x,
+            "axis_C": axis + 0.01 * rng.normal(size=x.size),
+            "load_kg": float(rng.choice([0.0, 100.0, 200.0, 400.0])),
+            "humidity_pct": 35.0 + 20.0 * rng.random(),
+            "prediction_um": geometry,
+            "error_um": geometry + contribution + noise_um * rng.normal(size=x.size),
+            "effect_um": contribution,
+        }))
+    return pd.concat(tables, ignore_index=True)
+
+
+AXIS_CANDIDATES = ["axis_C", "load_kg", "humidity_pct"]
+"""Candidates of :func:`axis_passes` (the truth is ``axis_C`` for the scale effect)."""

@@ -4,15 +4,13 @@ import numpy as np
 import pytest
 from gap_problems import CANDIDATES, air_lag_problem, first_order_lag
 
+from svrqp.gap.attribute import effect_columns
 from svrqp.gap.baseline import fit_baseline
+from svrqp.gap.between import EVIDENCE_WITHIN
 from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.discrepancy import nested_errors
 from svrqp.gap.prepare import prepare
-from svrqp.gap.quantify import (
-    estimate_shrink,
-    nested_errors,
-    refit_shrink,
-    shrink_interval,
-)
+from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
 
 N = 800
 GROUPS = np.repeat(np.arange(4), 200)
@@ -39,7 +37,8 @@ def test_nested_errors_with_one_variant_equal_fold_by_fold_least_squares():
 
 def test_shrink_of_a_perfect_effect_is_one_minus_noise_over_rmse():
     r, B, z = _problem()
-    estimate = estimate_shrink(r, B, z[:, None], None, blocked_folds(GROUPS), GROUPS, np.random.default_rng(0))
+    after = nested_errors(r, B, z[:, None], None, blocked_folds(GROUPS), GROUPS)
+    estimate = estimate_shrink(r, after, GROUPS, np.random.default_rng(0))
     expected = 1 - 0.5 / np.sqrt(np.mean(r**2))
     assert estimate.shrink == pytest.approx(expected, abs=0.02)
     assert estimate.ci_low <= estimate.shrink <= estimate.ci_high
@@ -49,8 +48,8 @@ def test_shrink_of_a_perfect_effect_is_one_minus_noise_over_rmse():
 def test_useless_column_does_not_shrink():
     r, B, _ = _problem()
     junk = np.random.default_rng(9).normal(size=N)
-    estimate = estimate_shrink(r - r.mean(), B, junk[:, None], None, blocked_folds(GROUPS), GROUPS,
-                               np.random.default_rng(0))
+    after = nested_errors(r - r.mean(), B, junk[:, None], None, blocked_folds(GROUPS), GROUPS)
+    estimate = estimate_shrink(r - r.mean(), after, GROUPS, np.random.default_rng(0))
     assert abs(estimate.shrink) < 0.02
     assert estimate.ci_low < 0.01
 
@@ -74,7 +73,7 @@ def test_refit_shrink_equals_an_independent_least_squares_refit():
     data = prepare(df, target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
                    order="time_min", group="run")
     baseline = fit_baseline(data, "mlr")
-    shrink = refit_shrink(data, baseline, "air_C", "lag", 60.0)
+    shrink = refit_shrink(data, baseline, effect_columns(data, "air_C", "lag", 60.0, EVIDENCE_WITHIN))
     # independent: lstsq with [1, spindle, air, lowpass(air) - air] per run via scipy's lfilter
     train, real = (df["run"] == "r0").to_numpy(), (df["run"] != "r0").to_numpy()
     air = df["air_C"].to_numpy()

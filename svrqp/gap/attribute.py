@@ -36,6 +36,15 @@ Significance by surrogates that keep autocorrelation
     A periodic candidate (a chiller cycling at a fixed period) would match itself at shifts
     of whole periods; :func:`~svrqp.gap.blocks.circular_shifts` avoids such shifts.
 
+Candidates constant within runs
+    Rotating a candidate that holds one value through each run (an axis temperature during
+    a short pass, a table load) changes nothing, so no surrogate can test it. With enough
+    real runs such a candidate also gets a bank of its level tested *between* runs,
+    scaling a profile along the run (:mod:`svrqp.gap.between`, :class:`BetweenRunTest`): a
+    parametric test on run summaries, whose p-value joins the others in the
+    false-discovery control, and which counts as evidence only if it also holds without its
+    most influential run. Its ``evidence`` is ``"between runs"`` in the report.
+
     A rotation is a fair draw only for a candidate that is stationary within a run. One that
     drifts (a temperature that wanders like a random walk, or ends a run far from where it
     began) is rotated into a series with a jump at the seam, which fits a smooth residual worse
@@ -91,8 +100,18 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap.between import (
+    EVIDENCE_BETWEEN,
+    EVIDENCE_WITHIN,
+    MIN_RUNS,
+    RunLevelBank,
+    between_run_test,
+    is_run_level,
+    run_level_bank,
+    run_level_columns,
+)
 from svrqp.gap.blocks import circular_shifts
-from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
+from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transforms import group_slices, lag, rate
 
@@ -162,6 +181,7 @@ class CandidateBank:
     taus: np.ndarray | None
     Z: np.ndarray
     partner: np.ndarray | None = None
+    evidence: str = EVIDENCE_WITHIN
 
     def block(self, variant: int) -> np.ndarray:
         """Columns of one variant, shape (n_real, k)."""
@@ -171,6 +191,15 @@ class CandidateBank:
     def tau(self, variant: int) -> float | None:
         """Time constant of a variant (None unless ``lag``)."""
         return None if self.taus is None else float(self.taus[variant])
+
+    def out_of_sample_errors(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
+                             groups: np.ndarray) -> np.ndarray:
+        """Errors of ``r ~ B + block`` on the real rows, the variant chosen inside each fold (nested CV)."""
+        return nested_errors(r, B, self.Z, self.partner, folds, groups)
+
+
+Bank = CandidateBank | RunLevelBank
+"""Anything :func:`attribute` tests: a candidate transform, or a run-level candidate's level."""
 
 
 def _standardise(columns: np.ndarray) -> np.ndarray:
@@ -202,11 +231,48 @@ def transform_columns(
     return ell, (None if column in data.features else x)
 
 
-def build_banks(data: GapData, taus: np.ndarray) -> list[CandidateBank]:
-    """Every candidate × transform bank to be tested, standardised on the real rows."""
+def effect_columns(data: GapData, column: str, transform: str, tau: float | None, evidence: str) -> np.ndarray:
+    r"""Raw columns of one effect on every row — what a refit of the model adds as inputs.
+
+    A transform's own column (and partner, for ``lag``), or for a run-level candidate the
+    block :math:`[\Psi, \bar c, \bar c\Psi]` of :mod:`svrqp.gap.between`.
+    """
+    if evidence == EVIDENCE_BETWEEN:
+        return run_level_columns(data.C[:, data.candidates.index(column)], data.t, data.groups)
+    own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))
+    return own if partner is None else np.column_stack([partner, own])
+
+
+def untestable_between_runs(data: GapData) -> dict[str, str]:
+    """Notes on run-level candidates that too few real runs leave untested between runs."""
     real = data.is_real
-    banks = []
-    for column in data.candidates:
+    groups = data.groups[real]
+    n_runs = len(group_slices(groups))
+    if n_runs >= MIN_RUNS:
+        return {}
+    return {column: (f"varies between runs but hardly within them: testing it between runs needs at least "
+                     f"{MIN_RUNS} real runs ({n_runs} here)")
+            for j, column in enumerate(data.candidates)
+            if column not in data.features and is_run_level(data.C[real, j], groups)}
+
+
+def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
+    """Every candidate × transform bank to be tested, standardised on the real rows.
+
+    With at least :data:`svrqp.gap.between.MIN_RUNS` real runs, a run-level candidate
+    (:func:`svrqp.gap.between.is_run_level`) that is not a model feature also gets a bank
+    of its level tested between runs. Its transforms are tested within runs as well: a
+    temperature whose level differs by season between runs can still carry the effect's
+    dynamics within each of them.
+    """
+    real = data.is_real
+    groups = data.groups[real]
+    between = len(group_slices(groups)) >= MIN_RUNS
+    banks: list[Bank] = []
+    for j, column in enumerate(data.candidates):
+        x = data.C[real, j]
+        if between and column not in data.features and is_run_level(x, groups):
+            banks.append(run_level_bank(column, x, data.t[real], groups))
         for transform in ("level", "rate", "lag"):
             if transform == "level" and column in data.features:
                 continue  # already modelled
@@ -238,15 +304,26 @@ class TestOutcome:
         Surrogates drawn.
     remaining_rmse : float
         Out-of-sample RMSE left with the best variant added.
+    own_gain : float
+        The gain the effect floors apply to: ``gain``, or for a run-level bank the gain
+        beyond its common profile (:mod:`svrqp.gap.between`).
+    explained_rms : float
+        RMS of the error the effect itself removes, out of sample.
+    robust : bool
+        False when a between-run relation rests on one run (:mod:`svrqp.gap.between`);
+        always True for tests within runs.
     """
 
-    bank: CandidateBank
+    bank: Bank
     variant: int
     gain: float
     gains: np.ndarray
     p_value: float
     n_surrogates: int
     remaining_rmse: float
+    own_gain: float
+    explained_rms: float
+    robust: bool = True
 
     @property
     def column(self) -> str:
@@ -333,7 +410,56 @@ class SurrogateTest:
     def outcome(self) -> TestOutcome:
         """The test's result."""
         remaining = float(np.sqrt(self.cv.sse_base * (1 - self.observed) / self.cv.n))
-        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining)
+        explained = float(np.sqrt(max(self.observed, 0.0) * self.cv.sse_base / self.cv.n))
+        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining,
+                           self.observed, explained)
+
+
+class BetweenRunTest:
+    """The between-run test of a run-level bank (:func:`svrqp.gap.between.between_run_test`).
+
+    It draws no surrogates; it has the interface of :class:`SurrogateTest` so that
+    :func:`run_tests` treats both alike (it is decided at once).
+
+    Parameters
+    ----------
+    r : ndarray, shape (n,)
+        Residual on the real rows.
+    base : ndarray, shape (n, p)
+        Base regressors and the blocks already accepted.
+    folds : list of ndarray
+        Blocked cross-validation folds (whole runs, with enough of them).
+    groups : ndarray of int
+        Run code per real row.
+    bank : RunLevelBank
+        The candidate.
+    """
+
+    drawn = 0
+    stopped = True
+
+    def __init__(self, r: np.ndarray, base: np.ndarray, folds: list[np.ndarray], groups: np.ndarray,
+                 bank: RunLevelBank):
+        self.bank = bank
+        sse_base = CrossValidatedDiscrepancy(r, base, folds).sse_base
+        sse_profile = CrossValidatedDiscrepancy(r, np.column_stack([base, bank.profile]), folds).sse_base
+        self.sse = CrossValidatedDiscrepancy(r, np.column_stack([base, bank.block()]), folds).sse_base
+        self.n = len(r)
+        # Ranked by what the candidate adds beyond the common profile (which is no candidate's),
+        # as a share of the base's error like every other bank's gain.
+        self.gain = (sse_profile - self.sse) / sse_base if sse_base > 0 else 0.0
+        self.own_gain = 1.0 - self.sse / sse_profile if sse_profile > 0 else 0.0
+        self.explained = float(np.sqrt(max(sse_profile - self.sse, 0.0) / self.n))
+        result = between_run_test(r, base, groups, bank)
+        self.p_value, self.robust = result.p_value, result.robust
+
+    def draw(self, count: int) -> None:
+        """Nothing to draw: the test is parametric."""
+
+    def outcome(self) -> TestOutcome:
+        """The test's result."""
+        return TestOutcome(self.bank, 0, self.gain, np.array([self.gain]), self.p_value, 0,
+                           float(np.sqrt(self.sse / self.n)), self.own_gain, self.explained, self.robust)
 
 
 def run_tests(
@@ -395,6 +521,16 @@ class AttributionProblem:
         """Cross-validated scorer of the residual against the base plus the blocks ``given``."""
         return CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
 
+    def make_test(self, bank: Bank, given: list[np.ndarray] = (),
+                  scorer: CrossValidatedDiscrepancy | None = None) -> SurrogateTest | BetweenRunTest:
+        """The test of ``bank`` given the blocks ``given``: surrogates within runs, or between runs.
+
+        ``scorer`` (of the same ``given``) may be passed to share it between the tests of a round.
+        """
+        if isinstance(bank, RunLevelBank):
+            return BetweenRunTest(self.r, np.column_stack([self.B, *given]), self.folds, self.groups, bank)
+        return SurrogateTest(scorer or self.scorer(given), bank, self.groups, self.rng, self.surrogates)
+
 
 @dataclass(frozen=True)
 class Evidence:
@@ -407,26 +543,23 @@ class Evidence:
 
 
 def _test_round(
-    problem: AttributionProblem, given: list[np.ndarray], banks: list[CandidateBank], round_number: int
+    problem: AttributionProblem, given: list[np.ndarray], banks: list[Bank], round_number: int
 ) -> list[Evidence]:
     """Test every bank against the base plus ``given``; Benjamini–Hochberg and the effect floor."""
     if not banks:
         return []
     cv = problem.scorer(given)
-    tests = run_tests([SurrogateTest(cv, bank, problem.groups, problem.rng, problem.surrogates) for bank in banks],
-                      MAX_SURROGATES,
-                      _benjamini_hochberg)
+    tests = run_tests([problem.make_test(bank, given, cv) for bank in banks], MAX_SURROGATES, _benjamini_hochberg)
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
-        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, cv, problem.noise_rmse)), round_number)
+        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, problem.noise_rmse)), round_number)
         for t, qi in zip(tests, q)
     ]
 
 
-def _above_floor(test: TestOutcome, cv: CrossValidatedDiscrepancy, noise_rmse: float) -> bool:
-    explained = np.sqrt(max(test.gain, 0.0) * cv.sse_base / cv.n)
+def _above_floor(test: TestOutcome, noise_rmse: float) -> bool:
     noise = min(noise_rmse, test.remaining_rmse)
-    return test.gain >= MIN_GAIN and explained >= MIN_AMPLITUDE * noise
+    return test.robust and test.own_gain >= MIN_GAIN and test.explained_rms >= MIN_AMPLITUDE * noise
 
 
 @dataclass
@@ -474,15 +607,13 @@ class _Conditional:
     def __init__(self, problem: AttributionProblem):
         self.problem = problem
 
-    def test(self, bank: CandidateBank, given: list[np.ndarray]) -> TestOutcome:
-        test = SurrogateTest(self.problem.scorer(given), bank, self.problem.groups, self.problem.rng,
-                             self.problem.surrogates)
-        return run_tests([test], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0]
+    def test(self, bank: Bank, given: list[np.ndarray]) -> TestOutcome:
+        return run_tests([self.problem.make_test(bank, given)], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0]
 
-    def adds(self, bank: CandidateBank, given: list[np.ndarray]) -> bool:
+    def adds(self, bank: Bank, given: list[np.ndarray]) -> bool:
         """Whether ``bank`` carries information beyond ``given``: significant and above the relative floor."""
         outcome = self.test(bank, given)
-        return outcome.p_value < ALPHA and outcome.gain >= MIN_GAIN
+        return outcome.p_value < ALPHA and outcome.own_gain >= MIN_GAIN and outcome.robust
 
 
 def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given: list[np.ndarray]) -> Evidence:
@@ -498,14 +629,14 @@ def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given
     return best
 
 
-def attribute(problem: AttributionProblem, banks: list[CandidateBank]) -> Attribution:
+def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
     """Test, rank and disambiguate candidate effects (see the module docstring).
 
     Parameters
     ----------
     problem : AttributionProblem
         Residual, base, folds, groups, noise level and random source.
-    banks : list of CandidateBank
+    banks : list of CandidateBank or RunLevelBank
         Everything to test (:func:`build_banks`).
 
     Returns
@@ -567,7 +698,7 @@ def attribute(problem: AttributionProblem, banks: list[CandidateBank]) -> Attrib
     return result
 
 
-def _further_effects(result: Attribution, problem: AttributionProblem, banks: list[CandidateBank],
+def _further_effects(result: Attribution, problem: AttributionProblem, banks: list[Bank],
                      cond: _Conditional) -> None:
     """Accept more effects in rounds, each conditional on those already accepted."""
     while len(result.accepted) < MAX_EFFECTS:

@@ -7,7 +7,8 @@
 3. **Localise** — where along the order axis (and candidate columns) the squared error
    concentrates (:mod:`svrqp.gap.localise`).
 4. **Attribute** — which candidate × transform explains it beyond chance, controlling the
-   false-discovery rate and confounding (:mod:`svrqp.gap.attribute`).
+   false-discovery rate and confounding (:mod:`svrqp.gap.attribute`); a candidate that
+   holds one value through each run is also tested between runs (:mod:`svrqp.gap.between`).
 5. **Quantify** — out-of-sample shrink with a block-bootstrap interval, the gate re-run on what
    is left, and a refit of the model family with the effect as an input
    (:mod:`svrqp.gap.quantify`); every significant cause is compared with the top one by a
@@ -55,8 +56,11 @@ from svrqp.gap.attribute import (
     Evidence,
     attribute,
     build_banks,
+    effect_columns,
+    untestable_between_runs,
 )
 from svrqp.gap.baseline import Baseline, fit_baseline
+from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
 from svrqp.gap.compare import paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
@@ -204,6 +208,7 @@ def diagnose(
         report_progress("testing candidates", 0.2)
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, rng, surrogates)
         attribution = attribute(problem, build_banks(data, taus))
+        attribution.notes = untestable_between_runs(data) | attribution.notes
         report_progress("quantifying", 0.85)
         causes, errors_after = _causes(attribution, r, B, folds, groups, rng, base_errors)
         causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
@@ -286,10 +291,11 @@ def _causes(attribution, r, B, folds, groups, rng, base_errors) -> tuple[list[Ca
     base_rmse = float(np.sqrt(np.mean(base_errors**2)))
     causes, errors_after = [], {}
     for ev in _representatives(attribution):
-        shrink = estimate_shrink(r, B, ev.test.bank.Z, ev.test.bank.partner, folds, groups, rng)
+        shrink = estimate_shrink(r, ev.test.bank.out_of_sample_errors(r, B, folds, groups), groups, rng)
         errors_after[ev.test.column] = shrink.errors
         causes.append(Cause(
-            column=ev.test.column, transform=ev.test.transform, tau=ev.test.tau, p_value=ev.q_value,
+            column=ev.test.column, transform=ev.test.transform, tau=ev.test.tau, evidence=ev.test.bank.evidence,
+            p_value=ev.q_value,
             p_raw=ev.test.p_value,
             gain=ev.test.gain, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
             shrink=shrink.shrink, shrink_ci=(shrink.ci_low, shrink.ci_high), round=ev.round,
@@ -388,7 +394,7 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
     if top.shrink_ci[0] <= 0.0:
         # Significance says the candidate carries information; the interval says whether the
         # real-row error actually shrinks. A verdict must claim both (naming a decoy is worse than null).
-        reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} passes the significance "
+        reason = (f"The {_effect_text(top, data.order_name)} passes the significance "
                   f"test (q = {top.p_value:.2g}), but the out-of-sample shrink of the real-row RMSE it brings, "
                   f"{top.shrink:.0%} (95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}), is not "
                   "distinguishable from zero; no cause is named.")
@@ -399,14 +405,14 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
     if beyond is None or beyond_ci[0] <= 0.0:  # None: the base alone leaves no error to remove
         # The effect must beat the base it is added to, out of sample: the test's gain picks the best
         # variant on all rows, the nested estimate chooses it inside each fold and can lose.
-        reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} passes the significance "
+        reason = (f"The {_effect_text(top, data.order_name)} passes the significance "
                   f"test (q = {top.p_value:.2g}), but out of sample it does not shrink the real-row error beyond "
                   f"what the base alone ({base.description}) leaves: {beyond or 0.0:.0%} (95 % CI {beyond_ci[0]:.0%} … "
                   f"{beyond_ci[1]:.0%}); no cause is named.")
         return Verdict(column=None, reason=reason), None
-    refit = refit_shrink(data, baseline, top.column, top.transform, top.tau)
+    refit = refit_shrink(data, baseline, effect_columns(data, top.column, top.transform, top.tau, top.evidence))
     residual_gate = gate(after, groups, baseline.train_reference, train_groups)
-    reason = (f"The {top.transform} of {top.column}{_tau_text(top.tau, data.order_name)} explains the gap "
+    reason = (f"The {_effect_text(top, data.order_name)} explains the gap "
               f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
               f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}) — {beyond:.0%} beyond the base alone "
               f"({base.description}; 95 % CI {beyond_ci[0]:.0%} … {beyond_ci[1]:.0%}), which gives {base.shrink:.0%}; "
@@ -416,7 +422,8 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
         reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "
                    "out-of-sample losses); the verdict stays on it because the conditional tests, on the evidence "
                    "where the candidates decorrelate, favour it or credit each with its own information.")
-    return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, shrink=top.shrink,
+    return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, evidence=top.evidence,
+                   shrink=top.shrink,
                    shrink_ci=top.shrink_ci, shrink_beyond_base=beyond, shrink_beyond_base_ci=beyond_ci,
                    refit_shrink=refit, rmse_before=top.rmse_before,
                    rmse_after=top.rmse_after, p_value=top.p_value, ambiguous_with=tied), residual_gate
@@ -427,10 +434,14 @@ def _names(columns: list[str]) -> str:
     return columns[0] if len(columns) == 1 else f"{', '.join(columns[:-1])} and {columns[-1]}"
 
 
-def _tau_text(tau: float | None, order_name: str) -> str:
-    if tau is None:
-        return ""
-    return f" (τ = {_quantity(tau, unit_of(order_name))})"
+def _effect_text(effect: Cause | Verdict, order_name: str) -> str:
+    """``lag of T4_C (τ = 78.3 min)``, or a run-level candidate's level with how it was tested."""
+    text = f"{effect.transform} of {effect.column}"
+    if effect.tau is not None:
+        text += f" (τ = {_quantity(effect.tau, unit_of(order_name))})"
+    if effect.evidence == EVIDENCE_BETWEEN:
+        text += (f" (constant within each run, scaling a profile along {order_name}; tested between runs)")
+    return text
 
 
 def _quantity(value: float, unit: str | None) -> str:
@@ -451,7 +462,7 @@ def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region]
     if top is not None and top.share < 0.999:
         text += f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error)"
     if verdict.column is not None:
-        text += (f", and the {verdict.transform} of {verdict.column}{_tau_text(verdict.tau, data.order_name)} "
+        text += (f", and the {_effect_text(verdict, data.order_name)} "
                  f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample")
         if verdict.ambiguous_with:
             verb = "explains" if len(verdict.ambiguous_with) == 1 else "explain"

@@ -50,6 +50,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
+from svrqp.gap.blocks import blocked_folds
+
 RIDGE = 1e-8
 """Ridge per training row added to :math:`A` and to :math:`\\tilde Z_T^\\top \\tilde Z_T`."""
 
@@ -209,3 +211,53 @@ def _cross(S_xz, C_x, C_z, W_x, W_z, M) -> np.ndarray:
     """:math:`\\tilde x^\\top\\tilde z` for partner ``x`` (q,) against own columns ``z`` (q, v)."""
     return (S_xz - np.einsum("pq,pqv->qv", C_x, W_z) - np.einsum("pq,pqv->qv", W_x, C_z)
             + np.einsum("pq,pqv->qv", M @ W_x, W_z))
+
+
+def _fit_and_predict(r_fit: np.ndarray, D_fit: np.ndarray, D_new: np.ndarray) -> np.ndarray:
+    coef = np.linalg.lstsq(D_fit, r_fit, rcond=None)[0]
+    return D_new @ coef
+
+
+def nested_errors(
+    r: np.ndarray,
+    B: np.ndarray,
+    own: np.ndarray,
+    partner: np.ndarray | None,
+    folds: list[np.ndarray],
+    groups: np.ndarray,
+) -> np.ndarray:
+    """Out-of-sample errors of ``r ~ B + [partner, own[:, variant]]``, variant chosen per fold.
+
+    Parameters
+    ----------
+    r : ndarray, shape (n,)
+        Residual on the real rows.
+    B : ndarray, shape (n, p)
+        Base regressors (with an intercept).
+    own : ndarray, shape (n, v)
+        The effect's own column for each of ``v`` variants; with ``v > 1`` the best is
+        chosen by inner blocked CV on each outer fold's training rows.
+    partner : ndarray, shape (n,) or None
+        Column every variant also holds.
+    folds : list of ndarray
+        Outer blocked folds.
+    groups : ndarray of int
+        Group code per row (for the inner folds).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    n, v = own.shape
+    errors = np.empty(n)
+    for test in folds:
+        train = np.setdiff1d(np.arange(n), test, assume_unique=True)
+        variant = 0
+        if v > 1:
+            inner = CrossValidatedDiscrepancy(r[train], B[train], blocked_folds(groups[train]))
+            shared = None if partner is None else partner[train, None]
+            variant = int(np.argmax(inner.gain(own[train, None, :], shared)[0]))
+        columns = [B, own[:, variant]] + ([] if partner is None else [partner])
+        D = np.column_stack(columns)
+        errors[test] = r[test] - _fit_and_predict(r[train], D[train], D[test])
+    return errors

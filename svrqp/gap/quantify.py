@@ -11,10 +11,12 @@ Shrink
         \mathrm{RMSE}_\mathrm{after} = \sqrt{\overline{e^2}},\qquad
         \mathrm{shrink} = 1 - \mathrm{RMSE}_\mathrm{after}/\mathrm{RMSE}_\mathrm{before}.
 
-    For ``lag`` the time constant is chosen *inside* each outer fold, by an inner blocked
-    cross-validation on that fold's training rows (nested CV), so the choice of :math:`\tau`
-    never sees the rows it is scored on. The per-fold fits are plain least squares
-    (:func:`numpy.linalg.lstsq`).
+    The errors come from the effect's bank: for ``lag`` the time constant is chosen *inside*
+    each outer fold, by an inner blocked cross-validation on that fold's training rows
+    (nested CV, :func:`svrqp.gap.discrepancy.nested_errors`), so the choice of :math:`\tau`
+    never sees the rows it is scored on; a run-level candidate's block
+    (:mod:`svrqp.gap.between`) is fitted on the other folds' runs. The per-fold fits are
+    least squares.
 
 Interval
     A moving-block bootstrap within groups (:func:`svrqp.gap.blocks.block_bootstrap`) resamples
@@ -35,10 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from svrqp.gap.attribute import transform_columns
 from svrqp.gap.baseline import Baseline, fit_predict, make_model
-from svrqp.gap.blocks import block_bootstrap, block_length, blocked_folds
-from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
+from svrqp.gap.blocks import block_bootstrap, block_length
 from svrqp.gap.prepare import GapData
 
 N_BOOTSTRAP = 1000
@@ -69,56 +69,6 @@ class ShrinkEstimate:
     errors: np.ndarray
 
 
-def _fit_and_predict(r_fit: np.ndarray, D_fit: np.ndarray, D_new: np.ndarray) -> np.ndarray:
-    coef = np.linalg.lstsq(D_fit, r_fit, rcond=None)[0]
-    return D_new @ coef
-
-
-def nested_errors(
-    r: np.ndarray,
-    B: np.ndarray,
-    own: np.ndarray,
-    partner: np.ndarray | None,
-    folds: list[np.ndarray],
-    groups: np.ndarray,
-) -> np.ndarray:
-    """Out-of-sample errors of ``r ~ B + [partner, own[:, variant]]``, variant chosen per fold.
-
-    Parameters
-    ----------
-    r : ndarray, shape (n,)
-        Residual on the real rows.
-    B : ndarray, shape (n, p)
-        Base regressors (with an intercept).
-    own : ndarray, shape (n, v)
-        The effect's own column for each of ``v`` variants; with ``v > 1`` the best is
-        chosen by inner blocked CV on each outer fold's training rows.
-    partner : ndarray, shape (n,) or None
-        Column every variant also holds.
-    folds : list of ndarray
-        Outer blocked folds.
-    groups : ndarray of int
-        Group code per row (for the inner folds).
-
-    Returns
-    -------
-    ndarray, shape (n,)
-    """
-    n, v = own.shape
-    errors = np.empty(n)
-    for test in folds:
-        train = np.setdiff1d(np.arange(n), test, assume_unique=True)
-        variant = 0
-        if v > 1:
-            inner = CrossValidatedDiscrepancy(r[train], B[train], blocked_folds(groups[train]))
-            shared = None if partner is None else partner[train, None]
-            variant = int(np.argmax(inner.gain(own[train, None, :], shared)[0]))
-        columns = [B, own[:, variant]] + ([] if partner is None else [partner])
-        D = np.column_stack(columns)
-        errors[test] = r[test] - _fit_and_predict(r[train], D[train], D[test])
-    return errors
-
-
 def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
     """95 % moving-block bootstrap interval of ``1 - rmse(after)/rmse(before)``."""
     index = block_bootstrap(groups, N_BOOTSTRAP, block_length(before, groups), rng)
@@ -129,24 +79,26 @@ def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray, r
     return float(low), float(high)
 
 
-def estimate_shrink(
-    r: np.ndarray,
-    B: np.ndarray,
-    own: np.ndarray,
-    partner: np.ndarray | None,
-    folds: list[np.ndarray],
-    groups: np.ndarray,
-    rng: np.random.Generator,
-) -> ShrinkEstimate:
-    """Out-of-sample shrink of the real-row error with an effect's columns added.
+def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> ShrinkEstimate:
+    """Out-of-sample shrink of the real-row error with an effect added, and its interval.
 
-    Parameters are those of :func:`nested_errors`, plus ``rng`` for the bootstrap.
+    Parameters
+    ----------
+    r : ndarray, shape (n,)
+        Baseline residual on the real rows.
+    after : ndarray, shape (n,)
+        Out-of-sample errors of the discrepancy model "base + effect" on the same rows
+        (:func:`svrqp.gap.discrepancy.nested_errors`, or a run-level bank's
+        ``out_of_sample_errors``).
+    groups : ndarray of int, shape (n,)
+        Group code per row (the bootstrap resamples within groups).
+    rng : numpy.random.Generator
+        Source of the bootstrap resamples.
 
     Returns
     -------
     ShrinkEstimate
     """
-    after = nested_errors(r, B, own, partner, folds, groups)
     before_rmse = float(np.sqrt(np.mean(r**2)))
     after_rmse = float(np.sqrt(np.mean(after**2)))
     low, high = shrink_interval(r, after, groups, rng)
@@ -154,7 +106,7 @@ def estimate_shrink(
     return ShrinkEstimate(before_rmse, after_rmse, shrink, low, high, after)
 
 
-def refit_shrink(data: GapData, baseline: Baseline, column: str, transform: str, tau: float | None) -> float:
+def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float:
     """Shrink of the real-row RMSE after refitting the model family with the effect as input.
 
     Parameters
@@ -163,16 +115,14 @@ def refit_shrink(data: GapData, baseline: Baseline, column: str, transform: str,
         Prepared rows.
     baseline : Baseline
         The baseline (its kind says which family to refit).
-    column, transform, tau
-        The effect: candidate column, transform name and time constant (``lag`` only).
+    effect : ndarray, shape (n, k)
+        The effect's columns on every row (:func:`svrqp.gap.attribute.effect_columns`).
 
     Returns
     -------
     float
         ``1 - rmse_refit / rmse_before`` on the real rows.
     """
-    own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))
-    effect = own if partner is None else np.column_stack([partner, own])
     train, real = data.is_train, data.is_real
     before = float(np.sqrt(np.mean(baseline.residual[real] ** 2)))
     if baseline.kind == "prediction":

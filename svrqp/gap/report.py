@@ -40,6 +40,7 @@ class Cause:
     column: str
     transform: str
     tau: float | None
+    evidence: str
     p_value: float
     p_raw: float
     gain: float
@@ -63,6 +64,7 @@ class Verdict:
     reason: str
     transform: str | None = None
     tau: float | None = None
+    evidence: str | None = None
     shrink: float | None = None
     shrink_ci: tuple[float, float] | None = None
     shrink_beyond_base: float | None = None
