@@ -30,9 +30,21 @@ Scenario families
 ``gantry/prediction``
     :func:`svrqp.machine.contour.simulate_gantry` (S4), order ``time_s``; withheld
     ``servo_lag`` (truth ``feed_mm_min``), ``sync_error`` (``accel_mm_s2``; the feed is no
-    decoy there, its rate *is* the acceleration), ``motor_heating`` (``motor_C``; its bow is
-    a product of temperature and position, outside the transforms the engine tries);
+    decoy there, its rate *is* the acceleration), ``motor_heating`` (``motor_C``, constant
+    through each short pass: its bow is the motor temperature times a shape along the pass,
+    found only between passes — with three real passes it cannot be);
     *unmeasured*: ``ripple`` and ``guideway_straightness``, which no candidate carries.
+``axis/prediction``
+    :func:`svrqp.machine.geometry.simulate_axis` (S2's laser passes along a linear axis),
+    order ``x_mm``, one pass per run at 12, 23 or 56 positions; the train pass at the
+    reference state (20 °C, empty table), every other pass at its own room temperature
+    (``ambient_C``), axis temperature (room plus drive heating, ``axis_C``), table load
+    (``load_kg``) and ``humidity_pct``, all four constant through a pass. Withheld
+    ``scale_thermal`` (truth ``axis_C``) and ``load_deflection`` (``load_kg``, through the
+    pitch under the Abbe offset of the tool); *unmeasured*: ``positioning`` and ``periodic``
+    (the same function of position in every pass). At least four real passes: a reading
+    constant through each pass gives one number per pass, and with three passes an unrelated
+    reading lines up with |r| > 0.99 about one time in eleven.
 
 Runs use random speed/duty programmes and seasons (train runs in summer), varied record
 length, signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
@@ -86,6 +98,8 @@ from svrqp.gap.prepare import prepare
 from svrqp.gap.quantify import estimate_shrink
 from svrqp.machine import ThermalConfig, simulate_thermal
 from svrqp.machine.contour import GantryConfig, simulate_gantry
+from svrqp.machine.geometry import EFFECTS as AXIS_EFFECTS
+from svrqp.machine.geometry import AxisConfig, simulate_axis
 from svrqp.machine.cycles import CycleSegment
 from svrqp.machine.thermal import EFFECTS as THERMAL_EFFECTS
 from svrqp.machine.thermal import Ambient
@@ -117,6 +131,14 @@ EXPANSION_PER_K = 11.5e-6
 NULL_FEATURES_POOL = ("T5_C", "T9_C", "speed_rpm", "axis_duty_pct", "T8_C")
 NULL_PREDICTION_POOL = ("T1_C", "T4_C", "nut_C", "coolant_C", "ambient_C", "bed_C", "speed_rpm", "axis_duty_pct")
 
+ORDER = {"thermal": "time_min", "gantry": "time_s", "axis": "x_mm"}
+"""Order axis of each family (the part of the family name before the slash)."""
+
+AXIS_TRUTH = {"scale_thermal": ("axis_C",), "load_deflection": ("load_kg",)}
+AXIS_UNMEASURED = ("positioning", "periodic")
+AXIS_CANDIDATES = ("axis_C", "load_kg", "ambient_C", "humidity_pct")
+AXIS_TRAVEL_MM = 550.0
+
 GANTRY_TRUTH = {"servo_lag": ("feed_mm_min",), "sync_error": ("accel_mm_s2",), "motor_heating": ("motor_C",)}
 GANTRY_UNMEASURED = ("ripple", "guideway_straightness")
 GANTRY_CANDIDATES = ("feed_mm_min", "accel_mm_s2", "motor_C")
@@ -128,7 +150,7 @@ class Scenario:
     """One scenario of the grid (see the module docstring)."""
 
     name: str
-    family: str  # thermal/prediction, thermal/features, gantry/prediction
+    family: str  # thermal/prediction, thermal/features, gantry/prediction, axis/prediction
     kind: str  # withheld, null, unmeasured
     effect: str | None  # withheld effect (thermal/features: the withheld node sensor)
     snr: float  # std of the identifiable part of the withheld effect / noise std
@@ -139,6 +161,7 @@ class Scenario:
     n_decoys: int = 5
     model: str = "mlr"
     null_noise_um: float = 0.3  # noise std of null scenarios (no effect to scale it by)
+    positions: int = 0  # measured positions per pass (axis family)
 
 
 @dataclass(frozen=True)
@@ -305,9 +328,39 @@ def _add_noise(df, clean, true_effect, s: Scenario, rng, real: np.ndarray) -> pd
     return df.assign(error_um=clean + noise, noise_true_um=noise, true_effect_um=true_effect)
 
 
+def axis_case(s: Scenario) -> Case:
+    """Laser passes along a linear axis (:func:`svrqp.machine.geometry.simulate_axis`), one per run.
+
+    The train pass is taken at the reference state (20 °C, empty table). Every other pass has
+    its own room temperature (``ambient_C``, 19–23 °C), axis temperature (the room plus 0–8 K
+    of drive heating, ``axis_C``), table load (``load_kg``) and an unrelated ``humidity_pct``;
+    all four are constant through a pass, read with a little noise. The prediction is the
+    simulation with the withheld effect off.
+    """
+    rng = np.random.default_rng(s.seed)
+    positions = tuple(np.linspace(0.0, AXIS_TRAVEL_MM, s.positions).tolist())
+    tables = []
+    for run in range(s.runs):
+        room, heat, load = (20.0, 0.0, 0.0) if run == 0 else \
+            (rng.uniform(19.0, 23.0), rng.uniform(0.0, 8.0), float(rng.choice([0, 100, 200, 300, 400, 500])))
+        config = AxisConfig(positions_mm=positions, axis_temperature_C=room + heat, load_kg=load, measurement_noise=0.0)
+        table = simulate_axis(config, seed=int(rng.integers(1 << 31)))
+        n = len(table)
+        tables.append(table.assign(
+            run=run, axis_C=table["axis_C"] + 0.02 * rng.standard_normal(n), load_kg=load,
+            ambient_C=room + 0.05 * rng.standard_normal(n), humidity_pct=rng.uniform(30.0, 60.0)))
+    df = pd.concat(tables, ignore_index=True)
+    clean = df[[f"effect_{e}_um" for e in AXIS_EFFECTS]].sum(axis=1).to_numpy()
+    true_effect = df[f"effect_{s.effect}_um"].to_numpy() if s.effect else np.zeros(len(df))
+    df["prediction_um"] = clean - true_effect
+    truth = AXIS_TRUTH.get(s.effect, ()) if s.kind == "withheld" else ()
+    return Case(_add_noise(df, clean, true_effect, s, rng, (df["run"] >= 1).to_numpy()), AXIS_CANDIDATES, truth)
+
+
 def case_for(s: Scenario) -> Case:
     """The simulated data of a scenario."""
-    return gantry_case(s) if s.family.startswith("gantry") else thermal_case(s)
+    family = s.family.split("/")[0]
+    return {"gantry": gantry_case, "axis": axis_case, "thermal": thermal_case}[family](s)
 
 
 # ------------------------------------------------------------------------ scenarios
@@ -363,6 +416,21 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
         for i in range(4):
             out.append(Scenario(f"gu-{effect}-{i}", "gantry/prediction", "unmeasured", effect,
                                 **design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0}))
+
+    def passes(i: int) -> dict:
+        # At least four real passes: a reading constant through each pass is one number per
+        # pass, and with three passes a decoy lines up with |r| > 0.99 about one time in eleven.
+        return {"runs": (5, 7, 9)[i % 3], "run_min": 0.0, "positions": (23, 56, 12)[i % 3]}
+
+    for effect in AXIS_TRUTH:
+        for i in range(6):
+            out.append(Scenario(f"ap-{effect}-{i}", "axis/prediction", "withheld", effect, **design(i) | passes(i)))
+    for i in range(6):
+        out.append(Scenario(f"ap-null-{i}", "axis/prediction", "null", None,
+                            **design(i) | passes(i) | {"null_noise_um": (0.1, 0.3, 1.0)[i % 3]}))
+    for effect in AXIS_UNMEASURED:
+        for i in range(4):
+            out.append(Scenario(f"au-{effect}-{i}", "axis/prediction", "unmeasured", effect, **design(i) | passes(i)))
     return out[::10] if quick else out
 
 
@@ -371,9 +439,8 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
 
 def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
     """Run the diagnosis the way a user would on this scenario."""
-    gantry = s.family.startswith("gantry")
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
-              "order": "time_s" if gantry else "time_min", "group": "run", "surrogates": surrogates}
+              "order": ORDER[s.family.split("/")[0]], "group": "run", "surrogates": surrogates}
     if s.family.endswith("prediction"):
         return diagnose(case.table, prediction="prediction_um", **common)
     return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
@@ -439,7 +506,7 @@ def _oracle_shrink(s: Scenario, case: Case) -> float:
     mode = {"prediction": "prediction_um"} if s.family.endswith("prediction") else \
         {"features": [c for c in NODE_SENSORS if c != s.effect]}
     data = prepare(case.table, target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
-                   order="time_s" if s.family.startswith("gantry") else "time_min", **mode)
+                   order=ORDER[s.family.split("/")[0]], **mode)
     baseline = fit_baseline(data, s.model)
     real = data.is_real
     r, groups = baseline.residual[real], data.groups[real]

@@ -113,7 +113,7 @@ from svrqp.gap.between import (
 from svrqp.gap.blocks import circular_shifts
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transforms import group_slices, lag, rate
+from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
 
 SURROGATE_KINDS = ("rotation", "continuous")
 """Surrogate schemes of the significance tests (module docstring)."""
@@ -156,6 +156,52 @@ MAX_EFFECTS = 3
 _CHUNK_ELEMENTS = 6_000_000
 """Largest surrogate design array (rows × columns) scored at once, to bound memory."""
 
+_TIE_TOLERANCE = 1e-9
+"""A surrogate gain this close to the observed one is a tie, and ties count as exceedances: a
+column that rotation leaves unchanged (constant within every run) is scored through another
+summation order and may come out a few ulps below itself, which must not read as evidence."""
+
+
+@dataclass(frozen=True)
+class LagRecipe:
+    r"""How a ``lag`` bank's own columns are computed from the candidate, for its surrogates.
+
+    A lag carries memory: the filter starts in equilibrium with a run's first value, so a
+    noisy reading gives every run a transient from its first sample. Rotating the *filtered*
+    column would move that transient into the middle of the run, where it breaks the
+    surrogate's smoothness and makes the observed column fit a smooth residual better than
+    any surrogate. The surrogates therefore rotate the candidate itself and filter it again.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n_real,)
+        The candidate on the real rows.
+    alpha : ndarray, shape (n_real, v)
+        Filter coefficients (:func:`svrqp.gap.transforms.filter_coefficients`), restarting
+        at each real group's first row.
+    centre, scale : ndarray, shape (v,)
+        Standardisation of the observed columns :math:`\ell_\tau`, applied to surrogates alike.
+    """
+
+    x: np.ndarray
+    alpha: np.ndarray
+    centre: np.ndarray
+    scale: np.ndarray
+
+    @classmethod
+    def of(cls, x: np.ndarray, t: np.ndarray, groups: np.ndarray, taus: np.ndarray) -> LagRecipe:
+        """The recipe of candidate values ``x`` on the real rows (order ``t``, groups ``groups``)."""
+        alpha = filter_coefficients(t, groups, taus)
+        ell = lowpass_columns(x[:, None], alpha)[:, 0, :] - x[:, None]
+        centre = ell.mean(axis=0)
+        scale = ell.std(axis=0)
+        tiny = 1e-12 * (1 + np.abs(ell).max(axis=0))
+        return cls(x, alpha, centre, np.where(scale > tiny, scale, np.inf))
+
+    def own(self, X: np.ndarray) -> np.ndarray:
+        r"""Standardised :math:`\ell_\tau` of the series ``X`` (n, s): shape (n, s, v)."""
+        return (lowpass_columns(X, self.alpha) - X[:, :, None] - self.centre) / self.scale
+
 
 @dataclass(frozen=True)
 class CandidateBank:
@@ -174,6 +220,8 @@ class CandidateBank:
     partner : ndarray, shape (n_real,) or None
         Column every variant also holds (the level :math:`x` in ``lag`` of an unmodelled
         candidate), else None.
+    recipe : LagRecipe or None
+        For ``lag``: how surrogates recompute ``Z`` from the rotated candidate.
     """
 
     column: str
@@ -181,6 +229,7 @@ class CandidateBank:
     taus: np.ndarray | None
     Z: np.ndarray
     partner: np.ndarray | None = None
+    recipe: LagRecipe | None = None
     evidence: str = EVIDENCE_WITHIN
 
     def block(self, variant: int) -> np.ndarray:
@@ -273,14 +322,13 @@ def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
         x = data.C[real, j]
         if between and column not in data.features and is_run_level(x, groups):
             banks.append(run_level_bank(column, x, data.t[real], groups))
-        for transform in ("level", "rate", "lag"):
-            if transform == "level" and column in data.features:
-                continue  # already modelled
-            own, partner = transform_columns(data, column, transform, taus)
-            banks.append(CandidateBank(
-                column, transform, taus if transform == "lag" else None, _standardise(own[real]),
-                None if partner is None else _standardise(partner[real, None])[:, 0],
-            ))
+        partner = None if column in data.features else _standardise(x[:, None])[:, 0]
+        if column not in data.features:
+            banks.append(CandidateBank(column, "level", None, partner[:, None]))
+        banks.append(CandidateBank(column, "rate", None, _standardise(rate(x, data.t[real], groups)[:, None])))
+        # The lag restarts at each real group's first row, exactly as its surrogates do.
+        recipe = LagRecipe.of(x, data.t[real], groups, taus)
+        banks.append(CandidateBank(column, "lag", taus, recipe.own(x[:, None])[:, 0, :], partner, recipe))
     return banks
 
 
@@ -373,6 +421,8 @@ class SurrogateTest:
             self._step_Z = bank.Z[last] - bank.Z[self._first_row]
             self._step_partner = None if bank.partner is None else \
                 (bank.partner[last] - bank.partner[self._first_row])[:, None]
+            self._step_x = None if bank.recipe is None else \
+                (bank.recipe.x[last] - bank.recipe.x[self._first_row])[:, None]
 
     @property
     def drawn(self) -> int:
@@ -392,13 +442,20 @@ class SurrogateTest:
             size = min(chunk, count - start)
             rows = circular_shifts(self.groups, size, self.rng, self._signature).T  # surrogate s reads rows[:, s]
             partner = None if self.bank.partner is None else self.bank.partner[rows]
-            Z = self.bank.Z[rows]
+            recipe = self.bank.recipe
+            x = None if recipe is None else recipe.x[rows]
+            Z = self.bank.Z[rows] if recipe is None else None
             if self._continuous:
                 wrapped = rows < rows[self._first_row]  # read from before the group's rotation point
-                Z = Z + wrapped[:, :, None] * self._step_Z[:, None, :]
+                if recipe is None:
+                    Z = Z + wrapped[:, :, None] * self._step_Z[:, None, :]
+                else:
+                    x = x + wrapped * self._step_x
                 partner = None if partner is None else partner + wrapped * self._step_partner
+            if recipe is not None:  # filter the rotated candidate again (see LagRecipe)
+                Z = recipe.own(x)
             surrogate = self.cv.gain(Z, partner).max(axis=1)
-            self._hits = np.concatenate([self._hits, surrogate >= self.observed])
+            self._hits = np.concatenate([self._hits, surrogate >= self.observed - _TIE_TOLERANCE])
 
     @property
     def p_value(self) -> float:
@@ -623,7 +680,8 @@ def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given
     best = ranked[0]
     level = next((e for e in ranked if e.test.transform == "level"), None)
     if best.test.transform == "lag" and best.test.bank.partner is not None and level is not None:
-        lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z)
+        lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z,
+                                 recipe=best.test.bank.recipe)
         if not cond.adds(lag_only, [*given, level.test.bank.block(0)]):
             return level
     return best

@@ -91,8 +91,47 @@ def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
     return out
 
 
+def filter_coefficients(t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    """:math:`\alpha_k` of every row and time constant, shape (n, m); 1 at each group's first row.
+
+    A coefficient of 1 restarts the filter in equilibrium with that row's value.
+    """
+    taus = np.asarray(taus, dtype=float)
+    if np.any(taus <= 0):
+        raise ProblemError("taus: time constants must be positive")
+    dt = np.diff(t, prepend=t[:1])
+    alpha = -np.expm1(-dt[:, None] / taus[None, :])
+    for rows in group_slices(group_codes):
+        alpha[rows.start] = 1.0
+    return alpha
+
+
+def lowpass_columns(X: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """First-order low-pass responses of several series at once, shape (n, s, m).
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, s)
+        ``s`` signals on the same rows.
+    alpha : ndarray, shape (n, m)
+        Filter coefficients (:func:`filter_coefficients`).
+
+    Returns
+    -------
+    ndarray, shape (n, s, m)
+        Response of every signal for every time constant.
+    """
+    state = np.zeros((X.shape[1], alpha.shape[1]))
+    out = np.empty((X.shape[0], X.shape[1], alpha.shape[1]))
+    # One pass over the rows, every signal and time constant at once (the recursion is sequential in t).
+    for k in range(X.shape[0]):
+        state += alpha[k] * (X[k][:, None] - state)
+        out[k] = state
+    return out
+
+
 def lowpass(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
-    """First-order low-pass responses :math:`x_\\tau` for every time constant in ``taus``.
+    """First-order low-pass responses :math:`x_\tau` for every time constant in ``taus``.
 
     Parameters
     ----------
@@ -111,21 +150,7 @@ def lowpass(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndar
         Column ``j`` is the response with time constant ``taus[j]``.
     """
     x = np.asarray(x, dtype=float)
-    taus = np.asarray(taus, dtype=float)
-    if np.any(taus <= 0):
-        raise ProblemError("taus: time constants must be positive")
-    dt = np.diff(t, prepend=t[:1])
-    # alpha_k = 1 - exp(-dt_k / tau); the first row of each group restarts the state.
-    alpha = -np.expm1(-dt[:, None] / taus[None, :])
-    for rows in group_slices(group_codes):
-        alpha[rows.start] = 1.0
-    state = np.zeros(taus.size)
-    out = np.empty((x.size, taus.size))
-    # One pass over the rows, all time constants at once (the recursion is sequential in t).
-    for k in range(x.size):
-        state += alpha[k] * (x[k] - state)
-        out[k] = state
-    return out
+    return lowpass_columns(x[:, None], filter_coefficients(t, group_codes, taus))[:, 0, :]
 
 
 def lag(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
