@@ -1,8 +1,9 @@
 """A fixed handful of the withheld-effect suite (benchmarks/gap_suite.py) with asserted verdicts.
 
 One scenario per kind, each from :mod:`svrqp.machine`: a withheld node sensor (features mode), a
-withheld effect in prediction mode, a gantry effect along a time axis of 15 Hz samples, a null
-scenario and an effect that no candidate measures (the right answer is no verdict).
+withheld effect in prediction mode, a gantry effect along a time axis of 15 Hz samples, effects of
+readings constant through each pass (a motor's warm-up state, an axis temperature: found between
+runs), a null scenario and effects that no candidate measures (the right answer is no verdict).
 """
 
 import importlib.util
@@ -28,14 +29,21 @@ def _scenario(suite, name):
     return next(s for s in suite.scenarios() if s.name == name)
 
 
-@pytest.mark.parametrize("name", ["tf-bed_C-1", "tp-nut_heating-2", "gp-servo_lag-0"])
+@pytest.mark.parametrize("name", ["tf-bed_C-1", "tp-nut_heating-2", "gp-servo_lag-0", "gp-motor_heating-2",
+                                  "ap-scale_thermal-1"])
 def test_withheld_effect_is_named(suite, name):
     row = suite.evaluate(_scenario(suite, name))
     assert row["top1"], f"{name}: verdict {row['verdict']!r}, truth {row['truth']!r}"
     assert abs(row["shrink"] - row["oracle_shrink"]) < 0.15
 
 
-@pytest.mark.parametrize("name", ["tp-null-1", "gu-ripple-0"])
+def test_a_reading_constant_through_each_pass_is_named_between_runs(suite):
+    scenario = _scenario(suite, "ap-load_deflection-2")
+    report = suite.diagnose_case(scenario, suite.case_for(scenario))
+    assert report.verdict.column == "load_kg" and report.verdict.evidence == "between runs"
+
+
+@pytest.mark.parametrize("name", ["tp-null-1", "gu-ripple-0", "au-positioning-1", "ap-null-4"])
 def test_nothing_is_named_without_a_measured_cause(suite, name):
     row = suite.evaluate(_scenario(suite, name))
     assert not row["named"], f"{name}: named {row['verdict']!r}"
@@ -68,6 +76,6 @@ def test_labels_come_from_the_simulator(suite):
 
 def test_grids_never_share_a_seed(suite):
     seeds = {grid: {s.seed for s in suite.scenarios(grid=grid)} for grid in suite.GRIDS}
-    assert all(len(seeds[grid]) >= 138 for grid in seeds)  # ≥ 100 withheld + ≥ 30 null, each its own seed
+    assert all(len(seeds[grid]) >= 172 for grid in seeds)  # ≥ 100 withheld + ≥ 30 null, each its own seed
     assert not seeds["fresh"] & (seeds["development"] | seeds["holdout"])
     assert not seeds["development"] & seeds["holdout"]

@@ -49,10 +49,12 @@ The test, on run summaries (:func:`between_run_test`)
 One run must not carry it
     With a handful of runs, one run far from the others in :math:`\bar c` decides the slope
     alone — an unrelated anomaly in the one cold pass would pass for a relation. The
-    relation must therefore also hold with the run of highest leverage left out
-    (significant at :data:`LEAVE_OUT_ALPHA`, slope of the same sign; ``robust``), a
-    condition like the effect floors: it decides whether significant evidence counts, not
-    the p-value that enters the false-discovery control.
+    relation must therefore also hold with the run of highest leverage left out: the other
+    runs must confirm the direction of the slope that the full fit gives (one-sided, at
+    :data:`LEAVE_OUT_ALPHA`; ``robust``). This is a condition like the effect floors: it
+    decides whether significant evidence counts, not the p-value that enters the
+    false-discovery control. With four real runs the other three must line up almost
+    exactly, so in practice between-run evidence needs five or more.
 
 Effect floor
     The gain the floors of :mod:`svrqp.gap.attribute` apply to is the candidate's own,
@@ -244,10 +246,11 @@ class BetweenRunResult:
     p_value : float
         Two-sided p-value on all real runs.
     p_value_without : float
-        The same test with the run of highest leverage left out.
+        One-sided p-value of the same slope with the run of highest leverage left out, in the
+        direction the full fit gives.
     robust : bool
-        Whether the relation survives without that run: significant at
-        :data:`LEAVE_OUT_ALPHA` with the same sign of the slope.
+        Whether the relation survives without that run (``p_value_without`` below
+        :data:`LEAVE_OUT_ALPHA`).
     """
 
     p_value: float
@@ -287,5 +290,6 @@ def between_run_test(r: np.ndarray, base: np.ndarray, groups: np.ndarray, bank: 
     leverage = np.einsum("ij,jk,ik->i", design, np.linalg.inv(design.T @ design), design)
     keep = np.arange(len(score)) != int(np.argmax(leverage))
     slope_without, p_without = slope_p_value(score[keep], design[keep])
-    robust = p_without < LEAVE_OUT_ALPHA and np.sign(slope_without) == np.sign(slope)
-    return BetweenRunResult(p, p_without, bool(robust))
+    # The full fit says which way the slope goes; the other runs confirm it or not (one-sided).
+    one_sided = p_without / 2 if np.sign(slope_without) == np.sign(slope) else 1 - p_without / 2
+    return BetweenRunResult(p, one_sided, bool(one_sided < LEAVE_OUT_ALPHA))

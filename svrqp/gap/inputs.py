@@ -1,0 +1,105 @@
+r"""Is the model used outside what it was fitted on? Its own inputs on the real rows.
+
+A model fails on new rows for two reasons that look alike in its residual: something it does
+not know about acts there (an unmodelled effect, which :mod:`svrqp.gap.attribute` looks for
+among the candidates), or something it does know about takes values it never saw — an input
+that hardly moved on the train rows, so that its coefficient was never learned, and now moves a
+lot. S0's story is the second kind: in summer the ambient air hardly changed, so an MLR on the
+air temperature cannot know what an autumn morning does.
+
+For every model feature :math:`x_j` (features mode) this step reports
+
+* its range on the train rows and on the real rows, and the share of real rows outside the
+  train range (:math:`x < \min_\mathrm{train}` or :math:`x > \max_\mathrm{train}`);
+* the out-of-sample shrink of the real-row error that recalibrating *that input alone*
+  brings: the discrepancy model "offsets + :math:`x_j` (raw and smoothed)" under the blocked
+  folds of the diagnosis (:class:`svrqp.gap.discrepancy.CrossValidatedDiscrepancy`), against
+  the model's raw residual — the part of the discrepancy base
+  (:func:`svrqp.gap.diagnose.base_design`) that belongs to this input.
+
+An input outside its train range on most real rows whose recalibration alone removes much of
+the error is a model used beyond its data: the remedy is train rows where that input varies,
+not another sensor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
+from svrqp.gap.prepare import GapData
+from svrqp.gap.transforms import smooth
+
+EXTRAPOLATING_SHARE = 0.5
+"""An input outside its train range on at least this share of the real rows is extrapolated."""
+
+
+@dataclass(frozen=True)
+class InputUse:
+    """How the real rows use one model input.
+
+    Attributes
+    ----------
+    column : str
+        The feature.
+    train_low, train_high : float
+        Its range on the train rows.
+    real_low, real_high : float
+        Its range on the real rows.
+    outside : float
+        Share of the real rows outside the train range.
+    recalibration_shrink : float
+        Out-of-sample shrink of the real-row error by offsets and this input alone
+        (module docstring).
+    """
+
+    column: str
+    train_low: float
+    train_high: float
+    real_low: float
+    real_high: float
+    outside: float
+    recalibration_shrink: float
+
+    @property
+    def extrapolated(self) -> bool:
+        """Whether most real rows lie outside the train range (:data:`EXTRAPOLATING_SHARE`)."""
+        return self.outside >= EXTRAPOLATING_SHARE
+
+
+def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.ndarray]) -> list[InputUse]:
+    """Range and recalibration check of every model feature (empty in prediction mode).
+
+    Parameters
+    ----------
+    data : GapData
+        The prepared rows.
+    r : ndarray, shape (n_real,)
+        The model's residual on the real rows.
+    offsets : ndarray, shape (n_real, k)
+        The offset columns of the discrepancy base.
+    folds : list of ndarray
+        The diagnosis's blocked folds of the real rows.
+
+    Returns
+    -------
+    list of InputUse
+        One per feature, in the order of ``data.features``.
+    """
+    train, real = data.is_train, data.is_real
+    before = float(np.sqrt(np.mean(r**2)))
+    uses = []
+    for j, column in enumerate(data.features):
+        x = data.X[:, j]
+        low, high = float(x[train].min()), float(x[train].max())
+        own = np.column_stack([x, smooth(x, data.groups)])[real]
+        own = own - own.mean(axis=0)
+        scale = own.std(axis=0)
+        own = own[:, scale > 0] / scale[scale > 0]
+        after = CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base
+        shrink = 1.0 - float(np.sqrt(np.mean(after**2))) / before if before > 0 else 0.0
+        outside = float(np.mean((x[real] < low) | (x[real] > high)))
+        uses.append(InputUse(column, low, high, float(x[real].min()), float(x[real].max()), outside, shrink))
+    return uses

@@ -1,0 +1,77 @@
+"""The model's own inputs on the real rows: range and recalibration check (svrqp.gap.inputs)."""
+
+import numpy as np
+import pytest
+from gap_problems import CANDIDATES, air_lag_problem
+from sklearn.linear_model import LinearRegression
+
+from svrqp import datasets
+from svrqp.gap import diagnose
+from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.transforms import smooth
+
+MIAO = {"target": "error_um", "train": "batch == 'x1'", "features": ["T7_C", "T9_C"],
+        "candidates": ["T1_C", "T2_C", "T3_C", "T4_C", "T5_C", "T6_C", "T8_C"], "order": "time_min",
+        "group": "batch"}
+
+
+@pytest.fixture(scope="module")
+def miao():
+    df = datasets.load("miao2013")
+    return df, diagnose(df, **MIAO)
+
+
+def test_ranges_are_those_of_the_train_and_real_rows(miao):
+    df, report = miao
+    train = df["batch"] == "x1"
+    ambient = next(u for u in report.inputs if u.column == "T9_C")
+    assert ambient.train_low == df.loc[train, "T9_C"].min() and ambient.train_high == df.loc[train, "T9_C"].max()
+    assert ambient.real_low == df.loc[~train, "T9_C"].min() and ambient.real_high == df.loc[~train, "T9_C"].max()
+    outside = (df.loc[~train, "T9_C"] < ambient.train_low) | (df.loc[~train, "T9_C"] > ambient.train_high)
+    assert ambient.outside == pytest.approx(outside.mean())
+
+
+def test_s0_story_the_autumn_gap_is_the_ambient_input_used_beyond_its_summer_range(miao):
+    """S0: an MLR fitted in summer, when the air hardly moved, cannot know what autumn air does."""
+    _, report = miao
+    ambient = next(u for u in report.inputs if u.column == "T9_C")
+    assert ambient.extrapolated  # the autumn batch is far below the summer range
+    others = [u for u in report.inputs if u.column != "T9_C"]
+    assert all(ambient.recalibration_shrink > u.recalibration_shrink for u in others)
+    assert ambient.recalibration_shrink > 0.5
+    assert "T9_C" in report.summary and "outside its train range" in report.summary
+    assert report.to_dict()["inputs"][1]["extrapolated"] is True
+
+
+def test_recalibration_shrink_equals_an_independent_fold_by_fold_refit(miao):
+    df, report = miao
+    real = (df["batch"] != "x1").to_numpy()
+    ordered = df.sort_values(["batch", "time_min"], kind="stable")
+    groups = ordered["batch"].map({"x1": 0, "x2": 1, "x3": 2}).to_numpy()
+    r = ordered["error_um"].to_numpy() - report.series.y_hat  # the series is sorted the same way
+    x = ordered["T9_C"].to_numpy(float)
+    real = groups > 0
+    columns = np.column_stack([groups[real] == 1, groups[real] == 2, x[real], smooth(x, groups)[real]]).astype(float)
+    errors = np.empty(int(real.sum()))
+    for test in blocked_folds(groups[real] - 1):
+        fit = np.setdiff1d(np.arange(errors.size), test)
+        model = LinearRegression(fit_intercept=False).fit(columns[fit], r[real][fit])
+        errors[test] = r[real][test] - model.predict(columns[test])
+    expected = 1 - np.sqrt(np.mean(errors**2)) / np.sqrt(np.mean(r[real] ** 2))
+    ambient = next(u for u in report.inputs if u.column == "T9_C")
+    assert ambient.recalibration_shrink == pytest.approx(expected, abs=1e-6)
+
+
+def test_inputs_within_their_range_are_not_called_extrapolated():
+    report = diagnose(air_lag_problem(), target="error_um", train="run == 'r0'", features=["spindle_C"],
+                      candidates=CANDIDATES, order="time_min", group="run")
+    assert [u.column for u in report.inputs] == ["spindle_C"]
+    assert "outside its train range" not in report.summary or report.inputs[0].extrapolated
+
+
+def test_prediction_mode_has_no_inputs():
+    df = air_lag_problem()
+    df["prediction_um"] = 2.0 * df["spindle_C"]
+    report = diagnose(df, target="error_um", train="run == 'r0'", prediction="prediction_um",
+                      candidates=CANDIDATES, order="time_min", group="run")
+    assert report.inputs == [] and report.to_dict()["inputs"] == []
