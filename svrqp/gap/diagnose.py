@@ -66,6 +66,7 @@ from svrqp.gap.compare import paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.figures import Series, unit_of
 from svrqp.gap.gate import GateResult, gap_detected, gate
+from svrqp.gap.inputs import InputUse, input_use
 from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
@@ -104,23 +105,25 @@ def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
     return centred[:, varying] / scale[varying]
 
 
+def offset_columns(groups: np.ndarray) -> np.ndarray:
+    """Offsets of the discrepancy base on the real rows (see :func:`base_design`)."""
+    if holds_out_groups(groups):
+        return np.ones((groups.size, 1))
+    return (groups[:, None] == np.unique(groups)[None, :]).astype(float)
+
+
 def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
     """Base regressors of the discrepancy models (offsets first, then :func:`recalibration_inputs`).
 
-    Offsets: one intercept when the real rows hold enough groups for cross-validation to hold
-    out whole groups (:func:`svrqp.gap.blocks.holds_out_groups`) — an offset between groups is
-    then part of the gap a candidate may explain, and differences between groups are often the
-    best evidence (an error that scales with each run's feed); otherwise one intercept per
-    group, fitted on the other blocks of the same group: with two or three groups an offset
-    between them cannot be told apart from any candidate's group means, and circular-shift
-    surrogates (which keep each group's level) could never show otherwise.
+    Offsets (:func:`offset_columns`): one intercept when the real rows hold enough groups for
+    cross-validation to hold out whole groups (:func:`svrqp.gap.blocks.holds_out_groups`) — an
+    offset between groups is then part of the gap a candidate may explain, and differences
+    between groups are often the best evidence (an error that scales with each run's feed);
+    otherwise one intercept per group, fitted on the other blocks of the same group: with two or
+    three groups an offset between them cannot be told apart from any candidate's group means,
+    and circular-shift surrogates (which keep each group's level) could never show otherwise.
     """
-    groups = data.groups[data.is_real]
-    if holds_out_groups(groups):
-        offsets = np.ones((groups.size, 1))
-    else:
-        offsets = (groups[:, None] == np.unique(groups)[None, :]).astype(float)
-    return np.column_stack([offsets, recalibration_inputs(data, baseline)])
+    return np.column_stack([offset_columns(data.groups[data.is_real]), recalibration_inputs(data, baseline)])
 
 
 def diagnose(
@@ -200,6 +203,7 @@ def diagnose(
     detected = gap_detected(gap)
     exact = _reproduced_exactly(r, data.y)
     base, base_errors = _base_fit(data, r, B, folds, exact)
+    inputs = [] if exact else input_use(data, r, offset_columns(groups), folds)
     if exact:
         causes, errors_after, residual_gate, remaining = [], {}, None, []
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
@@ -241,7 +245,8 @@ def diagnose(
         residual_gate=residual_gate,
         remaining=remaining,
         base=base,
-        summary=_summary(data, gap, detected, where, verdict, exact),
+        inputs=inputs,
+        summary=_summary(data, gap, detected, where, verdict, exact, inputs),
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
             "max_surrogates": attr.MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
@@ -450,8 +455,8 @@ def _quantity(value: float, unit: str | None) -> str:
 
 
 def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region], verdict: Verdict,
-             exact: bool) -> str:
-    """The gap in one sentence: how large, where, and what explains it."""
+             exact: bool, inputs: list[InputUse]) -> str:
+    """The gap in one sentence: how large, where, what explains it (and a model used beyond its data)."""
     unit = unit_of(data.target)
     if exact:
         return (f"On the {int(data.is_real.sum())} real rows the model reproduces {data.target} exactly (zero "
@@ -474,4 +479,12 @@ def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region]
         text += f"; {_names(verdict.ambiguous_with)} explain it equally well and cannot be told apart."
     else:
         text += "; no candidate explains it beyond chance."
+    extrapolated = [u for u in inputs if u.extrapolated]
+    if detected and extrapolated:
+        worst = max(extrapolated, key=lambda u: u.recalibration_shrink)
+        unit = unit_of(worst.column)
+        text += (f" The model is used beyond its data: {worst.column} lies outside its train range "
+                 f"({_quantity(worst.train_low, None)} … {_quantity(worst.train_high, unit)}) on "
+                 f"{worst.outside:.0%} of the real rows, and recalibrating it alone shrinks the error by "
+                 f"{worst.recalibration_shrink:.0%} out of sample.")
     return text

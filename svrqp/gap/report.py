@@ -23,6 +23,7 @@ import jsonschema
 from svrqp.exceptions import SvrqpError
 from svrqp.gap.figures import Series, before_after_figure, gap_figure, unit_of
 from svrqp.gap.gate import GateResult
+from svrqp.gap.inputs import InputUse
 from svrqp.gap.localise import Region
 
 SCHEMA_ID = "svrqp.gap/1"
@@ -129,6 +130,7 @@ class GapReport:
     residual_gate: GateResult | None
     remaining: list[str]
     base: BaseFit
+    inputs: list[InputUse]
     summary: str
     settings: dict[str, Any]
     runtime_s: float
@@ -164,6 +166,7 @@ class GapReport:
             "verdict": asdict(self.verdict),
             "residual_gate": residual_gate,
             "base": asdict(self.base),
+            "inputs": [asdict(u) | {"extrapolated": u.extrapolated} for u in self.inputs],
             "summary": self.summary,
             "settings": self.settings,
             "runtime_s": self.runtime_s,
