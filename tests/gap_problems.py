@@ -101,6 +101,16 @@ def null_problem(seed: int = 3) -> pd.DataFrame:
     return thermal_runs("none", seed=seed)
 
 
+def air_and_shell_problem(seed: int = 0, shell_tau: float = 10.0) -> pd.DataFrame:
+    """Unmodelled air effect, 1 μm/K, with a second reading ``shell_C`` of the air through a
+    first-order lag of ``shell_tau`` min (a housing that follows the air): the shell's own lead–lag
+    filter reproduces the air almost exactly, so the two explain the gap about equally well."""
+    df = thermal_runs("air_level", b=1.0, runs=4, seed=seed)
+    rng = np.random.default_rng(seed)
+    shell = np.concatenate([first_order_lag(run["air_C"].to_numpy(), shell_tau) for _, run in df.groupby("run", sort=False)])
+    return df.assign(shell_C=shell + 0.02 * rng.normal(size=len(df)))
+
+
 CANDIDATES = ["air_C", "coolant_C", "nut_C", "speed_rpm"]
 """Candidates of the closed-form problems (the truth is ``air_C`` for the air effects)."""
 

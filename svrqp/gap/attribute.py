@@ -83,8 +83,20 @@ Confounding
     * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a` if :math:`b`
       passed the first round itself, otherwise neither is named;
     * both significant — both carry their own information; :math:`a` (larger gain) leads;
-    * neither — the data cannot tell them apart: both are reported as such and no verdict
-      is given (naming a decoy is worse than naming nothing).
+    * neither — neither carries information the other lacks, so the two fits are compared
+      where they differ, by the paired block-bootstrap test of their out-of-sample losses
+      (:mod:`svrqp.gap.compare`, :class:`OutOfSampleLosses`):
+
+      - one fits the real rows significantly better — it counts as one-sided evidence for
+        it, as in the first two cases;
+      - the fits are equal within the test, both columns passed the first round on their
+        own, and one needs fewer parameters (``level`` and ``rate``: one column; ``lag``:
+        the reading, its filtered copy and a fitted :math:`\tau`) while fitting no worse on
+        average — the simpler explanation stands (parsimony: a withheld reading itself
+        rather than another reading of the same heat source pushed through a fitted
+        lead–lag filter); the tie is still reported (``ambiguous_with``);
+      - otherwise the data cannot tell them apart: both are reported as such and no
+        verdict is given (naming a decoy is worse than naming nothing).
 
     ``lag`` contains ``level``; the verdict reports ``lag`` only if :math:`\ell_\tau` adds
     significantly to the level. Further effects are accepted in rounds, each testing the
@@ -111,6 +123,7 @@ from svrqp.gap.between import (
     run_level_columns,
 )
 from svrqp.gap.blocks import circular_shifts
+from svrqp.gap.compare import PairedComparison, paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
@@ -149,6 +162,10 @@ STOP_EXCEEDANCES = 10
 RIVAL_GAIN_FRACTION = 0.5
 """A column without significant evidence is still checked as a rival of the strongest one
 when its gain reaches this fraction of the strongest gain."""
+
+BY_INFORMATION, BY_FIT, BY_PARAMETERS = "information", "fit", "parameters"
+"""What settles a rival check (module docstring, "Confounding"): information one column carries
+beyond the other, a significantly better fit where they differ, or fewer parameters for the same fit."""
 
 MAX_EFFECTS = 3
 """Most effects accepted in successive rounds."""
@@ -619,6 +636,41 @@ def _above_floor(test: TestOutcome, noise_rmse: float) -> bool:
     return test.robust and test.own_gain >= MIN_GAIN and test.explained_rms >= MIN_AMPLITUDE * noise
 
 
+def _parameters(test: TestOutcome) -> int:
+    """Parameters a test's effect adds to the base: its columns, and a fitted time constant."""
+    return test.bank.block(test.variant).shape[1] + (test.bank.taus is not None)
+
+
+class OutOfSampleLosses:
+    """Out-of-sample errors of the base plus each test's bank, and paired comparisons of them.
+
+    Each is computed once: the rival checks of :func:`attribute` and the causes table of
+    :func:`svrqp.gap.diagnose.diagnose` read the same errors and the same comparisons, so a
+    note never contradicts a tie mark.
+    """
+
+    def __init__(self, problem: AttributionProblem):
+        self.problem = problem
+        self._errors: dict[int, np.ndarray] = {}
+        self._comparisons: dict[tuple[int, int], PairedComparison] = {}
+
+    def errors(self, test: TestOutcome) -> np.ndarray:
+        """Out-of-sample errors of ``r ~ B + bank`` on the real rows (the bank's own nested CV)."""
+        p = self.problem
+        key = id(test.bank)
+        if key not in self._errors:
+            self._errors[key] = test.bank.out_of_sample_errors(p.r, p.B, p.folds, p.groups)
+        return self._errors[key]
+
+    def compare(self, a: TestOutcome, b: TestOutcome) -> PairedComparison:
+        """Paired test of the two banks' losses (:func:`svrqp.gap.compare.paired_loss_test`)."""
+        key = (id(a.bank), id(b.bank))
+        if key not in self._comparisons:
+            self._comparisons[key] = paired_loss_test(self.errors(a), self.errors(b), self.problem.groups,
+                                                      self.problem.rng)
+        return self._comparisons[key]
+
+
 @dataclass
 class Attribution:
     """Outcome of the attribution step.
@@ -633,12 +685,23 @@ class Attribution:
         Columns that cannot be told apart from the first effect (verdict withheld if any).
     notes : dict
         Column → sentence on its relation to the accepted effects.
+    losses : OutOfSampleLosses or None
+        The out-of-sample errors and paired comparisons the rival checks used.
+    chosen : dict
+        Column → the test that stood for it in the rival checks (its transform chosen by
+        :func:`_choose_transform`).
+    decided_by : dict
+        Column → what settled its rival check against the champion of the time, where one
+        side stood: :data:`BY_INFORMATION`, :data:`BY_FIT` or :data:`BY_PARAMETERS`.
     """
 
     evidence: list[Evidence]
     accepted: list[Evidence] = field(default_factory=list)
     ambiguous: list[str] = field(default_factory=list)
     notes: dict[str, str] = field(default_factory=dict)
+    losses: OutOfSampleLosses | None = None
+    chosen: dict[str, Evidence] = field(default_factory=dict)
+    decided_by: dict[str, str] = field(default_factory=dict)
 
     @property
     def verdict(self) -> Evidence | None:
@@ -703,13 +766,15 @@ def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
     """
     cond = _Conditional(problem)
     evidence = _test_round(problem, [], banks, 1)
-    result = Attribution(evidence)
+    result = Attribution(evidence, losses=OutOfSampleLosses(problem))
     passing = _best_by_column(evidence, passing_only=True)
     if not passing:
         return result
 
     def chosen(column: str) -> Evidence:
-        return _choose_transform([e for e in evidence if e.test.column == column], cond, [])
+        if column not in result.chosen:
+            result.chosen[column] = _choose_transform([e for e in evidence if e.test.column == column], cond, [])
+        return result.chosen[column]
 
     best = _best_by_column(evidence, passing_only=False)
     significant = {e.test.column for e in evidence if e.q_value < ALPHA}
@@ -728,24 +793,25 @@ def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
             break
         rival = chosen(pending.pop(0))
         a, b = champion.test, rival.test
-        a_beyond_b = cond.adds(a.bank, [b.bank.block(b.variant)])
-        b_beyond_a = cond.adds(b.bank, [a.bank.block(a.variant)])
-        if b_beyond_a and not a_beyond_b and b.column in passing:
+        check = _rival_check(cond, result.losses, a, b, b.column in passing)
+        if check.b_beyond_a and not check.a_beyond_b and b.column in passing:
             # The rival explains the champion away: it takes over and faces the others again.
-            result.notes[a.column] = f"explained by {b.column}"
+            result.notes[a.column] = check.loser_note(b.column)
+            result.decided_by[a.column] = check.basis
             champion = rival
             pending = by_gain((done | set(pending)) - {a.column, b.column})
             done = {a.column}
             result.ambiguous.clear()
             continue
         done.add(b.column)
-        if a_beyond_b and not b_beyond_a:
-            result.notes[b.column] = f"explained by {a.column}"
-        elif a_beyond_b:
+        if check.a_beyond_b and not check.b_beyond_a:
+            result.notes[b.column] = check.loser_note(a.column)
+            result.decided_by[b.column] = check.basis
+        elif check.a_beyond_b:
             result.notes[b.column] = f"carries information beyond {a.column}"
-        elif b_beyond_a:
+        elif check.b_beyond_a:
             result.ambiguous.append(b.column)
-            result.notes[b.column] = f"explains {a.column} away but is not significant on its own"
+            result.notes[b.column] = f"{check.winner_note(a.column)} but is not significant on its own"
         else:
             result.ambiguous.append(b.column)
             result.notes[b.column] = f"cannot be told apart from {a.column}"
@@ -754,6 +820,54 @@ def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
     result.accepted.append(champion)
     _further_effects(result, problem, banks, cond)
     return result
+
+
+@dataclass(frozen=True)
+class _RivalCheck:
+    """Outcome of one rival check (module docstring, "Confounding")."""
+
+    a_beyond_b: bool
+    b_beyond_a: bool
+    basis: str = BY_INFORMATION
+    p_paired: float | None = None
+
+    def loser_note(self, winner: str) -> str:
+        """The losing column's note."""
+        if self.basis == BY_FIT:
+            return f"fits the real rows worse than {winner} (paired p = {self.p_paired:.2g})"
+        if self.basis == BY_PARAMETERS:
+            return f"needs more parameters than {winner} for the same fit"
+        return f"explained by {winner}"
+
+    def winner_note(self, loser: str) -> str:
+        """The note of a winning column that cannot take over (not significant on its own)."""
+        if self.basis == BY_FIT:
+            return f"fits the real rows better than {loser} (paired p = {self.p_paired:.2g})"
+        return f"explains {loser} away"
+
+
+def _rival_check(cond: _Conditional, losses: OutOfSampleLosses, a: TestOutcome, b: TestOutcome,
+                 b_passes: bool) -> _RivalCheck:
+    """Does champion ``a`` carry information beyond rival ``b``, and ``b`` beyond ``a``?
+
+    The conditional tests ask first. When they separate neither, the paired test of the two
+    out-of-sample losses asks which fits the real rows better where they differ; when it finds
+    the fits equal and ``b`` passed the first round on its own, the one with fewer parameters
+    stands if it fits no worse on average.
+    """
+    a_beyond_b = cond.adds(a.bank, [b.bank.block(b.variant)])
+    b_beyond_a = cond.adds(b.bank, [a.bank.block(a.variant)])
+    if a_beyond_b or b_beyond_a:
+        return _RivalCheck(a_beyond_b, b_beyond_a)
+    fit = losses.compare(a, b)
+    if not fit.tied:
+        return _RivalCheck(fit.mean_difference > 0, fit.mean_difference < 0, BY_FIT, fit.p_value)
+    k_a, k_b = _parameters(a), _parameters(b)
+    if b_passes and (k_a - k_b) * fit.mean_difference < 0:
+        # Equal fits: the simpler explanation stands (a reading itself before another reading of
+        # the same heat source pushed through a fitted lead-lag filter).
+        return _RivalCheck(k_a < k_b, k_b < k_a, BY_PARAMETERS)
+    return _RivalCheck(False, False)
 
 
 def _further_effects(result: Attribution, problem: AttributionProblem, banks: list[Bank],

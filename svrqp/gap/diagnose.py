@@ -22,13 +22,16 @@ Causes that cannot be told apart
     Two kinds of evidence answer "is it this column or that one?". The conditional tests of
     :mod:`svrqp.gap.attribute` ask whether each carries information beyond the other, on the
     rows where they decorrelate; the paired loss test asks whether either fits the real rows
-    better. When the conditional tests separate neither column, the verdict is withheld
-    (``column: null``) and ``ambiguous_with`` lists both. When the conditional tests favour
-    the top cause (or credit each with its own information) but the paired test finds their
-    fits equal, the verdict **stays** on the top cause — the decorrelated evidence is the
-    sharper of the two, and it is not a guess — while ``ambiguous_with``, the ``ambiguous``
-    flag and ``p_paired`` of each tied cause, the verdict's reason and the one-sentence summary
-    all say that the others explain the gap about as well.
+    better. When the conditional tests separate neither column, the paired test decides if it
+    can, then parsimony between two columns that each pass on their own (the one needing
+    fewer parameters, when it fits no worse; :mod:`svrqp.gap.attribute`); failing both, the
+    verdict is withheld (``column: null``) and ``ambiguous_with`` lists both. When the
+    conditional tests favour the top cause (or credit each with its own information), or
+    parsimony does, but the paired test finds their fits equal, the verdict **stays** on the
+    top cause — the decorrelated evidence is the sharper of the two, and it is not a guess —
+    while ``ambiguous_with``, the ``ambiguous`` flag and ``p_paired`` of each tied cause, the
+    verdict's reason and the one-sentence summary all say that the others explain the gap
+    about as well.
 6. **Report** — :class:`svrqp.gap.report.GapReport`.
 
 The discrepancy models of steps 4–5 use the base regressors "offsets + the model's features
@@ -62,7 +65,7 @@ from svrqp.gap.attribute import (
 from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
-from svrqp.gap.compare import paired_loss_test
+from svrqp.gap.compare import PairedComparison
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.figures import Series, unit_of
 from svrqp.gap.gate import GateResult, gap_detected, gate
@@ -214,8 +217,11 @@ def diagnose(
         attribution = attribute(problem, build_banks(data, taus))
         attribution.notes = untestable_between_runs(data) | attribution.notes
         report_progress("quantifying", 0.85)
-        causes, errors_after = _causes(attribution, r, B, folds, groups, rng, base_errors)
-        causes = mark_ties(causes, errors_after, attribution.ambiguous, groups, rng)
+        representatives = _representatives(attribution)
+        causes, errors_after = _causes(attribution, representatives, r, groups, rng, base_errors)
+        tests = {ev.test.column: ev.test for ev in representatives}
+        causes = mark_ties(causes, attribution.ambiguous,
+                           lambda top, other: attribution.losses.compare(tests[top], tests[other]))
         verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
                                           base, base_errors, rng)
         remaining = [e.test.column for e in attribution.accepted[1:]] if verdict.column else []
@@ -272,22 +278,25 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
 def _representatives(attribution: Attribution) -> list[Evidence]:
     """One test per column, ranked: accepted effects, undecidable rivals, then by evidence."""
     first = list(attribution.accepted[:1])
-    first += [_best(attribution.evidence, c) for c in attribution.ambiguous]
+    first += [_best(attribution, c) for c in attribution.ambiguous]
     first += attribution.accepted[1:]
     taken = {e.test.column for e in first}
-    rest = [_best(attribution.evidence, c) for c in dict.fromkeys(e.test.column for e in attribution.evidence)
+    rest = [_best(attribution, c) for c in dict.fromkeys(e.test.column for e in attribution.evidence)
             if c not in taken]
     rest.sort(key=lambda e: (not e.passes, -e.test.gain))
     return first + rest
 
 
-def _best(evidence: list[Evidence], column: str) -> Evidence:
-    """A column's strongest test: the best passing one, else the one with the largest gain."""
-    own = [e for e in evidence if e.test.column == column]
+def _best(attribution: Attribution, column: str) -> Evidence:
+    """A column's test: the one that stood for it in the rival checks, else its strongest (passing first)."""
+    if column in attribution.chosen:
+        return attribution.chosen[column]
+    own = [e for e in attribution.evidence if e.test.column == column]
     return max(own, key=lambda e: (e.passes, e.test.gain))
 
 
-def _causes(attribution, r, B, folds, groups, rng, base_errors) -> tuple[list[Cause], dict[str, np.ndarray]]:
+def _causes(attribution: Attribution, representatives: list[Evidence], r: np.ndarray, groups: np.ndarray,
+            rng: np.random.Generator, base_errors: np.ndarray) -> tuple[list[Cause], dict[str, np.ndarray]]:
     """The causes table: one row per column, each shrink for that effect alone added to the base.
 
     ``shrink_beyond_base`` is the same out-of-sample error against the base alone's: the
@@ -295,8 +304,8 @@ def _causes(attribution, r, B, folds, groups, rng, base_errors) -> tuple[list[Ca
     """
     base_rmse = float(np.sqrt(np.mean(base_errors**2)))
     causes, errors_after = [], {}
-    for ev in _representatives(attribution):
-        shrink = estimate_shrink(r, ev.test.bank.out_of_sample_errors(r, B, folds, groups), groups, rng)
+    for ev in representatives:
+        shrink = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
         errors_after[ev.test.column] = shrink.errors
         causes.append(Cause(
             column=ev.test.column, transform=ev.test.transform, tau=ev.test.tau, evidence=ev.test.bank.evidence,
@@ -310,8 +319,8 @@ def _causes(attribution, r, B, folds, groups, rng, base_errors) -> tuple[list[Ca
     return causes, errors_after
 
 
-def mark_ties(causes: list[Cause], errors_after: dict[str, np.ndarray], undecided: list[str], groups: np.ndarray,
-              rng: np.random.Generator) -> list[Cause]:
+def mark_ties(causes: list[Cause], undecided: list[str],
+              compare: Callable[[str, str], PairedComparison]) -> list[Cause]:
     """Mark the causes that cannot be told apart from the top one.
 
     A significant cause is tied with the top cause when the paired block-bootstrap test of
@@ -323,14 +332,11 @@ def mark_ties(causes: list[Cause], errors_after: dict[str, np.ndarray], undecide
     ----------
     causes : list of Cause
         Ranked causes table, best first.
-    errors_after : dict
-        Column → out-of-sample errors on the real rows with that cause added.
     undecided : list of str
         Columns the conditional tests could not tell apart from the top cause.
-    groups : ndarray of int
-        Group code per real row.
-    rng : numpy.random.Generator
-        Source of the bootstrap resamples.
+    compare : callable
+        ``compare(top, other)`` → the paired comparison of the two columns' out-of-sample
+        losses (the same one the rival checks of the attribution read, where they made it).
 
     Returns
     -------
@@ -344,7 +350,7 @@ def mark_ties(causes: list[Cause], errors_after: dict[str, np.ndarray], undecide
         if not (cause.significant or cause.column in undecided):
             marked.append(cause)
             continue
-        test = paired_loss_test(errors_after[top.column], errors_after[cause.column], groups, rng)
+        test = compare(top.column, cause.column)
         tied = test.tied or cause.column in undecided
         note = cause.note
         if test.tied and cause.column not in undecided:
@@ -425,13 +431,25 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
     tied = [c.column for c in causes[1:] if c.ambiguous]
     if tied:
         reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "
-                   "out-of-sample losses); the verdict stays on it because the conditional tests, on the evidence "
-                   "where the candidates decorrelate, favour it or credit each with its own information.")
+                   f"out-of-sample losses); the verdict stays on it because {_why_it_stays(attribution, tied)}.")
     return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, evidence=top.evidence,
                    shrink=top.shrink,
                    shrink_ci=top.shrink_ci, shrink_beyond_base=beyond, shrink_beyond_base_ci=beyond_ci,
                    refit_shrink=refit, rmse_before=top.rmse_before,
                    rmse_after=top.rmse_after, p_value=top.p_value, ambiguous_with=tied), residual_gate
+
+
+def _why_it_stays(attribution: Attribution, tied: list[str]) -> str:
+    """Why the verdict stays on the top cause although ``tied`` fit the real rows as well."""
+    simpler = [c for c in tied if attribution.decided_by.get(c) == attr.BY_PARAMETERS]
+    informed = [c for c in tied if c not in simpler]
+    reasons = []
+    if informed:
+        reasons.append("the conditional tests, on the evidence where the candidates decorrelate, favour it or credit "
+                       "each with its own information" + (f" ({_names(informed)})" if simpler else ""))
+    if simpler:
+        reasons.append(f"it needs fewer parameters than {_names(simpler)} for the same fit (parsimony)")
+    return " and ".join(reasons)
 
 
 def _names(columns: list[str]) -> str:
