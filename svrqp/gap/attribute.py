@@ -82,7 +82,8 @@ Confounding
     * :math:`a|b` significant, :math:`b|a` not — :math:`a` stands; :math:`b` is "explained by a";
     * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a` if :math:`b`
       passed the first round itself, otherwise neither is named;
-    * both significant — both carry their own information; :math:`a` (larger gain) leads;
+    * both significant — both carry their own information; :math:`a` stays the leader (the
+      first champion is the column of largest gain; a rival that explained it away leads after it);
     * neither — neither carries information the other lacks, so the two fits are compared
       where they differ, by the paired block-bootstrap test of their out-of-sample losses
       (:mod:`svrqp.gap.compare`, :class:`OutOfSampleLosses`):
