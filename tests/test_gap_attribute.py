@@ -116,6 +116,19 @@ def test_a_reading_is_named_before_a_filtered_copy_of_it():
     assert any("fits the real rows worse than air_C" in n for n in notes)
 
 
+def test_a_rival_note_never_contradicts_its_tie_mark():
+    """The rival check and the tie marks read the same out-of-sample errors and paired comparison.
+    When the table showed another transform of the rival than the check had used, and drew its own
+    bootstrap, this shell's note read 'fits the real rows worse than air_C (paired p = 0.023); fits as
+    well as air_C (paired p = 0.077)'."""
+    report = diagnose(air_and_shell_problem(6, shell_tau=5.0), candidates=["air_C", "shell_C", "nut_C"], **ARGS)
+    for cause in report.causes:
+        note = cause.note or ""
+        assert not ("fits the real rows worse than" in note and "fits as well as" in note), note
+        if "fits the real rows worse than" in note:
+            assert not cause.ambiguous and cause.p_paired < 0.05
+
+
 def _outcome(transform: str) -> attribute.TestOutcome:
     """A test outcome of a one-column ``level`` or a ``lag`` (reading, filtered copy, τ)."""
     Z = np.zeros((10, 3))
