@@ -10,6 +10,7 @@ import pandas as pd
 from svrqp.estimators import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
 from svrqp.exceptions import BackendNotAvailableError, ProblemError
 from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
+from svrqp.table_checks import check_numeric
 
 #: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
 MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
@@ -44,10 +45,7 @@ def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: b
             f"{option}: unknown column(s) {missing}; available: {list(table.columns)}"
         )
     if numeric:
-        text_columns = [name for name in names if not (pd.api.types.is_numeric_dtype(table[name])
-                                                     or pd.api.types.is_bool_dtype(table[name]))]
-        if text_columns:
-            raise ProblemError(f"{option}: column(s) {text_columns} are not numeric")
+        check_numeric(table, names, option)
     return names
 
 

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
+from svrqp.table_checks import check_numeric
 
 MIN_GROUP_ROWS = 3
 """A group needs at least this many rows (two differences) for rates and filters."""
@@ -108,15 +109,6 @@ def _check_columns(df: pd.DataFrame, names: list[str], option: str) -> None:
         raise ProblemError(f"{option}: unknown column(s) {missing}; available: {list(df.columns)}")
 
 
-def _check_numeric(df: pd.DataFrame, names: list[str], option: str) -> None:
-    bad = [n for n in names if not (pd.api.types.is_numeric_dtype(df[n]) or pd.api.types.is_bool_dtype(df[n]))]
-    if bad:
-        dates = [n for n in bad if pd.api.types.is_datetime64_any_dtype(df[n]) or pd.api.types.is_timedelta64_dtype(df[n])]
-        hint = (f"; {dates} hold dates or durations: give the elapsed time as a number with its unit in the name "
-                "(e.g. time_min)") if dates else ""
-        raise ProblemError(f"{option}: column(s) {bad} are not numeric{hint}")
-
-
 def _train_mask(df: pd.DataFrame, train: str | np.ndarray | pd.Series) -> np.ndarray:
     """Boolean mask of the train rows from a pandas query (or a boolean mask)."""
     if isinstance(train, str):
@@ -190,13 +182,13 @@ def prepare(
     if order is not None and order in candidates:
         raise ProblemError(f"candidates: the order column {order!r} cannot be a candidate")
     numeric = [target, *features, *candidates] + ([prediction] if prediction else [])
-    _check_numeric(df, [target], "target")
-    _check_numeric(df, features, "features")
-    _check_numeric(df, candidates, "candidates")
+    check_numeric(df, [target], "target")
+    check_numeric(df, features, "features")
+    check_numeric(df, candidates, "candidates")
     if prediction is not None:
-        _check_numeric(df, [prediction], "prediction")
+        check_numeric(df, [prediction], "prediction")
     if order is not None:
-        _check_numeric(df, [order], "order")
+        check_numeric(df, [order], "order")
         numeric.append(order)
 
     is_train = _train_mask(df, train)

@@ -1,0 +1,28 @@
+"""Checks on the columns of a user's table, shared by the commands and the gap diagnosis."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from svrqp.exceptions import ProblemError
+
+
+def check_numeric(table: pd.DataFrame, names: list[str], option: str) -> None:
+    """Raise :class:`ProblemError` naming the columns of ``names`` that are neither numeric nor boolean.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The table holding the columns.
+    names : list of str
+        Columns to check (present in ``table``).
+    option : str
+        The option or argument that named them, for the message (e.g. ``"--features"``).
+    """
+    bad = [n for n in names if not (pd.api.types.is_numeric_dtype(table[n]) or pd.api.types.is_bool_dtype(table[n]))]
+    if not bad:
+        return
+    dates = [n for n in bad if pd.api.types.is_datetime64_any_dtype(table[n]) or pd.api.types.is_timedelta64_dtype(table[n])]
+    hint = (f"; {dates} hold dates or durations: give the elapsed time as a number with its unit in the name "
+            "(e.g. time_min)") if dates else ""
+    raise ProblemError(f"{option}: column(s) {bad} are not numeric{hint}")

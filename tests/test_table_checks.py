@@ -1,0 +1,26 @@
+"""svrqp.table_checks: the column checks shared by the commands and the gap diagnosis."""
+
+import pandas as pd
+import pytest
+
+from svrqp.exceptions import ProblemError
+from svrqp.table_checks import check_numeric
+
+TABLE = pd.DataFrame({
+    "error_um": [1.0, 2.0], "run": [0, 1], "on": [True, False], "batch": ["x1", "x2"],
+    "stamp": pd.to_datetime(["2026-01-01 08:00", "2026-01-01 08:01"]),
+})
+
+
+def test_numbers_and_booleans_pass():
+    check_numeric(TABLE, ["error_um", "run", "on"], "--features")
+
+
+def test_text_columns_are_named_with_the_option():
+    with pytest.raises(ProblemError, match=r"--features: column\(s\) \['batch'\] are not numeric$"):
+        check_numeric(TABLE, ["error_um", "batch"], "--features")
+
+
+def test_dates_get_a_hint_about_elapsed_time():
+    with pytest.raises(ProblemError, match=r"\['stamp'\] hold dates or durations: give the elapsed time as a number"):
+        check_numeric(TABLE, ["stamp"], "--order")
