@@ -5,24 +5,15 @@ speed programme and the air. The scenarios below have their verdicts asserted; t
 dynamics are checked against closed forms.
 """
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-NETWORK_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "gap_sensor_network.py"
+from benchmark_modules import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def network():
-    """The benchmark module, imported from its file (benchmarks/ is not a package)."""
-    spec = importlib.util.spec_from_file_location("gap_sensor_network", NETWORK_PATH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["gap_sensor_network"] = module
-    spec.loader.exec_module(module)
-    return module
+    """The benchmark module ``benchmarks/gap_sensor_network.py``."""
+    return load_benchmark("gap_sensor_network")
 
 
 @pytest.mark.parametrize(("mode", "seed", "truth"), [

@@ -6,23 +6,14 @@ readings constant through each pass (a motor's warm-up state, an axis temperatur
 runs), a null scenario and effects that no candidate measures (the right answer is no verdict).
 """
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pytest
-
-SUITE_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "gap_suite.py"
+from benchmark_modules import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def suite():
-    """The benchmark module, imported from its file (benchmarks/ is not a package)."""
-    spec = importlib.util.spec_from_file_location("gap_suite", SUITE_PATH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["gap_suite"] = module
-    spec.loader.exec_module(module)
-    return module
+    """The benchmark module ``benchmarks/gap_suite.py``."""
+    return load_benchmark("gap_suite")
 
 
 def _scenario(suite, name):

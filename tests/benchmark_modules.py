@@ -1,0 +1,17 @@
+"""Benchmark scripts imported as modules for the tests (benchmarks/ is not a package)."""
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def load_benchmark(stem: str) -> ModuleType:
+    """Import ``benchmarks/<stem>.py`` from its file and register it under ``stem``."""
+    spec = importlib.util.spec_from_file_location(stem, BENCHMARKS / f"{stem}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[stem] = module
+    spec.loader.exec_module(module)
+    return module
