@@ -304,7 +304,8 @@ def report_section(title: str, report: GapReport) -> list[str]:
                f"{c.p_value:.2g}", f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
                pct(c.shrink_beyond_base), "yes" if c.significant else "no", "yes" if c.ambiguous else "no"]
               for i, c in enumerate(report.causes[:TOP_CAUSES])]
-    where = [[f"`{r.column}`", f"{r.low:.4g}", f"{r.high:.4g}", f"{r.rmse:.3g}", f"{r.share:.0%}", str(r.n)]
+    where = [[f"`{r.column}`", "all" if r.group is None else f"`{r.group}`", f"{r.low:.4g}", f"{r.high:.4g}",
+              f"{r.rmse:.3g}", f"{r.share:.0%}", "–" if r.share_of_run is None else f"{r.share_of_run:.0%}", str(r.n)]
              for r in report.where]
     return [
         f"### {title}", "",
@@ -315,7 +316,7 @@ def report_section(title: str, report: GapReport) -> list[str]:
                  [[f"{g.train_rmse:.3g}", f"{g.real_rmse:.3g}", f"{g.ratio:.3g}", f"{g.p_excess:.2g}",
                    "detected" if report.gap_detected else "not detected"]]), "",
         "Where the squared error concentrates:", "",
-        md_table(["column", "low", "high", "RMSE (μm)", "share", "rows"], where) if where else "(no region)", "",
+        md_table(["column", "run", "low", "high", "RMSE (μm)", "share", "share of its run", "rows"], where) if where else "(no region)", "",
         (f"Top {min(TOP_CAUSES, len(report.causes))} causes (shrink = out-of-sample, 95 % CI; the base alone — "
          f"{report.base.description} — shrinks the error by {report.base.shrink:.0%}, and every shrink below "
          "includes it):"), "",
@@ -472,6 +473,7 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
     by_batch = {b: (rms(residual[(real["batch"] == b) & early]), rms(residual[(real["batch"] == b) & ~early]))
                 for b in ("x2", "x3")}
     top_where = report.where[0] if report.where else None
+    start_up = next((r for r in report.where if r.group is not None and r.column == "time_min" and r.low < 10), None)
     v = report.verdict
     t8 = next(((i + 1, c) for i, c in enumerate(report.causes) if c.column == "T8_C"), None)
     lines = [
@@ -493,13 +495,18 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
               + (f", and which the paired loss test cannot tell apart from it (p = {t8[1].p_paired:.2g})"
                  if t8[1].ambiguous and t8[1].p_paired is not None else "")
               if t8 else ", absent from the causes table") + ").")
-        + (f" Its strongest region is `{top_where.column}` {top_where.low:.4g} … {top_where.high:.4g} "
-           f"({top_where.share:.0%} of the squared error)" if top_where else " It reports no region")
+        + (f" Its strongest region, pooled over both real batches, is `{top_where.column}` {top_where.low:.4g} … "
+           f"{top_where.high:.4g} ({top_where.share:.0%} of the squared error)" if top_where else " It reports no region")
         + ("; this covers the start-up transient (first 10 min)." if top_where and top_where.column == "time_min"
-           and top_where.low < 10 else "; this is not the start-up transient (first 10 min)."), "",
+           and top_where.low < 10 else "; this is the autumn drift, not the start-up transient (first 10 min).")
+        + (f" Within batch `{start_up.group}` alone the error concentrates at `time_min` {start_up.low:.4g} … "
+           f"{start_up.high:.4g} (RMSE {start_up.rmse:.3g} μm, {start_up.share_of_run:.0%} of that batch's squared "
+           "error): the start-up transient." if start_up else
+           " No region within a single batch covers the start-up transient."), "",
     ]
     return lines, {"verdict": v.column, "truth_effect": truth_effect,
-                   "where": None if top_where is None else (top_where.column, top_where.low, top_where.high)}
+                   "where": None if top_where is None else (top_where.column, top_where.low, top_where.high),
+                   "start_up": None if start_up is None else (start_up.group, start_up.low, start_up.high)}
 
 
 def main() -> None:

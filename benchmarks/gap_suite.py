@@ -483,7 +483,8 @@ def _prediction(report, case: Case) -> np.ndarray:
 def _iou(report, table: pd.DataFrame, real: np.ndarray, clean_residual: np.ndarray) -> tuple[float, float]:
     """Row IoU of the reported order-axis regions with the rows of above-mean clean squared error.
 
-    Returns the IoU of the union of every order-axis region reported, and the best IoU any
+    Returns the IoU of the union of every order-axis region reported (a region within one run
+    covers that run's rows only), and the best IoU any
     single interval of the order axis could reach (on a grid of 40 quantiles): the truth is a
     set of rows of several runs, so one interval on an axis shared by the runs rarely fits it.
     """
@@ -494,9 +495,11 @@ def _iou(report, table: pd.DataFrame, real: np.ndarray, clean_residual: np.ndarr
         union = np.sum(truth | found)
         return float(np.sum(truth & found) / union) if union else float("nan")
 
+    run = table["run"].astype(str).to_numpy()[real]
     found = np.zeros(order.size, dtype=bool)
     for region in (r for r in report.where if r.column == report.order):
-        found |= (order >= region.low) & (order <= region.high)
+        in_run = np.ones(order.size, dtype=bool) if region.group is None else run == region.group
+        found |= in_run & (order >= region.low) & (order <= region.high)
     cuts = np.unique(np.quantile(order, np.linspace(0, 1, 41)))
     ceiling = max(iou((order >= low) & (order <= high)) for i, low in enumerate(cuts) for high in cuts[i:])
     return iou(found), ceiling

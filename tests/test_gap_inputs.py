@@ -75,3 +75,18 @@ def test_prediction_mode_has_no_inputs():
     report = diagnose(df, target="error_um", train="run == 'r0'", prediction="prediction_um",
                       candidates=CANDIDATES, order="time_min", group="run")
     assert report.inputs == [] and report.to_dict()["inputs"] == []
+
+
+def test_s0_story_the_start_up_transient_of_the_summer_batch_is_localised(miao):
+    """S0: the MLR residual peaks in the first 10 min of a run. Pooled over both real batches the
+    autumn drift hides it; within the summer batch x2 it is where the error concentrates."""
+    df, report = miao
+    within = [r for r in report.where if r.group is not None]
+    start = next(r for r in within if r.group == "x2")
+    assert start.column == "time_min" and start.low == 0.0 and start.high <= 20.0
+    residual = df["error_um"] - report.series.y_hat[np.argsort(np.lexsort((df["time_min"], df["batch"])))]
+    x2 = (df["batch"] == "x2").to_numpy()
+    first = x2 & (df["time_min"] <= start.high).to_numpy()
+    assert start.rmse == pytest.approx(np.sqrt(np.mean(residual[first] ** 2)))
+    assert start.rmse > 2 * np.sqrt(np.mean(residual[x2 & ~first] ** 2))
+    assert f"within run x2 alone at time_min {start.low:.4g} … {start.high:.4g}" in report.summary

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from svrqp.gap.blocks import blocked_folds
-from svrqp.gap.localise import Region, localise, regions_on
+from svrqp.gap.localise import MIN_LEAF_FRACTION, Region, localise, regions_on, within_run_fit_half
 
 N_RUN = 300
 T = np.tile(np.arange(N_RUN, dtype=float), 2)  # two runs of 300 min
@@ -72,3 +72,50 @@ def test_a_stretch_where_only_one_of_two_runs_goes_wrong_is_one_region():
     assert len(spans) == 1
     assert 140 <= spans[0].low <= 165 and spans[0].high == T.max()
     assert spans[0].share > 0.9  # blocks interleaved within runs gave 183 … 269 and 58 %
+
+
+def _summer_and_autumn_residual(seed=0):
+    """Run 0: noise 0.2 and a 2 μm start-up transient in its first 10 min; run 1: a drift to 6 μm
+    over the run (S0's autumn batch), which dominates the error pooled over both runs."""
+    rng = np.random.default_rng(seed)
+    transient = np.where((GROUPS == 0) & (T < 10), 2.0, 0.0)
+    drift = np.where(GROUPS == 1, 6.0 * T / N_RUN, 0.0)
+    return transient + drift + 0.2 * rng.normal(size=T.size)
+
+
+def test_a_start_up_transient_in_one_run_is_found_within_that_run():
+    e = _summer_and_autumn_residual()
+    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS, ["summer", "autumn"])
+    pooled = [r for r in where if r.group is None]
+    assert pooled[0].low > 50.0  # pooled over the runs, the autumn drift is where the error is
+    within = [r for r in where if r.group is not None]
+    assert len(within) == 1
+    start = within[0]
+    assert start.group == "summer" and start.low == 0.0 and 8.0 <= start.high <= 20.0
+    inside = (GROUPS == 0) & (T >= start.low) & (T <= start.high)
+    assert start.n == inside.sum()
+    assert start.share == pytest.approx(np.sum(e[inside] ** 2) / np.sum(e**2))
+    assert start.share_of_run == pytest.approx(np.sum(e[inside] ** 2) / np.sum(e[GROUPS == 0] ** 2))
+    assert start.share_of_run > 0.5 > start.share
+
+
+def test_no_region_within_a_run_when_its_error_is_even():
+    rng = np.random.default_rng(4)
+    e = rng.normal(size=T.size) * np.where(GROUPS == 1, 3.0, 1.0)
+    assert [r for r in localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS) if r.group is not None] == []
+
+
+def test_a_region_pooled_over_the_runs_is_not_repeated_for_one_run():
+    e = _transient_residual()  # the same transient in both runs: one pooled region says it all
+    where = localise(e, "time_min", T, {}, blocked_folds(GROUPS), GROUPS)
+    assert where[0].group is None and where[0].low == 0.0
+    assert all(r.group is None for r in where)
+
+
+def test_within_run_halves_leave_no_leaf_without_held_out_rows():
+    for n in (40, 251, 1000):
+        fit = within_run_fit_half(n)
+        leaf = int(np.ceil(MIN_LEAF_FRACTION * fit.sum()))
+        # every stretch as long as a leaf's fitting rows span holds a held-out row
+        longest_fit_run = max(len(s) for s in "".join("f" if f else "h" for f in fit).split("h"))
+        assert longest_fit_run <= leaf

@@ -202,7 +202,7 @@ def diagnose(
     gap = gate(r, groups, baseline.train_reference, data.groups[data.is_train])
     report_progress("localising", 0.15)
     where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)}, folds,
-                     groups)
+                     groups, data.group_labels)
     detected = gap_detected(gap)
     exact = _reproduced_exactly(r, data.y)
     base, base_errors = _base_fit(data, r, B, folds, exact)
@@ -482,8 +482,14 @@ def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region]
     text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is "
             f"{_quantity(gap.real_rmse, unit)} RMS against {_quantity(gap.train_rmse, unit)} on the train rows")
     top = where[0] if where else None
+    within = next((region for region in where if region.group is not None), None)
+    run_part = ("" if within is None else f"within run {within.group} alone at {within.column} {within.low:.4g} … "
+                f"{within.high:.4g}, {within.share_of_run:.0%} of that run's")
     if top is not None and top.share < 0.999:
-        text += f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error)"
+        text += (f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error"
+                 + (f"; {run_part})" if run_part else ")"))
+    elif run_part:
+        text += f"; it concentrates {run_part} squared error"
     if verdict.column is not None:
         text += (f", and the {_effect_text(verdict, data.order_name)} "
                  f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample")

@@ -80,8 +80,13 @@ def _lines(ax, s: Series, values: np.ndarray, rows: np.ndarray, **style) -> None
             first = False
 
 
-def gap_figure(s: Series, regions: list[tuple[float, float]]) -> bytes:
-    """Measured vs model (top) and residual with shaded regions (bottom), PNG bytes."""
+def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> bytes:
+    """Measured vs model (top) and residual with shaded regions (bottom), PNG bytes.
+
+    ``regions`` are ``(low, high, run)`` on the order axis; ``run`` is None for a region pooled
+    over every run, else the label of the one run it lies in (shaded in another colour and
+    labelled with the run, since the runs share the axis).
+    """
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     real = ~s.is_train
     _lines(top, s, s.y, s.is_train, color="0.6", lw=1, label="measured (train rows)")
@@ -92,8 +97,14 @@ def gap_figure(s: Series, regions: list[tuple[float, float]]) -> bytes:
     residual = s.y - s.y_hat
     _lines(bottom, s, residual, s.is_train, color="0.6", lw=1, label="residual (train rows)")
     _lines(bottom, s, residual, real, color="C3", lw=1, label="residual (real rows)")
-    for k, (low, high) in enumerate(regions):
+    pooled = [(low, high) for low, high, run in regions if run is None]
+    for k, (low, high) in enumerate(pooled):
         bottom.axvspan(low, high, color="C3", alpha=0.12, label="error concentrates" if k == 0 else None)
+    within = [(low, high, run) for low, high, run in regions if run is not None]
+    for k, (low, high, run) in enumerate(within):
+        bottom.axvspan(low, high, color="C4", alpha=0.15, label="error concentrates within one run" if k == 0 else None)
+        bottom.annotate(f"run {run}", ((low + high) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center",
+                        va="top", fontsize=7, color="C4")
     bottom.axhline(0, color="k", lw=0.5)
     bottom.set_ylabel(f"residual {axis_label(s.target)}")
     bottom.set_xlabel(axis_label(s.order_name))

@@ -209,8 +209,8 @@ class GapReport:
 
     # -- rendering ---------------------------------------------------------------------
 
-    def _order_regions(self) -> list[tuple[float, float]]:
-        return [(r.low, r.high) for r in self.where if r.column == self.order]
+    def _order_regions(self) -> list[tuple[float, float, str | None]]:
+        return [(r.low, r.high, r.group) for r in self.where if r.column == self.order]
 
     def _figures(self) -> dict[str, bytes]:
         figures = {"gap": gap_figure(self.series, self._order_regions())}
@@ -221,8 +221,10 @@ class GapReport:
     def _tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:
         unit = unit_of(self.target)
         rmse = f"RMSE ({unit})" if unit else "RMSE"
-        where = (["column", "low", "high", rmse, "share", "n"],
-                 [[r.column, _num(r.low), _num(r.high), _num(r.rmse), f"{r.share:.0%}", str(r.n)] for r in self.where])
+        where = (["column", "run", "low", "high", rmse, "share", "share of its run", "n"],
+                 [[r.column, "all" if r.group is None else r.group, _num(r.low), _num(r.high), _num(r.rmse),
+                   f"{r.share:.0%}", "–" if r.share_of_run is None else f"{r.share_of_run:.0%}", str(r.n)]
+                  for r in self.where])
         causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"{rmse} after", "shrink (95 % CI)",
                    "beyond the base", "note"],
                   [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.gain), _num(c.rmse_after),
