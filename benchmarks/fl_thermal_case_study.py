@@ -482,6 +482,7 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
         f"candidates {', '.join(f'`{c}`' for c in MIAO_CANDIDATES)}."), "",
         f"![miao2013 residuals]({STEM}_miao.png)", "",
         *report_section("Diagnosis", report),
+        "The report's one-sentence summary:", "", f"> {report.summary}", "",
         "### Against the simulator's truth", "",
         md_table(["batch", "RMSE first 10 min (μm)", "RMSE after 10 min (μm)"],
                  [[b, f"{a:.3g}", f"{c:.3g}"] for b, (a, c) in by_batch.items()]), "",
