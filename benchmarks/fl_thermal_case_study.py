@@ -363,7 +363,7 @@ def miao_figure(table: pd.DataFrame, report: GapReport, path: Path) -> None:
     model = LinearLS().fit(table.loc[table["batch"] == "x1", MIAO_FEATURES].to_numpy(),
                            table.loc[table["batch"] == "x1", "error_um"].to_numpy())
     residual = table["error_um"].to_numpy() - model.predict(table[MIAO_FEATURES].to_numpy())
-    fig, ax = plt.subplots(figsize=(8, 4))
+    fig, ax = plt.subplots(figsize=(10, 4))
     for batch, part in table.groupby("batch"):
         line, = ax.plot(part["time_min"], residual[part.index], lw=1, label=f"residual {batch}")
         drift = part["effect_ambient_drift_um"]
@@ -371,10 +371,13 @@ def miao_figure(table: pd.DataFrame, report: GapReport, path: Path) -> None:
                 label=f"ambient drift effect {batch} (truth, from start)")
     for r in report.where:
         if r.column == "time_min":
-            ax.axvspan(r.low, r.high, color="0.9", zorder=0)
-    ax.set_xlabel("time since batch start (min); shaded = reported 'where' regions")
+            ax.axvspan(r.low, r.high, color="0.9" if r.group is None else "#e6ddf2", zorder=0)
+            if r.group is not None:
+                ax.annotate(f"{r.group} only", ((r.low + r.high) / 2, 1.0), xycoords=("data", "axes fraction"),
+                            ha="center", va="top", fontsize=7)
+    ax.set_xlabel("time since batch start (min); shaded = reported 'where' regions (grey: both batches)")
     ax.set_ylabel("error (μm)")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
