@@ -4,8 +4,8 @@
    (:mod:`svrqp.gap.baseline`); the real rows are the others.
 2. **Gate** — is the real-row error beyond the train rows' out-of-sample error, is it white
    (:mod:`svrqp.gap.gate`)?
-3. **Localise** — where along the order axis (and candidate columns) the squared error
-   concentrates (:mod:`svrqp.gap.localise`).
+3. **Localise** — where along the order axis (pooled over the runs, and within single runs)
+   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.localise`).
 4. **Attribute** — which candidate × transform explains it beyond chance, controlling the
    false-discovery rate and confounding (:mod:`svrqp.gap.attribute`); a candidate that
    holds one value through each run is also tested between runs (:mod:`svrqp.gap.between`).
