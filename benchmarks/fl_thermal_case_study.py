@@ -48,6 +48,7 @@ import pandas as pd
 
 from svrqp import datasets
 from svrqp.gap import GapReport, diagnose
+from svrqp.gap.report import share_text
 from svrqp.linear_models import LinearLS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -305,7 +306,7 @@ def report_section(title: str, report: GapReport) -> list[str]:
                pct(c.shrink_beyond_base), "yes" if c.significant else "no", "yes" if c.ambiguous else "no"]
               for i, c in enumerate(report.causes[:TOP_CAUSES])]
     where = [[f"`{r.column}`", "all" if r.group is None else f"`{r.group}`", f"{r.low:.4g}", f"{r.high:.4g}",
-              f"{r.rmse:.3g}", f"{r.share:.0%}", "–" if r.share_of_run is None else f"{r.share_of_run:.0%}", str(r.n)]
+              f"{r.rmse:.3g}", share_text(r.share), "–" if r.share_of_run is None else share_text(r.share_of_run), str(r.n)]
              for r in report.where]
     return [
         f"### {title}", "",

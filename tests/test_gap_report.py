@@ -13,7 +13,7 @@ from gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import SvrqpError
 from svrqp.gap import diagnose, load_schema
-from svrqp.gap.report import _finite
+from svrqp.gap.report import _finite, share_text
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
             "order": "time_min", "group": "run"}
@@ -181,3 +181,9 @@ def test_a_target_without_a_unit_is_summarised_without_one():
     table = air_lag_problem().rename(columns={"error_um": "deviation"})
     result = diagnose(table, **(ARGS | {"target": "deviation"}))
     assert "units of the column" not in result.summary and "RMS against" in result.summary
+
+
+def test_a_small_share_is_not_printed_as_zero():
+    """A region within one run can hold well under 1 % of every run's squared error."""
+    assert share_text(0.0033) == "0.3%" and share_text(0.81) == "81%"
+    assert share_text(0.0) == "0%" and share_text(1.0) == "100%"

@@ -223,7 +223,7 @@ class GapReport:
         rmse = f"RMSE ({unit})" if unit else "RMSE"
         where = (["column", "run", "low", "high", rmse, "share", "share of its run", "n"],
                  [[r.column, "all" if r.group is None else r.group, _num(r.low), _num(r.high), _num(r.rmse),
-                   f"{r.share:.0%}", "–" if r.share_of_run is None else f"{r.share_of_run:.0%}", str(r.n)]
+                   share_text(r.share), "–" if r.share_of_run is None else share_text(r.share_of_run), str(r.n)]
                   for r in self.where])
         causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"{rmse} after", "shrink (95 % CI)",
                    "beyond the base", "note"],
@@ -281,6 +281,24 @@ def _num(x: float | None) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
     return f"{x:.3g}"
+
+
+def share_text(x: float) -> str:
+    """A share (0 … 1) in percent; below 1 % with one significant digit, not rounded to 0 %.
+
+    Parameters
+    ----------
+    x : float
+        The share.
+
+    Returns
+    -------
+    str
+        E.g. ``"81%"``, ``"0.3%"``.
+    """
+    if 0 < x < 0.01:
+        return f"{100 * x:.1g}%"
+    return f"{x:.0%}"
 
 
 def _md_table(header: list[str], rows: list[list[str]]) -> str:
