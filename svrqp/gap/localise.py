@@ -117,10 +117,14 @@ class Region:
     share_of_run: float | None = None
 
 
+def _smallest_leaf(n_fit: int) -> int:
+    """Fewest rows an error tree fitted on ``n_fit`` rows may put in a leaf."""
+    return max(2, int(np.ceil(MIN_LEAF_FRACTION * n_fit)))
+
+
 def _intervals(u: np.ndarray, e2: np.ndarray) -> np.ndarray:
     """Cut points of an error tree of ``e2`` on ``u`` (sorted split thresholds)."""
-    leaf = max(2, int(np.ceil(MIN_LEAF_FRACTION * len(u))))
-    tree = DecisionTreeRegressor(max_leaf_nodes=MAX_LEAVES, min_samples_leaf=leaf, random_state=0)
+    tree = DecisionTreeRegressor(max_leaf_nodes=MAX_LEAVES, min_samples_leaf=_smallest_leaf(len(u)), random_state=0)
     tree.fit(u[:, None], e2)
     is_split = tree.tree_.children_left >= 0
     return np.sort(tree.tree_.threshold[is_split])
@@ -209,8 +213,7 @@ def within_run_fit_half(n: int) -> np.ndarray:
     Alternate blocks of consecutive rows, each at most half as long as the smallest leaf the
     tree may cut, so that every interval a tree can report holds held-out rows.
     """
-    leaf = max(2, int(np.ceil(MIN_LEAF_FRACTION * n / 2)))
-    block = max(1, leaf // 2)
+    block = max(1, _smallest_leaf(n / 2) // 2)
     return (np.arange(n) // block) % 2 == 0
 
 
