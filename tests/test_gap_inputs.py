@@ -39,11 +39,14 @@ def test_s0_story_the_autumn_gap_is_the_ambient_input_used_beyond_its_summer_ran
     others = [u for u in report.inputs if u.column != "T9_C"]
     assert all(ambient.recalibration_shrink > u.recalibration_shrink for u in others)
     assert ambient.recalibration_shrink > 0.5
+    # Its own part, beyond the per-batch offsets (which alone take much of a level per batch).
+    assert all(ambient.beyond_offsets > u.beyond_offsets for u in others) and ambient.beyond_offsets > 0.3
     assert "T9_C" in report.summary and "outside its train range" in report.summary
+    assert "of what one offset per batch alone leaves" in report.summary
     assert report.to_dict()["inputs"][1]["extrapolated"] is True
 
 
-def test_recalibration_shrink_equals_an_independent_fold_by_fold_refit(miao):
+def test_recalibration_shrinks_equal_an_independent_fold_by_fold_refit(miao):
     df, report = miao
     real = (df["batch"] != "x1").to_numpy()
     ordered = df.sort_values(["batch", "time_min"], kind="stable")
@@ -52,14 +55,19 @@ def test_recalibration_shrink_equals_an_independent_fold_by_fold_refit(miao):
     x = ordered["T9_C"].to_numpy(float)
     real = groups > 0
     columns = np.column_stack([groups[real] == 1, groups[real] == 2, x[real], smooth(x, groups)[real]]).astype(float)
-    errors = np.empty(int(real.sum()))
-    for test in blocked_folds(groups[real] - 1):
-        fit = np.setdiff1d(np.arange(errors.size), test)
-        model = LinearRegression(fit_intercept=False).fit(columns[fit], r[real][fit])
-        errors[test] = r[real][test] - model.predict(columns[test])
-    expected = 1 - np.sqrt(np.mean(errors**2)) / np.sqrt(np.mean(r[real] ** 2))
+
+    def rmse_out_of_sample(design):
+        errors = np.empty(int(real.sum()))
+        for test in blocked_folds(groups[real] - 1):
+            fit = np.setdiff1d(np.arange(errors.size), test)
+            model = LinearRegression(fit_intercept=False).fit(design[fit], r[real][fit])
+            errors[test] = r[real][test] - model.predict(design[test])
+        return np.sqrt(np.mean(errors**2))
+
     ambient = next(u for u in report.inputs if u.column == "T9_C")
-    assert ambient.recalibration_shrink == pytest.approx(expected, abs=1e-6)
+    with_input, offsets_only = rmse_out_of_sample(columns), rmse_out_of_sample(columns[:, :2])
+    assert ambient.recalibration_shrink == pytest.approx(1 - with_input / np.sqrt(np.mean(r[real] ** 2)), abs=1e-6)
+    assert ambient.beyond_offsets == pytest.approx(1 - with_input / offsets_only, abs=1e-6)
 
 
 def test_inputs_within_their_range_are_not_called_extrapolated():

@@ -13,7 +13,7 @@ from gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import SvrqpError
 from svrqp.gap import diagnose, load_schema
-from svrqp.gap.report import _finite, share_text
+from svrqp.gap.report import _finite, _num, share_text
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
             "order": "time_min", "group": "run"}
@@ -187,3 +187,22 @@ def test_a_small_share_is_not_printed_as_zero():
     """A region within one run can hold well under 1 % of every run's squared error."""
     assert share_text(0.0033) == "0.3%" and share_text(0.81) == "81%"
     assert share_text(0.0) == "0%" and share_text(1.0) == "100%"
+
+
+def test_large_numbers_are_printed_without_an_exponent():
+    """Order bounds of a long record (2636 min) read badly as 2.64e+03."""
+    assert _num(2636.4) == "2636" and _num(-1234.6) == "-1235"
+    assert _num(26.614) == "26.6" and _num(26.764, 4) == "26.76" and _num(2.5e6) == "2.5e+06" and _num(None) == "–"
+    assert _num(123.44) == "123" and _num(1234.4, 4) == "1234" and _num(12345.6, 4) == "12346"
+
+
+def test_the_model_inputs_table_is_in_the_report_in_features_mode_only(report, tmp_path):
+    header, rows = report.tables()["inputs"]
+    assert [row[0] for row in rows] == report.features and "beyond the offsets" in header
+    assert "## Model inputs" in report.to_markdown()
+    assert "<h2>Model inputs</h2>" in report.to_html(tmp_path / "gap.html").read_text(encoding="utf-8")
+    df = air_lag_problem()
+    df["prediction_um"] = 2.0 * df["spindle_C"]
+    args = {k: v for k, v in ARGS.items() if k != "features"}
+    in_prediction_mode = diagnose(df, prediction="prediction_um", **args)
+    assert in_prediction_mode.tables()["inputs"][1] == [] and "Model inputs" not in in_prediction_mode.to_markdown()

@@ -369,11 +369,17 @@ def _joined(note: str | None, text: str) -> str:
 
 
 
+def _offsets_text(data: GapData) -> str:
+    """The offsets of the discrepancy base in words (:func:`offset_columns`)."""
+    if holds_out_groups(data.groups[data.is_real]):
+        return "one offset"
+    return f"one offset per {data.group_name or 'group'}"
+
+
 def _base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
               exact: bool) -> tuple[BaseFit, np.ndarray]:
     """The base discrepancy model alone, out of sample (what every cause's shrink includes), and its errors."""
-    groups = data.groups[data.is_real]
-    offsets = "one offset" if holds_out_groups(groups) else f"one offset per {data.group_name or 'group'}"
+    offsets = _offsets_text(data)
     description = offsets if data.prediction is not None else f"{offsets} and a recalibration of the model's inputs"
     rmse_before = float(np.sqrt(np.mean(r**2)))
     if exact:
@@ -510,5 +516,8 @@ def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region]
         text += (f" The model is used beyond its data: {worst.column} lies outside its train range "
                  f"({_quantity(worst.train_low, None)} … {_quantity(worst.train_high, unit)}) on "
                  f"{worst.outside:.0%} of the real rows, and recalibrating it alone shrinks the error by "
-                 f"{worst.recalibration_shrink:.0%} out of sample.")
+                 f"{worst.recalibration_shrink:.0%} out of sample")
+        if worst.beyond_offsets is not None:
+            text += f", {worst.beyond_offsets:.0%} of what {_offsets_text(data)} alone leaves"
+        text += "."
     return text

@@ -27,6 +27,8 @@ from svrqp.gap.inputs import InputUse
 from svrqp.gap.localise import Region
 
 SCHEMA_ID = "svrqp.gap/1"
+BOUND_DIGITS = 4
+"""Significant digits of region bounds and input ranges in the tables (close bounds such as 26.76 … 26.9 °C)."""
 
 
 def load_schema() -> dict:
@@ -218,11 +220,19 @@ class GapReport:
             figures["before_after"] = before_after_figure(self.series, _effect_name(self.verdict))
         return figures
 
-    def _tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:
+    def tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:
+        """The report's tables as text cells, as the Markdown and HTML reports print them.
+
+        Returns
+        -------
+        dict
+            ``"gap"``, ``"where"``, ``"causes"`` and ``"inputs"`` (no row in prediction mode),
+            each ``(header, rows)``.
+        """
         unit = unit_of(self.target)
         rmse = f"RMSE ({unit})" if unit else "RMSE"
         where = (["column", "run", "low", "high", rmse, "share", "share of its run", "n"],
-                 [[r.column, "all" if r.group is None else r.group, _num(r.low), _num(r.high), _num(r.rmse),
+                 [[r.column, "all" if r.group is None else r.group, _num(r.low, BOUND_DIGITS), _num(r.high, BOUND_DIGITS), _num(r.rmse),
                    share_text(r.share), "–" if r.share_of_run is None else share_text(r.share_of_run), str(r.n)]
                   for r in self.where])
         causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"{rmse} after", "shrink (95 % CI)",
@@ -237,15 +247,31 @@ class GapReport:
                 "p (white residual)", "gap"],
                [[_num(g.train_rmse), _num(g.real_rmse), _num(g.ratio), _num(g.p_excess), _num(g.noise_rmse),
                  _num(g.p_noise), _num(g.p_white), "detected" if self.gap_detected else "not detected"]])
-        return {"gap": gap, "where": where, "causes": causes}
+        inputs = (["input", "train range", "real range", "real rows outside", "recalibration shrink",
+                   "beyond the offsets"],
+                  [[u.column, f"{_num(u.train_low, BOUND_DIGITS)} … {_num(u.train_high, BOUND_DIGITS)}",
+                    f"{_num(u.real_low, BOUND_DIGITS)} … {_num(u.real_high, BOUND_DIGITS)}",
+                    share_text(u.outside), f"{u.recalibration_shrink:.0%}",
+                    "–" if u.beyond_offsets is None else f"{u.beyond_offsets:.0%}"]
+                   for u in self.inputs])
+        return {"gap": gap, "where": where, "causes": causes, "inputs": inputs}
+
+    def _inputs_sentence(self) -> str:
+        """How to read the inputs table."""
+        return ("The model's own inputs on the real rows: \"recalibration shrink\" is what offsets and that input "
+                "alone, refitted on the real rows, remove of the error out of sample; \"beyond the offsets\" is that "
+                "input's own part. An input outside its train range on most real rows whose recalibration removes "
+                "much of the error is a model used beyond its data.")
 
     def _markdown(self, figure_names: dict[str, str]) -> str:
-        tables = self._tables()
-        out = [f"# Gap diagnosis of `{self.target}`", "", self.summary, "", "## Gap", "", _md_table(*tables["gap"]),
+        tables = self.tables()
+        out = [f"# Gap diagnosis of `{self.target}`", "", self.summary, "", "## Gap", "", markdown_table(*tables["gap"]),
                "", f"![measured, model and residual]({figure_names['gap']})", "", "## Where", "",
-               _md_table(*tables["where"]), "", "## Causes", "", self._base_sentence(), "", _md_table(*tables["causes"]), ""]
+               markdown_table(*tables["where"]), "", "## Causes", "", self._base_sentence(), "", markdown_table(*tables["causes"]), ""]
         if "before_after" in figure_names:
             out += [f"![before and after]({figure_names['before_after']})", ""]
+        if self.inputs:
+            out += ["## Model inputs", "", self._inputs_sentence(), "", markdown_table(*tables["inputs"]), ""]
         out += ["## Verdict", "", f"{self.verdict.reason}", ""]
         return "\n".join(out)
 
@@ -258,12 +284,14 @@ class GapReport:
 
     def _html(self) -> str:
         figures = self._figures()
-        tables = self._tables()
+        tables = self.tables()
         img = {k: f'<img alt="{k}" src="data:image/png;base64,{base64.b64encode(v).decode()}">' for k, v in figures.items()}
         parts = [f"<h1>Gap diagnosis of <code>{html.escape(self.target)}</code></h1>", f"<p>{html.escape(self.summary)}</p>",
                  "<h2>Gap</h2>", _html_table(*tables["gap"]), img["gap"], "<h2>Where</h2>", _html_table(*tables["where"]),
                  "<h2>Causes</h2>", f"<p>{html.escape(self._base_sentence())}</p>", _html_table(*tables["causes"]),
                  img.get("before_after", ""),
+                 *(["<h2>Model inputs</h2>", f"<p>{html.escape(self._inputs_sentence())}</p>",
+                    _html_table(*tables["inputs"])] if self.inputs else []),
                  "<h2>Verdict</h2>", f"<p>{html.escape(self.verdict.reason)}</p>"]
         style = "body{font-family:sans-serif;max-width:60em;margin:2em auto}table{border-collapse:collapse}" \
                 "td,th{border:1px solid #ccc;padding:0.2em 0.5em}img{max-width:100%}"
@@ -277,10 +305,13 @@ def _effect_name(v: Verdict) -> str:
     return f"{v.transform} of {v.column}"
 
 
-def _num(x: float | None) -> str:
+def _num(x: float | None, digits: int = 3) -> str:
+    """``x`` to ``digits`` significant digits; no exponent below a million (``2636``, not ``2.64e+03``)."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
-    return f"{x:.3g}"
+    if 10**digits <= abs(x) < 1e6:
+        return f"{x:.0f}"
+    return f"{x:.{digits}g}"
 
 
 def share_text(x: float) -> str:
@@ -301,7 +332,8 @@ def share_text(x: float) -> str:
     return f"{x:.0%}"
 
 
-def _md_table(header: list[str], rows: list[list[str]]) -> str:
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
+    """A Markdown pipe table of text cells (the format of :meth:`GapReport.to_markdown`)."""
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(row) + " |" for row in rows]
     return "\n".join(lines)
