@@ -199,6 +199,7 @@ def test_large_numbers_are_printed_without_an_exponent():
 def test_the_model_inputs_table_is_in_the_report_in_features_mode_only(report, tmp_path):
     header, rows = report.tables()["inputs"]
     assert [row[0] for row in rows] == report.features and "beyond the offsets" in header
+    assert rows[0][1].endswith(" °C")  # spindle_C: the unit read off the column name
     assert "## Model inputs" in report.to_markdown()
     assert "<h2>Model inputs</h2>" in report.to_html(tmp_path / "gap.html").read_text(encoding="utf-8")
     df = air_lag_problem()

@@ -249,8 +249,8 @@ class GapReport:
                  _num(g.p_noise), _num(g.p_white), "detected" if self.gap_detected else "not detected"]])
         inputs = (["input", "train range", "real range", "real rows outside", "recalibration shrink",
                    "beyond the offsets"],
-                  [[u.column, f"{_num(u.train_low, BOUND_DIGITS)} … {_num(u.train_high, BOUND_DIGITS)}",
-                    f"{_num(u.real_low, BOUND_DIGITS)} … {_num(u.real_high, BOUND_DIGITS)}",
+                  [[u.column, _range(u.train_low, u.train_high, unit_of(u.column)),
+                    _range(u.real_low, u.real_high, unit_of(u.column)),
                     share_text(u.outside), f"{u.recalibration_shrink:.0%}",
                     "–" if u.beyond_offsets is None else f"{u.beyond_offsets:.0%}"]
                    for u in self.inputs])
@@ -312,6 +312,11 @@ def _num(x: float | None, digits: int = 3) -> str:
     if 10**digits <= abs(x) < 1e6:
         return f"{x:.0f}"
     return f"{x:.{digits}g}"
+
+
+def _range(low: float, high: float, unit: str | None) -> str:
+    text = f"{_num(low, BOUND_DIGITS)} … {_num(high, BOUND_DIGITS)}"
+    return f"{text} {unit}" if unit else text
 
 
 def share_text(x: float) -> str:
