@@ -194,6 +194,7 @@ def test_large_numbers_are_printed_without_an_exponent():
     assert _num(2636.4) == "2636" and _num(-1234.6) == "-1235"
     assert _num(26.614) == "26.6" and _num(26.764, 4) == "26.76" and _num(2.5e6) == "2.5e+06" and _num(None) == "–"
     assert _num(123.44) == "123" and _num(1234.4, 4) == "1234" and _num(12345.6, 4) == "12346"
+    assert _num(999.7) == "1000" and _num(0.000123) == "0.000123"  # rounding up to 10**digits, small numbers
 
 
 def test_the_model_inputs_table_is_in_the_report_in_features_mode_only(report, tmp_path):

@@ -309,9 +309,8 @@ def _num(x: float | None, digits: int = 3) -> str:
     """``x`` to ``digits`` significant digits; no exponent below a million (``2636``, not ``2.64e+03``)."""
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "–"
-    if 10**digits <= abs(x) < 1e6:
-        return f"{x:.0f}"
-    return f"{x:.{digits}g}"
+    text = f"{x:.{digits}g}"
+    return f"{x:.0f}" if "e+" in text and abs(x) < 1e6 else text
 
 
 def _range(low: float, high: float, unit: str | None) -> str:
