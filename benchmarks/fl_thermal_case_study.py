@@ -22,7 +22,9 @@ cycles at 1250, 2500, 3750, 5000 and 3500 rpm and a final mixed-speed run. The s
    table. This design was fixed before any of the five results was looked at;
 3. **reproduces the S0 story on miao2013** (simulated): MLR on ``T7_C``, ``T9_C`` fitted on
    batch ``x1``, diagnosed on ``x2`` + ``x3`` with ``T1_C`` … ``T6_C``, ``T8_C`` as candidates,
-   and compares the answer with the simulator's truth (the ``effect_*_um`` columns).
+   and compares the answer with the simulator's truth (the ``effect_*_um`` columns): which
+   effect the real-row residual follows, and which one follows what per-batch offsets and the
+   model's inputs refitted on the real rows leave (a base like the engine's, fitted here).
 
 The rows are subsampled in time (every ``--every``-th row; default 4 = one per minute) to keep
 the run short. The 3500 rpm cycle is neither train nor assessment and is left out.
