@@ -32,7 +32,9 @@ Causes that cannot be told apart
     while ``ambiguous_with``, the ``ambiguous`` flag and ``p_paired`` of each tied cause, the
     verdict's reason and the one-sentence summary all say that the others explain the gap
     about as well.
-6. **Report** — :class:`svrqp.gap.report.GapReport`.
+6. **Report** — :class:`svrqp.gap.report.GapReport`; in features mode it also says whether
+   the model is used beyond its data: each input's range on the train and the real rows and
+   what recalibrating it alone does, beyond the offsets too (:mod:`svrqp.gap.inputs`).
 
 The discrepancy models of steps 4–5 use the base regressors "offsets + the model's features
 (raw and smoothed, + its prediction for a non-linear model)" in features mode, so an effect
