@@ -96,6 +96,8 @@ def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.
     list of InputUse
         One per feature, in the order of ``data.features``.
     """
+    if not data.features:  # prediction mode: no inputs, and no offsets-only fit to compare them with
+        return []
     train, real = data.is_train, data.is_real
     before = float(np.sqrt(np.mean(r**2)))
     offsets_only = float(np.sqrt(np.mean(CrossValidatedDiscrepancy(r, offsets, folds).errors_base**2)))
