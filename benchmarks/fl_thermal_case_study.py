@@ -285,6 +285,11 @@ def rms(values: pd.Series) -> float:
     return float(np.sqrt(np.mean(np.square(values))))
 
 
+def least_squares_leftover(X: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """What an in-sample least-squares fit of ``y`` on the columns of ``X`` leaves."""
+    return y - X @ np.linalg.lstsq(X, y, rcond=None)[0]
+
+
 def pct(x: float | None) -> str:
     return "–" if x is None or not np.isfinite(x) else f"{x:.0%}"
 
@@ -471,11 +476,11 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
     # What each effect explains of what a base like the engine's leaves: per-batch offsets and the
     # model's own inputs refitted on the real rows (in-sample least squares, computed here).
     base = np.column_stack([pd.get_dummies(real["batch"]).to_numpy(float), real[MIAO_FEATURES].to_numpy()])
-    left = residual.to_numpy() - base @ np.linalg.lstsq(base, residual.to_numpy(), rcond=None)[0]
+    y = residual.to_numpy()
+    left = least_squares_leftover(base, y)
     beyond = {}
     for c in effects:
-        both = np.column_stack([base, real[c].to_numpy()])
-        after = residual.to_numpy() - both @ np.linalg.lstsq(both, residual.to_numpy(), rcond=None)[0]
+        after = least_squares_leftover(np.column_stack([base, real[c].to_numpy()]), y)
         beyond[c] = 1.0 - float(np.sum(after**2) / np.sum(left**2))
     beyond_effect = max(beyond, key=beyond.get)
     early = real["time_min"] < 10
