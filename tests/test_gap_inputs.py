@@ -98,3 +98,12 @@ def test_s0_story_the_start_up_transient_of_the_summer_batch_is_localised(miao):
     assert start.rmse == pytest.approx(np.sqrt(np.mean(residual[first] ** 2)))
     assert start.rmse > 2 * np.sqrt(np.mean(residual[x2 & ~first] ** 2))
     assert f"within run x2 alone at time_min {start.low:.4g} … {start.high:.4g}" in report.summary
+
+
+def test_without_a_group_the_offset_is_worded_as_one_offset():
+    """No --group (nor --order): the real rows are one group, so the base holds one offset, not one per group."""
+    df = datasets.load("miao2013")
+    args = {k: v for k, v in MIAO.items() if k not in ("group", "order")} | {"candidates": ["T1_C", "T8_C"]}
+    report = diagnose(df, **args)
+    assert report.base.description.startswith("one offset and")
+    assert "of what one offset alone leaves" in report.summary and "per group" not in report.summary

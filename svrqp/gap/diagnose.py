@@ -370,12 +370,13 @@ def _joined(note: str | None, text: str) -> str:
     return text if not note else f"{note}; {text}"
 
 
-
 def _offsets_text(data: GapData) -> str:
     """The offsets of the discrepancy base in words (:func:`offset_columns`)."""
-    if holds_out_groups(data.groups[data.is_real]):
+    real_groups = data.groups[data.is_real]
+    # One column of ones when whole groups are held out, and when the real rows are one group.
+    if holds_out_groups(real_groups) or np.unique(real_groups).size == 1:
         return "one offset"
-    return f"one offset per {data.group_name or 'group'}"
+    return f"one offset per {data.group_name}"
 
 
 def _base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
