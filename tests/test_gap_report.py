@@ -4,6 +4,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import stat
 
 import jsonschema
@@ -208,3 +209,16 @@ def test_the_model_inputs_table_is_in_the_report_in_features_mode_only(report, t
     args = {k: v for k, v in ARGS.items() if k != "features"}
     in_prediction_mode = diagnose(df, prediction="prediction_um", **args)
     assert in_prediction_mode.tables()["inputs"][1] == [] and "Model inputs" not in in_prediction_mode.to_markdown()
+
+
+@pytest.mark.parametrize("which, sections, figures", [
+    ("report", ["Gap", "Where", "Causes", "Model inputs", "Verdict"], ["measured, model and residual", "before and after"]),
+    ("null_report", ["Gap", "Where", "Causes", "Model inputs", "Verdict"], ["measured, model and residual"]),
+])
+def test_markdown_and_html_hold_the_same_sections_and_figures_in_order(which, sections, figures, request, tmp_path):
+    report = request.getfixturevalue(which)
+    markdown = report.to_markdown()
+    page = report.to_html(tmp_path / "gap.html").read_text(encoding="utf-8")
+    assert re.findall(r"^## (.+)$", markdown, flags=re.M) == sections == re.findall(r"<h2>(.+?)</h2>", page)
+    assert re.findall(r"!\[(.+?)\]", markdown) == figures == re.findall(r'<img alt="(.+?)"', page)
+    assert markdown.index(report.verdict.reason) > markdown.index("## Verdict")

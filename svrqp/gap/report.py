@@ -15,6 +15,7 @@ import os
 import tempfile
 from dataclasses import asdict, dataclass, field
 from importlib import resources
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,8 @@ from svrqp.gap.localise import Region
 SCHEMA_ID = "svrqp.gap/1"
 BOUND_DIGITS = 4
 """Significant digits of region bounds and input ranges in the tables (close bounds such as 26.76 … 26.9 °C)."""
+FIGURE_ALT = {"gap": "measured, model and residual", "before_after": "before and after"}
+"""Alternative text of each report figure (keys of the figures dictionary)."""
 
 
 def load_schema() -> dict:
@@ -263,17 +266,26 @@ class GapReport:
                 "input's own part. An input outside its train range on most real rows whose recalibration removes "
                 "much of the error is a model used beyond its data.")
 
+    def _blocks(self, figures: Iterable[str]) -> list[tuple[str, str]]:
+        """The report in reading order as ``(kind, content)`` blocks, which :meth:`_markdown` and
+        :meth:`_html` render alike: ``title`` (the target), ``text``, ``heading``, ``table`` and
+        ``figure`` (keys of :meth:`tables` and :meth:`_figures`)."""
+        blocks = [("title", self.target), ("text", self.summary),
+                  ("heading", "Gap"), ("table", "gap"), ("figure", "gap"),
+                  ("heading", "Where"), ("table", "where"),
+                  ("heading", "Causes"), ("text", self._base_sentence()), ("table", "causes")]
+        if "before_after" in figures:
+            blocks.append(("figure", "before_after"))
+        if self.inputs:
+            blocks += [("heading", "Model inputs"), ("text", self._inputs_sentence()), ("table", "inputs")]
+        return blocks + [("heading", "Verdict"), ("text", self.verdict.reason)]
+
     def _markdown(self, figure_names: dict[str, str]) -> str:
         tables = self.tables()
-        out = [f"# Gap diagnosis of `{self.target}`", "", self.summary, "", "## Gap", "", markdown_table(*tables["gap"]),
-               "", f"![measured, model and residual]({figure_names['gap']})", "", "## Where", "",
-               markdown_table(*tables["where"]), "", "## Causes", "", self._base_sentence(), "", markdown_table(*tables["causes"]), ""]
-        if "before_after" in figure_names:
-            out += [f"![before and after]({figure_names['before_after']})", ""]
-        if self.inputs:
-            out += ["## Model inputs", "", self._inputs_sentence(), "", markdown_table(*tables["inputs"]), ""]
-        out += ["## Verdict", "", f"{self.verdict.reason}", ""]
-        return "\n".join(out)
+        render = {"title": lambda target: f"# Gap diagnosis of `{target}`", "text": str,
+                  "heading": lambda title: f"## {title}", "table": lambda key: markdown_table(*tables[key]),
+                  "figure": lambda key: f"![{FIGURE_ALT[key]}]({figure_names[key]})"}
+        return "\n\n".join(render[kind](content) for kind, content in self._blocks(figure_names)) + "\n"
 
     def _base_sentence(self) -> str:
         """How to read the shrink column: what the base alone already does."""
@@ -285,14 +297,13 @@ class GapReport:
     def _html(self) -> str:
         figures = self._figures()
         tables = self.tables()
-        img = {k: f'<img alt="{k}" src="data:image/png;base64,{base64.b64encode(v).decode()}">' for k, v in figures.items()}
-        parts = [f"<h1>Gap diagnosis of <code>{html.escape(self.target)}</code></h1>", f"<p>{html.escape(self.summary)}</p>",
-                 "<h2>Gap</h2>", _html_table(*tables["gap"]), img["gap"], "<h2>Where</h2>", _html_table(*tables["where"]),
-                 "<h2>Causes</h2>", f"<p>{html.escape(self._base_sentence())}</p>", _html_table(*tables["causes"]),
-                 img.get("before_after", ""),
-                 *(["<h2>Model inputs</h2>", f"<p>{html.escape(self._inputs_sentence())}</p>",
-                    _html_table(*tables["inputs"])] if self.inputs else []),
-                 "<h2>Verdict</h2>", f"<p>{html.escape(self.verdict.reason)}</p>"]
+        render = {"title": lambda target: f"<h1>Gap diagnosis of <code>{html.escape(target)}</code></h1>",
+                  "text": lambda text: f"<p>{html.escape(text)}</p>",
+                  "heading": lambda title: f"<h2>{html.escape(title)}</h2>",
+                  "table": lambda key: _html_table(*tables[key]),
+                  "figure": lambda key: f'<img alt="{html.escape(FIGURE_ALT[key])}" '
+                                        f'src="data:image/png;base64,{base64.b64encode(figures[key]).decode()}">'}
+        parts = [render[kind](content) for kind, content in self._blocks(figures)]
         style = "body{font-family:sans-serif;max-width:60em;margin:2em auto}table{border-collapse:collapse}" \
                 "td,th{border:1px solid #ccc;padding:0.2em 0.5em}img{max-width:100%}"
         return f"<!doctype html><html><head><meta charset='utf-8'><title>svrqp gap</title><style>{style}</style></head>" \
