@@ -110,9 +110,15 @@ def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
     return centred[:, varying] / scale[varying]
 
 
+def one_offset(groups: np.ndarray) -> bool:
+    """Whether the discrepancy base holds one offset for all real rows (groups ``groups``), not one per
+    group: when cross-validation holds out whole groups, and when there is one group only."""
+    return holds_out_groups(groups) or np.unique(groups).size == 1
+
+
 def offset_columns(groups: np.ndarray) -> np.ndarray:
     """Offsets of the discrepancy base on the real rows (see :func:`base_design`)."""
-    if holds_out_groups(groups):
+    if one_offset(groups):
         return np.ones((groups.size, 1))
     return (groups[:, None] == np.unique(groups)[None, :]).astype(float)
 
@@ -372,9 +378,7 @@ def _joined(note: str | None, text: str) -> str:
 
 def _offsets_text(data: GapData) -> str:
     """The offsets of the discrepancy base in words (:func:`offset_columns`)."""
-    real_groups = data.groups[data.is_real]
-    # One column of ones when whole groups are held out, and when the real rows are one group.
-    if holds_out_groups(real_groups) or np.unique(real_groups).size == 1:
+    if one_offset(data.groups[data.is_real]):
         return "one offset"
     return f"one offset per {data.group_name}"
 
