@@ -259,3 +259,15 @@ def test_a_column_constant_within_runs_gives_no_evidence_within_runs():
         bank = CandidateBank("load_kg", "level", None, ((x - x.mean()) / x.std())[:, None])
         cv = CrossValidatedDiscrepancy(rng.normal(size=x.size), np.ones((x.size, 1)), blocked_folds(groups))
         assert run_tests([SurrogateTest(cv, bank, groups, rng)], 499, lambda p: p < 0.0)[0].p_value == 1.0
+
+
+def test_a_candidate_constant_on_the_real_rows_is_named_as_such():
+    """A spindle held at one speed through every real run: no transform of it can explain the gap,
+    and its row of the causes table says why (it varies on the train run only)."""
+    df = air_lag_problem()
+    df["fixed_rpm"] = np.where(df["run"] == "r0", np.arange(len(df)) % 7 * 100.0, 4500.0)
+    report = diagnose(df, candidates=[*CANDIDATES, "fixed_rpm"], **ARGS)
+    fixed = next(c for c in report.causes if c.column == "fixed_rpm")
+    assert fixed.note == "constant on the real rows (4500): it cannot explain the gap there"
+    assert not fixed.significant and report.verdict.column == "air_C"
+    assert all(c.note is None or "constant" not in c.note for c in report.causes if c.column != "fixed_rpm")

@@ -61,6 +61,7 @@ from svrqp.gap.attribute import (
     Evidence,
     attribute,
     build_banks,
+    constant_on_real_rows,
     effect_columns,
     untestable_between_runs,
 )
@@ -223,7 +224,7 @@ def diagnose(
         report_progress("testing candidates", 0.2)
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, rng, surrogates)
         attribution = attribute(problem, build_banks(data, taus))
-        attribution.notes = untestable_between_runs(data) | attribution.notes
+        attribution.notes = untestable_between_runs(data) | constant_on_real_rows(data) | attribution.notes
         report_progress("quantifying", 0.85)
         representatives = _representatives(attribution)
         causes, errors_after = _causes(attribution, representatives, r, groups, rng, base_errors)
