@@ -107,3 +107,16 @@ def test_without_a_group_the_offset_is_worded_as_one_offset():
     report = diagnose(df, **args)
     assert report.base.description.startswith("one offset and")
     assert "of what one offset alone leaves" in report.summary and "per group" not in report.summary
+
+
+def test_a_recalibration_that_removes_nothing_is_said_so_not_printed_as_a_negative_shrink():
+    """Summer x2 and the first ten autumn minutes: T9_C is outside its summer range on most real
+    rows, but over so short an autumn stretch refitting it predicts nothing the offsets do not."""
+    df = datasets.load("miao2013")
+    df = df[(df["batch"] != "x3") | (df["time_min"] < 10)]
+    report = diagnose(df, **MIAO | {"candidates": ["T1_C", "T8_C"]})
+    ambient = next(u for u in report.inputs if u.column == "T9_C")
+    assert ambient.extrapolated and ambient.beyond_offsets <= 0
+    assert "though recalibrating it removes nothing out of sample beyond what one offset per batch alone does" \
+        in report.summary
+    assert "%" not in report.summary.split("of the real rows")[-1]  # no negative shrink printed

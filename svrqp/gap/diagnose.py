@@ -523,9 +523,16 @@ def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region]
         unit = unit_of(worst.column)
         text += (f" The model is used beyond its data: {worst.column} lies outside its train range "
                  f"({_quantity(worst.train_low, None)} … {_quantity(worst.train_high, unit)}) on "
-                 f"{worst.outside:.0%} of the real rows, and recalibrating it alone shrinks the error by "
-                 f"{worst.recalibration_shrink:.0%} out of sample")
-        if worst.beyond_offsets is not None:
-            text += f", {worst.beyond_offsets:.0%} of what {_offsets_text(data)} alone leaves"
-        text += "."
+                 f"{worst.outside:.0%} of the real rows")
+        offsets = _offsets_text(data)
+        # A recalibration that removes nothing is said so, not printed as a negative shrink.
+        if worst.beyond_offsets is not None and worst.beyond_offsets <= 0:
+            text += f", though recalibrating it removes nothing out of sample beyond what {offsets} alone does."
+        elif worst.recalibration_shrink <= 0:
+            text += ", though recalibrating it does not reduce the error out of sample."
+        else:
+            text += f", and recalibrating it alone shrinks the error by {worst.recalibration_shrink:.0%} out of sample"
+            if worst.beyond_offsets is not None:
+                text += f", {worst.beyond_offsets:.0%} of what {offsets} alone leaves"
+            text += "."
     return text
