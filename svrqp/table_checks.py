@@ -22,7 +22,18 @@ def check_numeric(table: pd.DataFrame, names: list[str], option: str) -> None:
     bad = [n for n in names if not (pd.api.types.is_numeric_dtype(table[n]) or pd.api.types.is_bool_dtype(table[n]))]
     if not bad:
         return
-    dates = [n for n in bad if pd.api.types.is_datetime64_any_dtype(table[n]) or pd.api.types.is_timedelta64_dtype(table[n])]
+    dates = [n for n in bad if _holds_dates(table[n])]
     hint = (f"; {dates} hold dates or durations: give the elapsed time as a number with its unit in the name "
             "(e.g. time_min)") if dates else ""
     raise ProblemError(f"{option}: column(s) {bad} are not numeric{hint}")
+
+
+def _holds_dates(column: pd.Series) -> bool:
+    """Whether a column holds dates or durations: typed so, or text that reads as ISO 8601 timestamps
+    (a CSV file gives ``2026-01-01 08:00:00`` as text)."""
+    if pd.api.types.is_datetime64_any_dtype(column) or pd.api.types.is_timedelta64_dtype(column):
+        return True
+    sample = column.dropna().head(50)
+    if sample.empty or not all(isinstance(value, str) for value in sample):
+        return False
+    return bool(pd.to_datetime(sample, errors="coerce", format="ISO8601").notna().all())

@@ -24,3 +24,14 @@ def test_text_columns_are_named_with_the_option():
 def test_dates_get_a_hint_about_elapsed_time():
     with pytest.raises(ProblemError, match=r"\['stamp'\] hold dates or durations: give the elapsed time as a number"):
         check_numeric(TABLE, ["stamp"], "--order")
+
+
+def test_timestamps_read_from_a_csv_file_as_text_get_the_same_hint(tmp_path):
+    path = tmp_path / "t.csv"
+    TABLE.to_csv(path, index=False)
+    table = pd.read_csv(path)
+    assert not pd.api.types.is_datetime64_any_dtype(table["stamp"])  # a CSV file gives timestamps as text
+    with pytest.raises(ProblemError, match=r"\['stamp'\] hold dates or durations: give the elapsed time as a number"):
+        check_numeric(table, ["stamp"], "--order")
+    with pytest.raises(ProblemError, match=r"\['batch'\] are not numeric$"):  # other text: no hint
+        check_numeric(table, ["batch"], "--order")
