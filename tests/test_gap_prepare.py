@@ -80,11 +80,24 @@ def test_target_cannot_be_a_candidate(table):
 
 def test_rows_with_missing_values_are_dropped_and_counted(table):
     holes = table.copy()
-    holes.loc[[5, 17, 400], "air_C"] = np.nan
-    holes.loc[600, "error_um"] = np.inf
+    holes.loc[[300, 400], "air_C"] = np.nan  # a candidate on two real rows
+    holes.loc[[5, 600], "error_um"] = [np.nan, np.inf]  # the target on a train and a real row
+    holes.loc[17, "spindle_C"] = np.nan  # a feature on a train row
     data = prepare(holes, **ARGS)
-    assert data.n_dropped == 4
-    assert len(data.y) == len(table) - 4
+    assert data.n_dropped == 5
+    assert len(data.y) == len(table) - 5 and np.isfinite(data.C).all()
+
+
+def test_candidates_are_needed_on_the_real_rows_only(table):
+    """A sensor fitted after the model was built: empty on the train run, kept there as NaN."""
+    late = table.copy()
+    train = late["run"] == "r0"
+    late.loc[train, "air_C"] = np.nan
+    late.loc[train & (late["time_min"] < 50), "coolant_C"] = np.nan
+    data = prepare(late, **ARGS)
+    assert data.n_dropped == 0 and data.is_train.sum() == train.sum()
+    air = data.C[:, data.candidates.index("air_C")]
+    assert np.isnan(air[data.is_train]).all() and np.isfinite(data.C[data.is_real]).all()
 
 
 def test_short_groups_are_dropped_and_counted(table):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from gap_problems import CANDIDATES, air_lag_problem, first_order_lag
 
+from svrqp.gap import diagnose
 from svrqp.gap.attribute import effect_columns
 from svrqp.gap.baseline import fit_baseline
 from svrqp.gap.between import EVIDENCE_WITHIN
@@ -83,3 +84,18 @@ def test_refit_shrink_equals_an_independent_least_squares_refit():
     after = np.sqrt(np.mean((df["error_um"].to_numpy() - D @ coef)[real] ** 2))
     before = np.sqrt(np.mean(baseline.residual[data.is_real] ** 2))
     assert shrink == pytest.approx(1 - after / before, rel=1e-6)
+
+
+def test_a_candidate_recorded_on_the_real_rows_only_is_diagnosed_but_not_refitted():
+    """The same diagnosis as with the full record (candidates are read on the real rows), except
+    that the verdict's refit on the train rows cannot be made and is said not to be."""
+    args = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
+            "order": "time_min", "group": "run"}
+    df = air_lag_problem()
+    full = diagnose(df, **args)
+    late = diagnose(df.assign(air_C=df["air_C"].where(df["run"] != "r0")), **args)
+    assert late.verdict.column == full.verdict.column == "air_C" and late.verdict.tau == full.verdict.tau
+    assert late.verdict.shrink == pytest.approx(full.verdict.shrink, abs=1e-12) and late.n_dropped == 0
+    assert full.verdict.refit_shrink is not None and late.verdict.refit_shrink is None
+    assert "cannot be refitted with it as an input, since air_C is not recorded on every train row" in late.verdict.reason
+    late.to_dict()  # schema-valid with the refit left out

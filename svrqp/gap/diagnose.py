@@ -441,7 +441,9 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
               f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
               f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}) — {beyond:.0%} beyond the base alone "
               f"({base.description}; 95 % CI {beyond_ci[0]:.0%} … {beyond_ci[1]:.0%}), which gives {base.shrink:.0%}; "
-              f"refitting the model with it as an input shrinks it by {refit:.0%}.")
+              + (f"refitting the model with it as an input shrinks it by {refit:.0%}." if refit is not None else
+                 f"the model cannot be refitted with it as an input, since {top.column} is not recorded on every "
+                 "train row."))
     tied = [c.column for c in causes[1:] if c.ambiguous]
     if tied:
         reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "

@@ -6,7 +6,9 @@ Handling of awkward input (documented contract):
   a candidate that is also the target or the prediction, and a ``train`` query that selects
   no row or every row raise :class:`~svrqp.exceptions.ProblemError` naming the cause;
 * rows with a missing or non-finite value in any column the diagnosis uses are dropped and
-  counted (``n_dropped`` in the JSON);
+  counted (``n_dropped`` in the JSON) — except that candidates are needed on the real rows
+  only: a sensor fitted after the model was built leaves them empty on the train rows, and
+  nothing but the verdict's refit of the model (then not given) reads them there;
 * a group with fewer than :data:`MIN_GROUP_ROWS` rows cannot carry a rate or a filtered
   signal; its rows are dropped and counted (``n_dropped_short_groups``);
 * repeated ``order`` values within a group raise :class:`ProblemError` (a rate would divide
@@ -58,7 +60,7 @@ class GapData:
     candidates : list of str
         Candidate columns.
     C : ndarray, shape (n, len(candidates))
-        Candidate values.
+        Candidate values (finite on the real rows; may be NaN on train rows).
     order_name : str
         Name of the order axis (``"row"`` when none was given).
     t : ndarray, shape (n,)
@@ -181,7 +183,7 @@ def prepare(
         raise ProblemError(f"features: the target {target!r} cannot be a feature")
     if order is not None and order in candidates:
         raise ProblemError(f"candidates: the order column {order!r} cannot be a candidate")
-    numeric = [target, *features, *candidates] + ([prediction] if prediction else [])
+    numeric = [target, *features] + ([prediction] if prediction else [])
     check_numeric(df, [target], "target")
     check_numeric(df, features, "features")
     check_numeric(df, candidates, "candidates")
@@ -192,12 +194,13 @@ def prepare(
         numeric.append(order)
 
     is_train = _train_mask(df, train)
-    values = df[numeric].astype(float).to_numpy()
-    finite = np.isfinite(values)
-    empty = [name for name, any_finite in zip(numeric, finite.any(axis=0), strict=True) if not any_finite]
+    finite = np.isfinite(df[numeric].astype(float).to_numpy())
+    candidate_finite = np.isfinite(df[candidates].astype(float).to_numpy())
+    empty = [name for name, any_finite in zip([*numeric, *candidates], np.concatenate(
+        [finite.any(axis=0), candidate_finite.any(axis=0)]), strict=True) if not any_finite]
     if empty:
         raise ProblemError(f"column(s) {empty} hold no finite value (every row would be dropped)")
-    keep = finite.all(axis=1)
+    keep = finite.all(axis=1) & (is_train | candidate_finite.all(axis=1))
     if group is not None:
         keep &= df[group].notna().to_numpy()
     n_dropped = int((~keep).sum())

@@ -106,7 +106,7 @@ def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: n
     return ShrinkEstimate(before_rmse, after_rmse, shrink, low, high, after)
 
 
-def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float:
+def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float | None:
     """Shrink of the real-row RMSE after refitting the model family with the effect as input.
 
     Parameters
@@ -120,9 +120,12 @@ def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float
 
     Returns
     -------
-    float
-        ``1 - rmse_refit / rmse_before`` on the real rows.
+    float or None
+        ``1 - rmse_refit / rmse_before`` on the real rows; None when the effect is not known on
+        every row (a candidate recorded on the real rows only cannot enter a refit on the train rows).
     """
+    if not np.isfinite(effect).all():
+        return None
     train, real = data.is_train, data.is_real
     before = float(np.sqrt(np.mean(baseline.residual[real] ** 2)))
     if baseline.kind == "prediction":
