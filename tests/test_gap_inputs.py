@@ -120,3 +120,12 @@ def test_a_recalibration_that_removes_nothing_is_said_so_not_printed_as_a_negati
     assert "though recalibrating it removes nothing out of sample beyond what one offset per batch alone does" \
         in report.summary
     assert "%" not in report.summary.split("of the real rows")[-1]  # no negative shrink printed
+
+
+def test_a_refit_that_makes_the_error_larger_is_said_so(miao):
+    """Refitted on summer x1 alone, the lag of T1_C cannot be learned for autumn: the verdict's
+    refit makes the real-row error larger, and its reason says so in words."""
+    _, report = miao
+    assert report.verdict.refit_shrink < 0
+    assert "makes the real-row error larger" in report.verdict.reason
+    assert "shrinks it by -" not in report.verdict.reason

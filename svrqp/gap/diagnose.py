@@ -441,9 +441,7 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
               f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
               f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}) — {beyond:.0%} beyond the base alone "
               f"({base.description}; 95 % CI {beyond_ci[0]:.0%} … {beyond_ci[1]:.0%}), which gives {base.shrink:.0%}; "
-              + (f"refitting the model with it as an input shrinks it by {refit:.0%}." if refit is not None else
-                 f"the model cannot be refitted with it as an input, since {top.column} is not recorded on every "
-                 "train row."))
+              + _refit_text(refit, top.column))
     tied = [c.column for c in causes[1:] if c.ambiguous]
     if tied:
         reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "
@@ -453,6 +451,16 @@ def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, det
                    shrink_ci=top.shrink_ci, shrink_beyond_base=beyond, shrink_beyond_base_ci=beyond_ci,
                    refit_shrink=refit, rmse_before=top.rmse_before,
                    rmse_after=top.rmse_after, p_value=top.p_value, ambiguous_with=tied), residual_gate
+
+
+def _refit_text(refit: float | None, column: str) -> str:
+    """The verdict's refit of the model family on the train rows, in words (a loss said as one)."""
+    if refit is None:
+        return f"the model cannot be refitted with it as an input, since {column} is not recorded on every train row."
+    if refit < 0:
+        return (f"refitting the model on the train rows with it as an input makes the real-row error larger "
+                f"({refit:.0%}): what the train rows show of it does not carry over to the real rows.")
+    return f"refitting the model with it as an input shrinks it by {refit:.0%}."
 
 
 def _why_it_stays(attribution: Attribution, tied: list[str]) -> str:
