@@ -71,6 +71,14 @@ def test_features_and_prediction_are_exclusive(table):
 def test_a_column_without_any_finite_value_is_named(table):
     with pytest.raises(ProblemError, match=r"\['nut_C'\] hold no finite value"):
         prepare(table.assign(nut_C=np.nan), **ARGS)
+    with pytest.raises(ProblemError, match=r"column\(s\) \['spindle_C'\] hold no finite value"):
+        prepare(table.assign(spindle_C=np.nan), **ARGS)
+
+
+def test_a_candidate_recorded_on_the_train_rows_only_is_named(table):
+    train_only = table.assign(nut_C=table["nut_C"].where(table["run"] == "r0"))
+    with pytest.raises(ProblemError, match=r"candidates: \['nut_C'\] hold no finite value on the real rows"):
+        prepare(train_only, **ARGS)
 
 
 def test_target_cannot_be_a_candidate(table):

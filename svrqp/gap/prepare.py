@@ -196,10 +196,14 @@ def prepare(
     is_train = _train_mask(df, train)
     finite = np.isfinite(df[numeric].astype(float).to_numpy())
     candidate_finite = np.isfinite(df[candidates].astype(float).to_numpy())
-    empty = [name for name, any_finite in zip([*numeric, *candidates], np.concatenate(
-        [finite.any(axis=0), candidate_finite.any(axis=0)]), strict=True) if not any_finite]
+    empty = [name for name, any_finite in zip(numeric, finite.any(axis=0), strict=True) if not any_finite]
     if empty:
         raise ProblemError(f"column(s) {empty} hold no finite value (every row would be dropped)")
+    empty = [name for name, any_finite in zip(candidates, candidate_finite[~is_train].any(axis=0), strict=True)
+             if not any_finite]
+    if empty and not is_train.all():  # with no real row at all, the train check below says so
+        raise ProblemError(f"candidates: {empty} hold no finite value on the real rows (every real row would be "
+                           "dropped); a candidate is read on the real rows")
     keep = finite.all(axis=1) & (is_train | candidate_finite.all(axis=1))
     if group is not None:
         keep &= df[group].notna().to_numpy()

@@ -13,9 +13,9 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from importlib import resources
-from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
