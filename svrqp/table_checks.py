@@ -33,7 +33,7 @@ def _holds_dates(column: pd.Series) -> bool:
     (a CSV file gives ``2026-01-01 08:00:00`` as text)."""
     if pd.api.types.is_datetime64_any_dtype(column) or pd.api.types.is_timedelta64_dtype(column):
         return True
-    sample = column.dropna().head(50)
-    if sample.empty or not all(isinstance(value, str) for value in sample):
+    values = column.dropna()
+    if values.empty or not all(isinstance(value, str) for value in values):
         return False
-    return bool(pd.to_datetime(sample, errors="coerce", format="ISO8601").notna().all())
+    return bool(pd.to_datetime(values, errors="coerce", format="ISO8601").notna().all())

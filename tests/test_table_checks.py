@@ -35,3 +35,9 @@ def test_timestamps_read_from_a_csv_file_as_text_get_the_same_hint(tmp_path):
         check_numeric(table, ["stamp"], "--order")
     with pytest.raises(ProblemError, match=r"\['batch'\] are not numeric$"):  # other text: no hint
         check_numeric(table, ["batch"], "--order")
+
+
+def test_text_that_only_begins_with_timestamps_gets_no_date_hint():
+    table = pd.DataFrame({"stamp": ["2026-01-01 08:00"] * 60 + ["later"]})
+    with pytest.raises(ProblemError, match=r"\['stamp'\] are not numeric$"):
+        check_numeric(table, ["stamp"], "--order")
