@@ -183,7 +183,8 @@ def prepare(
         raise ProblemError(f"features: the target {target!r} cannot be a feature")
     if order is not None and order in candidates:
         raise ProblemError(f"candidates: the order column {order!r} cannot be a candidate")
-    numeric = [target, *features] + ([prediction] if prediction else [])
+    # Needed on every row; candidates only on the real rows (module docstring).
+    every_row = [target, *features] + ([prediction] if prediction else [])
     check_numeric(df, [target], "target")
     check_numeric(df, features, "features")
     check_numeric(df, candidates, "candidates")
@@ -191,12 +192,12 @@ def prepare(
         check_numeric(df, [prediction], "prediction")
     if order is not None:
         check_numeric(df, [order], "order")
-        numeric.append(order)
+        every_row.append(order)
 
     is_train = _train_mask(df, train)
-    finite = np.isfinite(df[numeric].astype(float).to_numpy())
+    finite = np.isfinite(df[every_row].astype(float).to_numpy())
     candidate_finite = np.isfinite(df[candidates].astype(float).to_numpy())
-    empty = [name for name, any_finite in zip(numeric, finite.any(axis=0), strict=True) if not any_finite]
+    empty = [name for name, any_finite in zip(every_row, finite.any(axis=0), strict=True) if not any_finite]
     if empty:
         raise ProblemError(f"column(s) {empty} hold no finite value (every row would be dropped)")
     empty = [name for name, any_finite in zip(candidates, candidate_finite[~is_train].any(axis=0), strict=True)
