@@ -327,10 +327,9 @@ def constant_on_real_rows(data: GapData) -> dict[str, str]:
     """Notes on candidates that hold one value on every real row: no transform of one can explain
     anything there, so its row in the causes table says why rather than only showing no gain."""
     x = data.C[data.is_real]
-    spread = x.max(axis=0) - x.min(axis=0)
+    constant = np.ptp(x, axis=0) <= 1e-12 * (1.0 + np.abs(x).max(axis=0))  # the tolerance of between._run_values
     return {column: f"constant on the real rows ({x[0, j]:g}): it cannot explain the gap there"
-            for j, column in enumerate(data.candidates)
-            if spread[j] <= 1e-12 * (1.0 + abs(x[0, j]))}
+            for j, column in enumerate(data.candidates) if constant[j]}
 
 
 def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
