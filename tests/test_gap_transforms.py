@@ -5,7 +5,7 @@ import pytest
 from scipy.signal import lfilter
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.transforms import group_slices, lag, lowpass, rate, tau_grid
+from svrqp.gap.transforms import group_slices, lag, lowpass, negligible, rate, tau_grid
 
 # Two runs of a sine, the second on an uneven time grid: a closed-form derivative to compare to.
 T_RUN1 = np.linspace(0.0, 10.0, 201)
@@ -86,3 +86,13 @@ def test_tau_grid_spans_sampling_to_half_a_run():
 def test_lowpass_rejects_non_positive_tau():
     with pytest.raises(ProblemError, match="positive"):
         lowpass(np.ones(3), np.arange(3.0), np.zeros(3, int), np.array([0.0]))
+
+
+def test_negligible_spread_is_relative_to_the_values_magnitude():
+    # a reading of 4500 stored with rounding noise is constant; a 1e-6 step on 1.0 is not
+    steady = 4500.0 + np.array([0.0, 4e-10, -3e-10])
+    step = np.array([1.0, 1.0 + 1e-6, 1.0])
+    columns = np.column_stack([steady, step])
+    assert negligible(np.ptp(columns, axis=0), columns).tolist() == [True, False]
+    assert negligible(np.std(steady), steady, axis=None)
+    assert not negligible(np.std(step), step, axis=None)

@@ -127,7 +127,7 @@ from svrqp.gap.blocks import circular_shifts
 from svrqp.gap.compare import PairedComparison, paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
+from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, negligible, rate
 
 SURROGATE_KINDS = ("rotation", "continuous")
 """Surrogate schemes of the significance tests (module docstring)."""
@@ -213,8 +213,7 @@ class LagRecipe:
         ell = lowpass_columns(x[:, None], alpha)[:, 0, :] - x[:, None]
         centre = ell.mean(axis=0)
         scale = ell.std(axis=0)
-        tiny = 1e-12 * (1 + np.abs(ell).max(axis=0))
-        return cls(x, alpha, centre, np.where(scale > tiny, scale, np.inf))
+        return cls(x, alpha, centre, np.where(negligible(scale, ell), np.inf, scale))
 
     def own(self, X: np.ndarray) -> np.ndarray:
         r"""Standardised :math:`\ell_\tau` of the series ``X`` (n, s): shape (n, s, v)."""
@@ -273,8 +272,7 @@ def _standardise(columns: np.ndarray) -> np.ndarray:
     """Centre and scale each column on the rows given; constant columns become zero."""
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
-    tiny = 1e-12 * (1 + np.abs(columns).max(axis=0))
-    return np.divide(centred, scale, out=np.zeros_like(centred), where=scale > tiny)
+    return np.divide(centred, scale, out=np.zeros_like(centred), where=~negligible(scale, columns))
 
 
 def transform_columns(
@@ -327,7 +325,7 @@ def constant_on_real_rows(data: GapData) -> dict[str, str]:
     """Notes on candidates that hold one value on every real row: no transform of one can explain
     anything there, so its row in the causes table says why rather than only showing no gain."""
     x = data.C[data.is_real]
-    constant = np.ptp(x, axis=0) <= 1e-12 * (1.0 + np.abs(x).max(axis=0))  # the tolerance of between._run_values
+    constant = negligible(np.ptp(x, axis=0), x)
     return {column: f"constant on the real rows ({x[0, j]:g}): it cannot explain the gap there"
             for j, column in enumerate(data.candidates) if constant[j]}
 

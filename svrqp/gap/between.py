@@ -74,7 +74,7 @@ from numpy.polynomial import legendre
 from scipy import stats
 
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.transforms import group_slices
+from svrqp.gap.transforms import group_slices, negligible
 
 RUN_LEVEL_SHARE = 0.05
 """A candidate whose within-run variance is at most this share of its variance is run-level."""
@@ -197,7 +197,7 @@ def _run_values(columns: np.ndarray, groups: np.ndarray) -> np.ndarray:
     constant = np.ones(columns.shape[1], dtype=bool)
     for g, rows in enumerate(slices):
         constant &= np.all(np.isclose(columns[rows], first[g]), axis=0)
-    varying = np.ptp(first, axis=0) > 1e-12 * (1.0 + np.abs(first).max(axis=0))
+    varying = ~negligible(np.ptp(first, axis=0), first)
     return first[:, constant & varying]
 
 
@@ -215,7 +215,7 @@ def run_scores(r: np.ndarray, base: np.ndarray, groups: np.ndarray, profile: np.
     ])
     centred = summaries - summaries.mean(axis=0)
     _, singular, directions = np.linalg.svd(centred, full_matrices=False)
-    if singular[0] <= 1e-12 * (1.0 + np.abs(summaries).max()):
+    if negligible(singular[0], summaries, axis=None):
         return None
     return centred @ directions[0]
 

@@ -77,7 +77,7 @@ from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
 from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
-from svrqp.gap.transforms import smooth, tau_grid
+from svrqp.gap.transforms import negligible, smooth, tau_grid
 
 Progress = Callable[[str, float], None]
 
@@ -107,7 +107,7 @@ def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
     columns = np.column_stack([inputs, smooth(inputs, data.groups)])[real]
     centred = columns - columns.mean(axis=0)
     scale = centred.std(axis=0)
-    varying = scale > 1e-12 * (1 + np.abs(columns).max(axis=0))
+    varying = ~negligible(scale, columns)
     return centred[:, varying] / scale[varying]
 
 

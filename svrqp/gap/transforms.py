@@ -43,6 +43,19 @@ TRANSFORMS = ("level", "rate", "lag")
 N_TAU = 8
 """Number of time constants on the grid searched for the ``lag`` transform."""
 
+CONSTANT_TOLERANCE = 1e-12
+"""Spread, relative to the values' magnitude (plus one), below which a column counts as constant."""
+
+
+def negligible(spread: np.ndarray, values: np.ndarray, axis: int | None = 0) -> np.ndarray:
+    """Whether each ``spread`` (a standard deviation or a range of ``values`` along ``axis``) is
+    zero up to rounding: at most :data:`CONSTANT_TOLERANCE` × (1 + max |values|).
+
+    One test for every "is this column constant?" decision of the diagnosis, so that a column
+    dropped as constant in one step is dropped in all of them.
+    """
+    return np.asarray(spread) <= CONSTANT_TOLERANCE * (1.0 + np.abs(values).max(axis=axis))
+
 
 def group_slices(group_codes: np.ndarray) -> list[slice]:
     """Contiguous slices of rows that share a group code (rows must be sorted by group).
