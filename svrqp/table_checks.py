@@ -7,6 +7,24 @@ import pandas as pd
 from svrqp.exceptions import ProblemError
 
 
+def check_present(table: pd.DataFrame, names: list[str], option: str) -> None:
+    """Raise :class:`ProblemError` naming the columns of ``names`` that ``table`` lacks, and listing
+    those it has (a typo is then seen at a glance).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The table that should hold the columns.
+    names : list of str
+        Column names to look for.
+    option : str
+        The option or argument that named them, for the message (e.g. ``"--features"``).
+    """
+    missing = [name for name in names if name not in table.columns]
+    if missing:
+        raise ProblemError(f"{option}: unknown column(s) {missing}; available: {list(table.columns)}")
+
+
 def check_numeric(table: pd.DataFrame, names: list[str], option: str) -> None:
     """Raise :class:`ProblemError` naming the columns of ``names`` that are neither numeric nor boolean.
 

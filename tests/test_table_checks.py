@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from svrqp.exceptions import ProblemError
-from svrqp.table_checks import check_numeric
+from svrqp.table_checks import check_numeric, check_present
 
 TABLE = pd.DataFrame({
     "error_um": [1.0, 2.0], "run": [0, 1], "on": [True, False], "batch": ["x1", "x2"],
@@ -41,3 +41,9 @@ def test_text_that_only_begins_with_timestamps_gets_no_date_hint():
     table = pd.DataFrame({"stamp": ["2026-01-01 08:00"] * 60 + ["later"]})
     with pytest.raises(ProblemError, match=r"\['stamp'\] are not numeric$"):
         check_numeric(table, ["stamp"], "--order")
+
+
+def test_missing_columns_are_named_with_those_the_table_has():
+    check_present(TABLE, ["error_um", "batch"], "--features")
+    with pytest.raises(ProblemError, match=r"--candidates: unknown column\(s\) \['T9'\]; available: \['error_um', 'run'"):
+        check_present(TABLE, ["error_um", "T9"], "--candidates")

@@ -10,7 +10,7 @@ import pandas as pd
 from svrqp.estimators import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
 from svrqp.exceptions import BackendNotAvailableError, ProblemError
 from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
-from svrqp.table_checks import check_numeric
+from svrqp.table_checks import check_numeric, check_present
 
 #: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
 MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
@@ -39,11 +39,7 @@ def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: b
     if text is None or not text.strip():
         return []
     names = [name.strip() for name in text.split(",") if name.strip()]
-    missing = [name for name in names if name not in table.columns]
-    if missing:
-        raise ProblemError(
-            f"{option}: unknown column(s) {missing}; available: {list(table.columns)}"
-        )
+    check_present(table, names, option)
     if numeric:
         check_numeric(table, names, option)
     return names

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
-from svrqp.table_checks import check_numeric
+from svrqp.table_checks import check_numeric, check_present
 
 MIN_GROUP_ROWS = 3
 """A group needs at least this many rows (two differences) for rates and filters."""
@@ -105,12 +105,6 @@ class GapData:
         return ~self.is_train
 
 
-def _check_columns(df: pd.DataFrame, names: list[str], option: str) -> None:
-    missing = [name for name in names if name not in df.columns]
-    if missing:
-        raise ProblemError(f"{option}: unknown column(s) {missing}; available: {list(df.columns)}")
-
-
 def _train_mask(df: pd.DataFrame, train: str | np.ndarray | pd.Series) -> np.ndarray:
     """Boolean mask of the train rows from a pandas query (or a boolean mask)."""
     if isinstance(train, str):
@@ -167,15 +161,15 @@ def prepare(
         raise ProblemError("candidates: at least one candidate column is required")
     if len(set(candidates)) != len(candidates) or len(set(features)) != len(features):
         raise ProblemError("candidates/features: a column is listed twice")
-    _check_columns(df, [target], "target")
-    _check_columns(df, features, "features")
-    _check_columns(df, candidates, "candidates")
+    check_present(df, [target], "target")
+    check_present(df, features, "features")
+    check_present(df, candidates, "candidates")
     if prediction is not None:
-        _check_columns(df, [prediction], "prediction")
+        check_present(df, [prediction], "prediction")
     if order is not None:
-        _check_columns(df, [order], "order")
+        check_present(df, [order], "order")
     if group is not None:
-        _check_columns(df, [group], "group")
+        check_present(df, [group], "group")
     clash = sorted({target, prediction} & set(candidates) - {None})
     if clash:
         raise ProblemError(f"candidates: {clash} is the target or the prediction, not a candidate")
