@@ -189,6 +189,21 @@ def test_same_seed_gives_the_same_report():
     assert first == second
 
 
+def test_threads_do_not_change_the_report():
+    # the shifts are drawn from one stream before the threads score them, and recorded in order
+    one = diagnose(air_lag_problem(), candidates=CANDIDATES, n_jobs=1, **ARGS).to_dict()
+    two = diagnose(air_lag_problem(), candidates=CANDIDATES, n_jobs=2, **ARGS).to_dict()
+    one.pop("runtime_s"), two.pop("runtime_s")
+    assert one == two
+    assert one["verdict"]["column"] == "air_C"
+
+
+@pytest.mark.parametrize("n_jobs", [0, 1.5, True])
+def test_a_bad_number_of_threads_is_refused_before_the_work(n_jobs):
+    with pytest.raises(ProblemError, match="n_jobs"):
+        diagnose(thermal_runs("none", runs=2, seed=0), candidates=CANDIDATES, n_jobs=n_jobs, **ARGS)
+
+
 def _p_value(r, x, groups, surrogates, seed=0):
     rng = np.random.default_rng(seed)
     bank = CandidateBank("x", "level", None, ((x - x.mean()) / x.std())[:, None])

@@ -40,7 +40,8 @@ def test_contract_command_line_writes_json_and_report(data_csv, tmp_path, capsys
 def test_prediction_mode(data_csv, tmp_path, capsys):
     out = tmp_path / "pred.json"
     code, printed = _run(["gap", str(data_csv), "--target", "error_um", "--train", "run == 'r0'",
-                          "--prediction", "spindle_C", "--candidates", "air_C,nut_C", "--json", str(out)], capsys)
+                          "--prediction", "spindle_C", "--candidates", "air_C,nut_C", "--json", str(out),
+                          "--jobs", "2"], capsys)
     assert code == 0, printed.err
     assert json.loads(out.read_text())["mode"] == "prediction"
 
@@ -49,6 +50,7 @@ def test_prediction_mode(data_csv, tmp_path, capsys):
     (["--candidates", "bogus"], "unknown column"),
     (["--candidates", "air_C", "--prediction", "spindle_C"], "exactly one of --features"),
     (["--candidates", "air_C", "--train", "run == 'none'"], "selects no row"),
+    (["--candidates", "air_C", "--jobs", "0"], "--jobs"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(data_csv, tmp_path, capsys, extra, message):
     out = tmp_path / "bad.json"

@@ -5,7 +5,17 @@ import pytest
 from scipy.signal import lfilter
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.transforms import group_slices, lag, lowpass, negligible, rate, tau_grid
+from svrqp.gap.transforms import (
+    MIN_STRETCH,
+    filter_coefficients,
+    group_slices,
+    lag,
+    lowpass,
+    lowpass_columns,
+    negligible,
+    rate,
+    tau_grid,
+)
 
 # Two runs of a sine, the second on an uneven time grid: a closed-form derivative to compare to.
 T_RUN1 = np.linspace(0.0, 10.0, 201)
@@ -55,6 +65,22 @@ def test_lowpass_equals_scipy_lfilter_on_a_uniform_grid():
         a = 1 - np.exp(-1.0 / tau)
         ref, _ = lfilter([a], [1, -(1 - a)], x, zi=[(1 - a) * x[0]])
         np.testing.assert_allclose(y[:, j], ref, rtol=1e-12, atol=1e-12)
+
+
+def test_lowpass_columns_follow_the_recursion_on_mixed_sampling():
+    # even stretches (filtered in compiled code), a jittered stretch (stepped) and a restart
+    rng = np.random.default_rng(2)
+    t = np.r_[np.arange(0.0, 40.0, 0.1), 40.0 + np.cumsum(rng.uniform(0.05, 0.3, MIN_STRETCH)),
+              np.arange(50.0, 80.0, 0.5), np.arange(0.0, 30.0, 0.5)]
+    groups = np.r_[np.zeros(t.size - 60, int), np.ones(60, int)]
+    X = rng.normal(size=(t.size, 3)).cumsum(axis=0)
+    alpha = filter_coefficients(t, groups, np.array([0.7, 6.0]))
+    expected = np.empty((t.size, 3, 2))
+    state = np.zeros((3, 2))
+    for k in range(t.size):  # the definition, one row at a time
+        state = state + alpha[k] * (X[k][:, None] - state)
+        expected[k] = state
+    np.testing.assert_allclose(lowpass_columns(X, alpha), expected, rtol=1e-10, atol=1e-10)
 
 
 def test_lowpass_restarts_in_equilibrium_at_each_group():

@@ -60,6 +60,8 @@ def gap(
     surrogates: str = typer.Option(
         "rotation", "--surrogates", help="rotation (default) | continuous: rotations made continuous at the seam, "
         "safer when the true cause may be missing and candidates drift within a run (less power on slow effects)."),
+    jobs: int = typer.Option(1, "--jobs", help="Threads for the significance tests (-1: one per core); the result "
+                             "does not depend on it."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
 ) -> None:
     """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
@@ -90,6 +92,7 @@ def gap(
             model=model or "mlr",
             seed=seed,
             surrogates=surrogates,
+            n_jobs=jobs,
             progress=lambda stage, done: progress.update(task, completed=done, description=stage),
         )
     written = [result.write_json(json_out, force=force)]

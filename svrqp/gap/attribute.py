@@ -110,6 +110,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from joblib import Parallel, delayed
 from scipy.stats import false_discovery_control
 
 from svrqp.exceptions import ProblemError
@@ -123,7 +124,7 @@ from svrqp.gap.between import (
     run_level_bank,
     run_level_columns,
 )
-from svrqp.gap.blocks import circular_shifts
+from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.compare import PairedComparison, paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
@@ -217,7 +218,11 @@ class LagRecipe:
 
     def own(self, X: np.ndarray) -> np.ndarray:
         r"""Standardised :math:`\ell_\tau` of the series ``X`` (n, s): shape (n, s, v)."""
-        return (lowpass_columns(X, self.alpha) - X[:, :, None] - self.centre) / self.scale
+        out = lowpass_columns(X, self.alpha)
+        out -= X[:, :, None]  # in place: for long records these arrays hold millions of values
+        out -= self.centre
+        out /= self.scale
+        return out
 
 
 @dataclass(frozen=True)
@@ -459,28 +464,36 @@ class SurrogateTest:
         """Whether :data:`STOP_EXCEEDANCES` surrogates have reached the observed gain."""
         return int(self._hits.sum()) >= STOP_EXCEEDANCES
 
-    def draw(self, count: int) -> None:
-        """Draw ``count`` more surrogates (in memory-bounded chunks)."""
+    def offsets(self, count: int) -> list[np.ndarray]:
+        """The shifts of ``count`` more surrogates, in memory-bounded chunks (this consumes the
+        random stream, so tests call it one after another; :meth:`hits` may run in parallel)."""
         n, v = self.bank.Z.shape
         chunk = max(1, _CHUNK_ELEMENTS // (n * v))
-        for start in range(0, count, chunk):
-            size = min(chunk, count - start)
-            rows = circular_shifts(self.groups, size, self.rng, self._signature).T  # surrogate s reads rows[:, s]
-            partner = None if self.bank.partner is None else self.bank.partner[rows]
-            recipe = self.bank.recipe
-            x = None if recipe is None else recipe.x[rows]
-            Z = self.bank.Z[rows] if recipe is None else None
-            if self._continuous:
-                wrapped = rows < rows[self._first_row]  # read from before the group's rotation point
-                if recipe is None:
-                    Z = Z + wrapped[:, :, None] * self._step_Z[:, None, :]
-                else:
-                    x = x + wrapped * self._step_x
-                partner = None if partner is None else partner + wrapped * self._step_partner
-            if recipe is not None:  # filter the rotated candidate again (see LagRecipe)
-                Z = recipe.own(x)
-            surrogate = self.cv.gain(Z, partner).max(axis=1)
-            self._hits = np.concatenate([self._hits, surrogate >= self.observed - _TIE_TOLERANCE])
+        return [shift_offsets(self.groups, min(chunk, count - start), self.rng, self._signature)
+                for start in range(0, count, chunk)]
+
+    def hits(self, offsets: np.ndarray) -> np.ndarray:
+        """Whether each surrogate shifted by ``offsets`` (one chunk of :meth:`offsets`) reaches the
+        observed gain. Reads the test and changes nothing, so chunks may be scored in parallel."""
+        rows = rotated_rows(self.groups, offsets).T  # surrogate s reads rows[:, s]
+        partner = None if self.bank.partner is None else self.bank.partner[rows]
+        recipe = self.bank.recipe
+        x = None if recipe is None else recipe.x[rows]
+        Z = self.bank.Z[rows] if recipe is None else None
+        if self._continuous:
+            wrapped = rows < rows[self._first_row]  # read from before the group's rotation point
+            if recipe is None:
+                Z = Z + wrapped[:, :, None] * self._step_Z[:, None, :]
+            else:
+                x = x + wrapped * self._step_x
+            partner = None if partner is None else partner + wrapped * self._step_partner
+        if recipe is not None:  # filter the rotated candidate again (see LagRecipe)
+            Z = recipe.own(x)
+        return self.cv.gain(Z, partner).max(axis=1) >= self.observed - _TIE_TOLERANCE
+
+    def record(self, hits: list[np.ndarray]) -> None:
+        """Add the :meth:`hits` of further surrogates, in the order they were drawn."""
+        self._hits = np.concatenate([self._hits, *hits])
 
     @property
     def p_value(self) -> float:
@@ -535,8 +548,12 @@ class BetweenRunTest:
         result = between_run_test(r, base, groups, bank)
         self.p_value, self.robust = result.p_value, result.robust
 
-    def draw(self, count: int) -> None:
-        """Nothing to draw: the test is parametric."""
+    def offsets(self, count: int) -> list[np.ndarray]:
+        """No surrogates: the test is parametric."""
+        return []
+
+    def record(self, hits: list[np.ndarray]) -> None:
+        """Nothing to record: the test is parametric."""
 
     def outcome(self) -> TestOutcome:
         """The test's result."""
@@ -545,7 +562,7 @@ class BetweenRunTest:
 
 
 def run_tests(
-    tests: list[SurrogateTest], most: int, decided: Callable[[np.ndarray], np.ndarray]
+    tests: list[SurrogateTest], most: int, decided: Callable[[np.ndarray], np.ndarray], n_jobs: int = 1
 ) -> list[TestOutcome]:
     """Draw surrogates batch by batch for the tests whose decision is still open.
 
@@ -553,15 +570,23 @@ def run_tests(
     ``decided`` (applied to all current p-values) — a p-value computed after a fixed number of
     draws is valid whatever happens later, so a test rejected at a coarse resolution needs no
     finer one.
+
+    The shifts of a batch are drawn test after test from the one random stream; the chunks of
+    surrogates of every open test are then scored on ``n_jobs`` threads (joblib; NumPy and SciPy
+    release the GIL in this work) and recorded in the order drawn, so the result does not depend
+    on ``n_jobs``.
     """
     rejected = np.zeros(len(tests), dtype=bool)
-    for batch in SURROGATE_BATCHES:
-        open_tests = [t for t, done in zip(tests, rejected) if not done and not t.stopped and t.drawn < most]
-        if not open_tests:
-            break
-        for test in open_tests:
-            test.draw(min(batch, most - test.drawn))
-        rejected = decided(np.array([t.p_value for t in tests]))
+    with Parallel(n_jobs=n_jobs, backend="threading") as parallel:
+        for batch in SURROGATE_BATCHES:
+            open_tests = [t for t, done in zip(tests, rejected) if not done and not t.stopped and t.drawn < most]
+            if not open_tests:
+                break
+            work = [(test, chunk) for test in open_tests for chunk in test.offsets(min(batch, most - test.drawn))]
+            hits = parallel(delayed(test.hits)(chunk) for test, chunk in work)
+            for test in open_tests:
+                test.record([h for (owner, _), h in zip(work, hits) if owner is test])
+            rejected = decided(np.array([t.p_value for t in tests]))
     return [t.outcome() for t in tests]
 
 
@@ -589,6 +614,8 @@ class AttributionProblem:
         Source of the surrogates.
     surrogates : {"rotation", "continuous"}
         Plain rotations, or rotations made continuous at the seam (module docstring).
+    n_jobs : int
+        Threads on which the tests of a round score their surrogates (:func:`run_tests`).
     """
 
     r: np.ndarray
@@ -598,6 +625,7 @@ class AttributionProblem:
     noise_rmse: float
     rng: np.random.Generator
     surrogates: str = "rotation"
+    n_jobs: int = 1
 
     def scorer(self, given: list[np.ndarray] = ()) -> CrossValidatedDiscrepancy:
         """Cross-validated scorer of the residual against the base plus the blocks ``given``."""
@@ -631,7 +659,8 @@ def _test_round(
     if not banks:
         return []
     cv = problem.scorer(given)
-    tests = run_tests([problem.make_test(bank, given, cv) for bank in banks], MAX_SURROGATES, _benjamini_hochberg)
+    tests = run_tests([problem.make_test(bank, given, cv) for bank in banks], MAX_SURROGATES, _benjamini_hochberg,
+                      problem.n_jobs)
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
         Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, problem.noise_rmse)), round_number)
@@ -736,7 +765,8 @@ class _Conditional:
         self.problem = problem
 
     def test(self, bank: Bank, given: list[np.ndarray]) -> TestOutcome:
-        return run_tests([self.problem.make_test(bank, given)], PAIRWISE_SURROGATES, lambda p: p < ALPHA)[0]
+        return run_tests([self.problem.make_test(bank, given)], PAIRWISE_SURROGATES, lambda p: p < ALPHA,
+                         self.problem.n_jobs)[0]
 
     def adds(self, bank: Bank, given: list[np.ndarray]) -> bool:
         """Whether ``bank`` carries information beyond ``given``: significant and above the relative floor."""

@@ -113,9 +113,21 @@ def circular_shifts(
     ndarray of int, shape (n_surrogates, n)
         ``series[index[s]]`` is surrogate ``s`` of ``series``.
     """
-    n = len(groups)
-    index = np.empty((n_surrogates, n), dtype=np.int64)
-    for rows in group_slices(groups):
+    return rotated_rows(groups, shift_offsets(groups, n_surrogates, rng, signature))
+
+
+def shift_offsets(
+    groups: np.ndarray, n_surrogates: int, rng: np.random.Generator, signature: np.ndarray | None = None
+) -> np.ndarray:
+    """The random offsets of :func:`circular_shifts`, one column per group: shape (n_surrogates, k).
+
+    Drawing them is cheap and consumes the random stream; turning them into rows
+    (:func:`rotated_rows`) and scoring the surrogates is the work, which can then run anywhere
+    without changing the result.
+    """
+    slices = group_slices(groups)
+    offsets = np.empty((n_surrogates, len(slices)), dtype=np.int64)
+    for g, rows in enumerate(slices):
         m = rows.stop - rows.start
         low = max(1, int(np.ceil(MIN_SHIFT_FRACTION * m)))
         allowed = np.arange(low, max(low + 1, m - low + 1))
@@ -123,8 +135,16 @@ def circular_shifts(
             kept = allowed[np.abs(circular_autocorrelation(signature[rows])[allowed % m]) < MAX_SELF_CORRELATION]
             if kept.size >= allowed.size / 5:
                 allowed = kept
-        shift = rng.choice(allowed, size=n_surrogates)
-        index[:, rows] = rows.start + (np.arange(m)[None, :] + shift[:, None]) % m
+        offsets[:, g] = rng.choice(allowed, size=n_surrogates)
+    return offsets
+
+
+def rotated_rows(groups: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Row orders rotating group ``g`` by ``offsets[:, g]``: shape (n_surrogates, n) (see :func:`circular_shifts`)."""
+    index = np.empty((offsets.shape[0], len(groups)), dtype=np.int64)
+    for g, rows in enumerate(group_slices(groups)):
+        m = rows.stop - rows.start
+        index[:, rows] = rows.start + (np.arange(m)[None, :] + offsets[:, g, None]) % m
     return index
 
 

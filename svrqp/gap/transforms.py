@@ -33,7 +33,7 @@ intervals and half the typical run length.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import savgol_filter
+from scipy.signal import lfilter, savgol_filter
 
 from svrqp.exceptions import ProblemError
 
@@ -45,6 +45,9 @@ N_TAU = 8
 
 CONSTANT_TOLERANCE = 1e-12
 """Spread, relative to the values' magnitude (plus one), below which a column counts as constant."""
+
+MIN_STRETCH = 16
+"""Rows of one sampling interval below which :func:`lowpass_columns` steps them in Python."""
 
 
 def negligible(spread: np.ndarray, values: np.ndarray, axis: int | None = 0) -> np.ndarray:
@@ -133,14 +136,41 @@ def lowpass_columns(X: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (n, s, m)
         Response of every signal for every time constant.
+
+    Notes
+    -----
+    The recursion is sequential in the rows. On a stretch of rows sampled at one interval
+    :math:`\alpha` is constant, and the stretch is a linear time-invariant filter that
+    :func:`scipy.signal.lfilter` runs in compiled code, started from the state the rows
+    before it left; rows between such stretches (uneven sampling) are stepped one by one.
     """
-    state = np.zeros((X.shape[1], alpha.shape[1]))
-    out = np.empty((X.shape[0], X.shape[1], alpha.shape[1]))
-    # One pass over the rows, every signal and time constant at once (the recursion is sequential in t).
-    for k in range(X.shape[0]):
-        state += alpha[k] * (X[k][:, None] - state)
-        out[k] = state
+    X = np.asarray(X, dtype=float)
+    n, m = X.shape[0], alpha.shape[1]
+    out = np.empty((n, X.shape[1], m))
+    state = np.zeros((X.shape[1], m))
+    for start, stop in _even_stretches(alpha):
+        if stop - start < MIN_STRETCH:
+            for k in range(start, stop):
+                state += alpha[k] * (X[k][:, None] - state)
+                out[k] = state
+            continue
+        for j in range(m):
+            a = alpha[start, j]
+            out[start:stop, :, j], _ = lfilter([a], [1.0, a - 1.0], X[start:stop], axis=0,
+                                               zi=((1.0 - a) * state[:, j])[None, :])
+        state = out[stop - 1].copy()
     return out
+
+
+def _even_stretches(alpha: np.ndarray) -> list[tuple[int, int]]:
+    """Row ranges ``[start, stop)`` over which every column of ``alpha`` is constant, to a relative
+    :data:`CONSTANT_TOLERANCE` (intervals such as 0.1 min differ in their last bits)."""
+    n = alpha.shape[0]
+    if n == 0:
+        return []
+    changes = np.any(np.abs(np.diff(alpha, axis=0)) > CONSTANT_TOLERANCE * alpha[1:], axis=1)
+    starts = np.r_[0, np.flatnonzero(changes) + 1]
+    return list(zip(starts.tolist(), np.r_[starts[1:], n].tolist()))
 
 
 def lowpass(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
