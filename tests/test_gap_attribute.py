@@ -198,6 +198,16 @@ def test_threads_do_not_change_the_report():
     assert one["verdict"]["column"] == "air_C"
 
 
+def test_progress_names_each_stage_and_only_moves_forward():
+    calls = []
+    diagnose(air_lag_problem(), candidates=CANDIDATES, progress=lambda stage, done: calls.append((stage, done)), **ARGS)
+    fractions = [done for _, done in calls]
+    assert fractions == sorted(fractions) and 0.0 <= fractions[0] and fractions[-1] <= 1.0
+    stages = " | ".join(stage for stage, _ in calls)
+    assert "candidate transforms" in stages and "checking air_C against" in stages
+    assert "testing further effects beyond air_C" in stages
+
+
 @pytest.mark.parametrize("n_jobs", [0, 1.5, True])
 def test_a_bad_number_of_threads_is_refused_before_the_work(n_jobs):
     with pytest.raises(ProblemError, match="n_jobs"):

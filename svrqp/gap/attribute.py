@@ -788,7 +788,8 @@ def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given
     return best
 
 
-def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
+def attribute(problem: AttributionProblem, banks: list[Bank],
+              progress: Callable[[str, float], None] = lambda stage, done: None) -> Attribution:
     """Test, rank and disambiguate candidate effects (see the module docstring).
 
     Parameters
@@ -797,12 +798,16 @@ def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
         Residual, base, folds, groups, noise level and random source.
     banks : list of CandidateBank or RunLevelBank
         Everything to test (:func:`build_banks`).
+    progress : callable
+        Called as ``progress(stage, fraction_done)`` when each stage starts (a long record spends
+        minutes here); the fractions are rough shares of the time.
 
     Returns
     -------
     Attribution
     """
     cond = _Conditional(problem)
+    progress(f"testing {len(banks)} candidate transforms", 0.0)
     evidence = _test_round(problem, [], banks, 1)
     result = Attribution(evidence, losses=OutOfSampleLosses(problem))
     passing = _best_by_column(evidence, passing_only=True)
@@ -826,6 +831,7 @@ def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
               and (c in significant or best[c].test.gain >= RIVAL_GAIN_FRACTION * champion.test.gain > 0)}
     pending = by_gain(rivals)
     done: set[str] = set()
+    progress(f"checking {champion.test.column} against {len(pending)} rival(s)", 0.5)
     for _ in range(len(best) ** 2):  # bound: each swap needs one-sided evidence
         if not pending:
             break
@@ -856,6 +862,7 @@ def attribute(problem: AttributionProblem, banks: list[Bank]) -> Attribution:
     if result.ambiguous:
         result.notes[champion.test.column] = "cannot be told apart from " + ", ".join(result.ambiguous)
     result.accepted.append(champion)
+    progress(f"testing further effects beyond {champion.test.column}", 0.75)
     _further_effects(result, problem, banks, cond)
     return result
 

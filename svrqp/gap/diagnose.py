@@ -231,9 +231,10 @@ def diagnose(
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
                                               "rounding); there is no gap and no cause is named.")
     else:
-        report_progress("testing candidates", 0.2)
+        report_progress("computing candidate transforms", 0.2)
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, rng, surrogates, n_jobs)
-        attribution = attribute(problem, build_banks(data, taus))
+        attribution = attribute(problem, build_banks(data, taus),
+                                lambda stage, done: report_progress(stage, 0.2 + 0.65 * done))
         attribution.notes = untestable_between_runs(data) | constant_on_real_rows(data) | attribution.notes
         report_progress("quantifying", 0.85)
         representatives = _representatives(attribution)
