@@ -7,6 +7,7 @@ from scipy.signal import lfilter
 from svrqp.exceptions import ProblemError
 from svrqp.gap.transforms import (
     MIN_STRETCH,
+    _even_stretches,
     filter_coefficients,
     group_slices,
     lag,
@@ -81,6 +82,19 @@ def test_lowpass_columns_follow_the_recursion_on_mixed_sampling():
         state = state + alpha[k] * (X[k][:, None] - state)
         expected[k] = state
     np.testing.assert_allclose(lowpass_columns(X, alpha), expected, rtol=1e-10, atol=1e-10)
+
+
+def test_even_sampling_far_from_zero_is_one_stretch():
+    # 1e5 + 0.1 k: the differences of the times carry rounding errors near 1e-10 relative
+    t = 1e5 + 0.1 * np.arange(500)
+    alpha = filter_coefficients(t, np.zeros(500, int), np.array([2.0, 20.0]))
+    assert _even_stretches(alpha) == [(0, 1), (1, 500)]
+    x = np.random.default_rng(3).normal(size=(500, 1)).cumsum(axis=0)
+    expected, state = np.empty((500, 1, 2)), np.zeros((1, 2))
+    for k in range(500):
+        state = state + alpha[k] * (x[k][:, None] - state)
+        expected[k] = state
+    np.testing.assert_allclose(lowpass_columns(x, alpha), expected, rtol=1e-8, atol=1e-8)
 
 
 def test_lowpass_restarts_in_equilibrium_at_each_group():

@@ -49,6 +49,10 @@ CONSTANT_TOLERANCE = 1e-12
 MIN_STRETCH = 16
 """Rows of one sampling interval below which :func:`lowpass_columns` steps them in Python."""
 
+SAMPLING_TOLERANCE = 1e-9
+"""Relative difference below which two filter coefficients (two sampling intervals) count as one:
+differences of times far from zero (1e5 min in steps of 0.1) carry rounding errors near 1e-10."""
+
 
 def negligible(spread: np.ndarray, values: np.ndarray, axis: int | None = 0) -> np.ndarray:
     """Whether each ``spread`` (a standard deviation or a range of ``values`` along ``axis``) is
@@ -164,11 +168,11 @@ def lowpass_columns(X: np.ndarray, alpha: np.ndarray) -> np.ndarray:
 
 def _even_stretches(alpha: np.ndarray) -> list[tuple[int, int]]:
     """Row ranges ``[start, stop)`` over which every column of ``alpha`` is constant, to a relative
-    :data:`CONSTANT_TOLERANCE` (intervals such as 0.1 min differ in their last bits)."""
+    :data:`SAMPLING_TOLERANCE`."""
     n = alpha.shape[0]
     if n == 0:
         return []
-    changes = np.any(np.abs(np.diff(alpha, axis=0)) > CONSTANT_TOLERANCE * alpha[1:], axis=1)
+    changes = np.any(np.abs(np.diff(alpha, axis=0)) > SAMPLING_TOLERANCE * alpha[1:], axis=1)
     starts = np.r_[0, np.flatnonzero(changes) + 1]
     return list(zip(starts.tolist(), np.r_[starts[1:], n].tolist()))
 
