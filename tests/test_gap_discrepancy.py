@@ -10,8 +10,9 @@ import pytest
 from svrqp.gap.blocks import (
     block_bootstrap,
     blocked_folds,
-    circular_shifts,
     lag1_autocorrelation,
+    rotated_rows,
+    shift_offsets,
 )
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 
@@ -87,8 +88,8 @@ def test_few_groups_use_contiguous_blocks_of_every_run():
         assert min(len(run) for run in runs) >= 300 // 20  # blocks, not single rows
 
 
-def test_circular_shifts_rotate_each_group():
-    index = circular_shifts(GROUPS_FEW, 50, np.random.default_rng(0))
+def test_shifts_rotate_each_group():
+    index = rotated_rows(GROUPS_FEW, shift_offsets(GROUPS_FEW, 50, np.random.default_rng(0)))
     for row in index:
         for g in (0, 1):
             own = np.flatnonzero(GROUPS_FEW == g)
@@ -99,11 +100,11 @@ def test_circular_shifts_rotate_each_group():
             np.testing.assert_array_equal(shifted, own[0] + (np.arange(own.size) + offset) % own.size)
 
 
-def test_circular_shifts_avoid_copies_and_negated_copies_of_a_periodic_candidate():
+def test_shifts_avoid_copies_and_negated_copies_of_a_periodic_candidate():
     # A sine with a 60-row period in each 300-row group: shifts near whole periods copy it,
     # shifts near half periods negate it; neither may be drawn.
     chiller = np.sin(2 * np.pi * np.arange(N) / 60.0)
-    index = circular_shifts(GROUPS_FEW, 200, np.random.default_rng(1), chiller)
+    index = rotated_rows(GROUPS_FEW, shift_offsets(GROUPS_FEW, 200, np.random.default_rng(1), chiller))
     for row in index:
         for g in (0, 1):
             own = np.flatnonzero(GROUPS_FEW == g)

@@ -21,7 +21,7 @@ The test statistic
 Significance by surrogates that keep autocorrelation
     Under "this candidate carries nothing", the residual is unrelated to *where in time* the
     candidate's values fall. Each surrogate rotates the candidate's transformed columns
-    circularly within every group by a random offset (:func:`svrqp.gap.blocks.circular_shifts`),
+    circularly within every group by a random offset (:func:`svrqp.gap.blocks.shift_offsets`),
     which keeps both series' autocorrelation, and recomputes :math:`g` including the
     :math:`\tau` search. The Monte-Carlo p-value is sequential (Besag & Clifford 1991): draw
     surrogates in batches (:data:`SURROGATE_BATCHES`); stop once :data:`STOP_EXCEEDANCES`
@@ -34,7 +34,7 @@ Significance by surrogates that keep autocorrelation
     rejected early, so only borderline tests pay for the extra draws).
 
     A periodic candidate (a chiller cycling at a fixed period) would match itself at shifts
-    of whole periods; :func:`~svrqp.gap.blocks.circular_shifts` avoids such shifts.
+    of whole periods; :func:`~svrqp.gap.blocks.shift_offsets` avoids such shifts.
 
 Candidates constant within runs
     Rotating a candidate that holds one value through each run (an axis temperature during

@@ -7,10 +7,10 @@ single rows:
   enough of them, otherwise of contiguous blocks interleaved along each group (block ``j``
   of group ``g`` goes to fold ``(j + g) mod K``), so every fold sees every phase of a run
   while test rows stay in blocks much longer than the correlation length;
-* :func:`circular_shifts` — surrogate row orders for significance tests: each group is
-  rotated by its own random offset, which keeps a series' autocorrelation and breaks only
-  its alignment with the other series (offsets that would rotate a periodic candidate onto
-  itself are avoided);
+* :func:`shift_offsets` and :func:`rotated_rows` — surrogate row orders for significance
+  tests: each group is rotated by its own random offset, which keeps a series'
+  autocorrelation and breaks only its alignment with the other series (offsets that would
+  rotate a periodic candidate onto itself are avoided);
 * :func:`block_bootstrap` — moving-block bootstrap resamples drawn within each group.
 
 All functions take the group code of each row, with rows sorted so that a group is one
@@ -82,10 +82,10 @@ def blocked_folds(groups: np.ndarray, n_folds: int = N_FOLDS) -> list[np.ndarray
     return [np.flatnonzero(fold_of == f) for f in range(k) if np.any(fold_of == f)]
 
 
-def circular_shifts(
+def shift_offsets(
     groups: np.ndarray, n_surrogates: int, rng: np.random.Generator, signature: np.ndarray | None = None
 ) -> np.ndarray:
-    """Row orders that rotate every group by an independent random offset.
+    """Random offsets that rotate every group independently, for surrogate row orders.
 
     Offsets are drawn uniformly among those at least :data:`MIN_SHIFT_FRACTION` of the group
     length away from no shift. With a ``signature`` (the candidate column being tested), offsets
@@ -97,12 +97,16 @@ def circular_shifts(
     the distribution of the observed one. When fewer than a fifth of the offsets would remain,
     the self-correlation rule is dropped for that group.
 
+    Drawing the offsets is cheap and consumes the random stream; turning them into rows
+    (:func:`rotated_rows`) and scoring the surrogates is the work, which can then run anywhere
+    without changing the result.
+
     Parameters
     ----------
     groups : ndarray of int, shape (n,)
         Group code per row, each group contiguous.
     n_surrogates : int
-        Number of surrogate orders.
+        Number of surrogates.
     rng : numpy.random.Generator
         Source of the offsets.
     signature : ndarray, shape (n,), optional
@@ -110,20 +114,8 @@ def circular_shifts(
 
     Returns
     -------
-    ndarray of int, shape (n_surrogates, n)
-        ``series[index[s]]`` is surrogate ``s`` of ``series``.
-    """
-    return rotated_rows(groups, shift_offsets(groups, n_surrogates, rng, signature))
-
-
-def shift_offsets(
-    groups: np.ndarray, n_surrogates: int, rng: np.random.Generator, signature: np.ndarray | None = None
-) -> np.ndarray:
-    """The random offsets of :func:`circular_shifts`, one column per group: shape (n_surrogates, k).
-
-    Drawing them is cheap and consumes the random stream; turning them into rows
-    (:func:`rotated_rows`) and scoring the surrogates is the work, which can then run anywhere
-    without changing the result.
+    ndarray of int, shape (n_surrogates, k)
+        Offset of each of the ``k`` groups (in row order) in each surrogate.
     """
     slices = group_slices(groups)
     offsets = np.empty((n_surrogates, len(slices)), dtype=np.int64)
@@ -140,7 +132,13 @@ def shift_offsets(
 
 
 def rotated_rows(groups: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Row orders rotating group ``g`` by ``offsets[:, g]``: shape (n_surrogates, n) (see :func:`circular_shifts`)."""
+    """Row orders that rotate group ``g`` circularly by ``offsets[:, g]`` (:func:`shift_offsets`).
+
+    Returns
+    -------
+    ndarray of int, shape (n_surrogates, n)
+        ``series[index[s]]`` is surrogate ``s`` of ``series``.
+    """
     index = np.empty((offsets.shape[0], len(groups)), dtype=np.int64)
     for g, rows in enumerate(group_slices(groups)):
         m = rows.stop - rows.start
