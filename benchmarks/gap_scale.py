@@ -1,6 +1,6 @@
 """``svrqp gap`` on long records: time and memory against record length, candidates and threads.
 
-The issue's performance case (about 2,000 real rows, 8 candidates, 3 transforms; target ≤ 20 s on
+The suite's performance case (about 2,000 real rows, 8 candidates, 3 transforms; target ≤ 20 s on
 two cores) is recorded by :mod:`gap_suite`. A user with a day-long log at one sample a minute
 and a sensor network has ten times the rows and four times the candidates; this measures how
 the diagnosis grows towards that, on one and on two threads (``n_jobs``; the report is the
