@@ -97,6 +97,15 @@ def test_even_sampling_far_from_zero_is_one_stretch():
     np.testing.assert_allclose(lowpass_columns(x, alpha), expected, rtol=1e-8, atol=1e-8)
 
 
+def test_coefficients_where_the_order_restarts_raise_no_overflow(recwarn):
+    # 1000 min runs whose time restarts at 0: the step into the second run is -999 min
+    t = np.r_[np.arange(1000.0), np.arange(1000.0)]
+    alpha = filter_coefficients(t, np.repeat([0, 1], 1000), np.array([0.5, 50.0]))
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+    np.testing.assert_array_equal(alpha[[0, 1000]], 1.0)
+    np.testing.assert_allclose(alpha[1], -np.expm1(-1.0 / np.array([0.5, 50.0])))
+
+
 def test_lowpass_restarts_in_equilibrium_at_each_group():
     x = np.r_[np.zeros(201), 3 * np.ones(201)]
     y = lowpass(x, T, GROUPS, np.array([2.0]))[:, 0]

@@ -120,9 +120,10 @@ def filter_coefficients(t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray
     if np.any(taus <= 0):
         raise ProblemError("taus: time constants must be positive")
     dt = np.diff(t, prepend=t[:1])
+    starts = [rows.start for rows in group_slices(group_codes)]
+    dt[starts] = 0.0  # the step into a group is no interval (the order restarts there: it may be negative)
     alpha = -np.expm1(-dt[:, None] / taus[None, :])
-    for rows in group_slices(group_codes):
-        alpha[rows.start] = 1.0
+    alpha[starts] = 1.0
     return alpha
 
 
