@@ -6,6 +6,7 @@ import pytest
 from gap_problems import CANDIDATES, null_problem
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap import diagnose
 from svrqp.gap.prepare import prepare
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
@@ -113,6 +114,16 @@ def test_short_groups_are_dropped_and_counted(table):
     data = prepare(pd.concat([table, extra], ignore_index=True), **ARGS)
     assert data.n_dropped_short_groups == 2
     assert "tiny" not in data.group_labels
+
+
+def test_a_group_with_too_few_real_rows_loses_them_and_the_diagnosis_runs(table):
+    # a train query by time leaves run r1 two real rows: too few for a rate or a filter of their own
+    query = "run == 'r0' or (run == 'r1' and time_min < 238)"
+    data = prepare(table, **(ARGS | {"train": query}))
+    assert data.n_dropped_short_groups == 2
+    assert data.is_train[data.groups == data.group_labels.index("r1")].all()
+    report = diagnose(table, **(ARGS | {"train": query}))
+    assert report.n_dropped_short_groups == 2 and report.n_real == data.is_real.sum()
 
 
 def test_repeated_order_within_a_group(table):

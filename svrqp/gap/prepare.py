@@ -10,7 +10,8 @@ Handling of awkward input (documented contract):
   only: a sensor fitted after the model was built leaves them empty on the train rows, and
   nothing but the verdict's refit of the model (then not given) reads them there;
 * a group with fewer than :data:`MIN_GROUP_ROWS` rows cannot carry a rate or a filtered
-  signal; its rows are dropped and counted (``n_dropped_short_groups``);
+  signal; its rows are dropped and counted (``n_dropped_short_groups``), and so are the real
+  rows of a group with fewer real rows than that (the transforms run on the real rows);
 * repeated ``order`` values within a group raise :class:`ProblemError` (a rate would divide
   by zero);
 * without ``order`` the row position within the group is the order axis (``"row"``);
@@ -78,7 +79,7 @@ class GapData:
     n_dropped : int
         Rows dropped for missing or non-finite values.
     n_dropped_short_groups : int
-        Rows dropped because their group had fewer than :data:`MIN_GROUP_ROWS` rows.
+        Rows dropped because their group (or its real part) had fewer than :data:`MIN_GROUP_ROWS` rows.
     """
 
     target: str
@@ -212,7 +213,9 @@ def prepare(
     else:
         codes, uniques = np.zeros(len(table), dtype=int), pd.Index(["all"])
     counts = np.bincount(codes, minlength=len(uniques))
-    long_enough = counts[codes] >= MIN_GROUP_ROWS
+    real_counts = np.bincount(codes[~is_train], minlength=len(uniques))
+    # Transforms run on each group's real rows alone, so its real part needs the rows as well.
+    long_enough = (counts[codes] >= MIN_GROUP_ROWS) & (is_train | (real_counts[codes] >= MIN_GROUP_ROWS))
     n_short = int((~long_enough).sum())
     table, codes, is_train = table.loc[long_enough], codes[long_enough], is_train[long_enough]
     kept_groups = np.unique(codes)
