@@ -5,6 +5,8 @@ coolant, which follows the air), a thermal-gradient effect (the rate of the mode
 sensor), and a null problem where nothing is missing.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 from gap_problems import (
@@ -206,6 +208,21 @@ def test_progress_names_each_stage_and_only_moves_forward():
     stages = " | ".join(stage for stage, _ in calls)
     assert "candidate transforms" in stages and "checking air_C against" in stages
     assert "testing further effects beyond air_C" in stages
+
+
+def test_an_exact_fit_leaves_no_error_and_raises_no_warning():
+    # the residual is the candidate itself: its gain is 1 to rounding, and the SSE left (a
+    # difference of sums) can come out a hair below zero, so the gain a hair above 1
+    x = np.random.default_rng(4).normal(size=120).cumsum()
+    groups = np.zeros(120, int)
+    bank = CandidateBank("x", "level", None, ((x - x.mean()) / x.std())[:, None])
+    test = SurrogateTest(CrossValidatedDiscrepancy(x, np.ones((120, 1)), blocked_folds(groups)), bank, groups,
+                         np.random.default_rng(0))
+    test.observed = 1.0 + 1e-13
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        outcome = test.outcome()
+    assert outcome.remaining_rmse == 0.0
 
 
 @pytest.mark.parametrize("n_jobs", [0, 1.5, True])

@@ -126,6 +126,13 @@ def test_a_group_with_too_few_real_rows_loses_them_and_the_diagnosis_runs(table)
     assert report.n_dropped_short_groups == 2 and report.n_real == data.is_real.sum()
 
 
+def test_names_given_as_a_numpy_array_read_as_plain_names(table):
+    data = prepare(table, **(ARGS | {"candidates": np.array(["air_C", "nut_C"])}))
+    assert data.candidates == ["air_C", "nut_C"] and type(data.candidates[0]) is str
+    with pytest.raises(ProblemError, match=r"unknown column\(s\) \['bogus'\]"):
+        prepare(table, **(ARGS | {"candidates": np.array(["air_C", "bogus"])}))
+
+
 def test_repeated_order_within_a_group(table):
     repeated = table.copy()
     repeated.loc[3, "time_min"] = repeated.loc[2, "time_min"]

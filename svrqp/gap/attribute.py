@@ -504,7 +504,8 @@ class SurrogateTest:
 
     def outcome(self) -> TestOutcome:
         """The test's result."""
-        remaining = float(np.sqrt(self.cv.sse_base * (1 - self.observed) / self.cv.n))
+        # A near-perfect fit can leave a gain a rounding error above 1 (the SSE is a difference of sums).
+        remaining = float(np.sqrt(self.cv.sse_base * max(1 - self.observed, 0.0) / self.cv.n))
         explained = float(np.sqrt(max(self.observed, 0.0) * self.cv.sse_base / self.cv.n))
         return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining,
                            self.observed, explained)

@@ -127,7 +127,8 @@ def _as_list(names: str | list[str] | tuple[str, ...] | None) -> list[str]:
         return []
     if isinstance(names, str):
         return [n.strip() for n in names.split(",") if n.strip()]
-    return list(names)
+    # numpy's str_ names print as np.str_('...') in messages; plain str is the same column
+    return [str(name) if isinstance(name, str) else name for name in names]
 
 
 def prepare(
