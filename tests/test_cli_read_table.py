@@ -1,11 +1,13 @@
 """Reading the input tables of every subcommand (svrqp.cli._common.read_table): CSV and Parquet."""
 
+import re
+
 import pandas as pd
 import pytest
 
 from svrqp import datasets
 from svrqp.cli._common import read_table
-from svrqp.exceptions import BackendNotAvailableError
+from svrqp.exceptions import BackendNotAvailableError, ProblemError
 
 
 @pytest.fixture(scope="module")
@@ -40,3 +42,25 @@ def test_without_a_parquet_engine_the_extra_is_named(table, tmp_path, monkeypatc
     monkeypatch.setattr(pd, "read_parquet", no_engine)
     with pytest.raises(BackendNotAvailableError, match=r"svrqp\[parquet\]"):
         read_table(path)
+
+
+def test_an_empty_file_is_named(tmp_path):
+    path = tmp_path / "empty.csv"
+    path.write_text("")
+    with pytest.raises(ProblemError, match="empty.csv: the file is empty"):
+        read_table(path)
+
+
+@pytest.mark.parametrize("separator", [";", "\t"])
+def test_a_file_with_another_separator_is_named_not_guessed(table, tmp_path, separator):
+    # a European export: semicolons, and often decimal commas that a guessed separator would misread
+    path = tmp_path / "semicolons.csv"
+    table.head(5).to_csv(path, index=False, sep=separator, decimal=",")
+    with pytest.raises(ProblemError, match=f"reads as one column .*separated by {re.escape(repr(separator))}"):
+        read_table(path)
+
+
+def test_a_single_column_file_reads(tmp_path):
+    path = tmp_path / "one.csv"
+    path.write_text("error_um\n1.5\n2.5\n")
+    assert read_table(path)["error_um"].tolist() == [1.5, 2.5]

@@ -31,7 +31,17 @@ def read_table(path: str | Path) -> pd.DataFrame:
         except ImportError as err:
             raise BackendNotAvailableError(
                 f"reading {path.name} needs a Parquet engine: pip install 'svrqp[parquet]' (pyarrow)") from err
-    return pd.read_csv(path)
+    try:
+        table = pd.read_csv(path)
+    except pd.errors.EmptyDataError as err:
+        raise ProblemError(f"{path.name}: the file is empty (no header row)") from err
+    header = str(table.columns[0])
+    separator = next((sep for sep in (";", "\t", "|") if sep in header), None)
+    if table.shape[1] == 1 and separator is not None:
+        # Guessing the separator (and then the decimal mark) could misread numbers: say it instead.
+        raise ProblemError(f"{path.name} reads as one column {header!r}: it seems separated by {separator!r}; "
+                           "save it comma-separated, with '.' as the decimal mark")
+    return table
 
 
 def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: bool = False) -> list[str]:
