@@ -15,6 +15,7 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     negligible,
     rate,
+    standardised,
     tau_grid,
 )
 
@@ -145,3 +146,12 @@ def test_negligible_spread_is_relative_to_the_values_magnitude():
     assert negligible(np.ptp(columns, axis=0), columns).tolist() == [True, False]
     assert negligible(np.std(steady), steady, axis=None)
     assert not negligible(np.std(step), step, axis=None)
+
+
+def test_standardised_columns_and_the_constant_ones():
+    columns = np.column_stack([np.arange(5.0), np.full(5, 4500.0), 3.0 * np.arange(5.0) + 7.0])
+    Z, varying = standardised(columns)
+    assert varying.tolist() == [True, False, True]
+    np.testing.assert_allclose(Z[:, 0], (np.arange(5.0) - 2.0) / np.std(np.arange(5.0)))
+    np.testing.assert_array_equal(Z[:, 1], 0.0)
+    np.testing.assert_allclose(Z[:, 2], Z[:, 0])

@@ -128,7 +128,15 @@ from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.compare import PairedComparison, paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, negligible, rate
+from svrqp.gap.transforms import (
+    filter_coefficients,
+    group_slices,
+    lag,
+    lowpass_columns,
+    negligible,
+    rate,
+    standardised,
+)
 
 SURROGATE_KINDS = ("rotation", "continuous")
 """Surrogate schemes of the significance tests (module docstring)."""
@@ -273,13 +281,6 @@ Bank = CandidateBank | RunLevelBank
 """Anything :func:`attribute` tests: a candidate transform, or a run-level candidate's level."""
 
 
-def _standardise(columns: np.ndarray) -> np.ndarray:
-    """Centre and scale each column on the rows given; constant columns become zero."""
-    centred = columns - columns.mean(axis=0)
-    scale = centred.std(axis=0)
-    return np.divide(centred, scale, out=np.zeros_like(centred), where=~negligible(scale, columns))
-
-
 def transform_columns(
     data: GapData, column: str, transform: str, taus: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -352,10 +353,10 @@ def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
         x = data.C[real, j]
         if between and column not in data.features and is_run_level(x, groups):
             banks.append(run_level_bank(column, x, data.t[real], groups))
-        partner = None if column in data.features else _standardise(x[:, None])[:, 0]
+        partner = None if column in data.features else standardised(x[:, None])[0][:, 0]
         if column not in data.features:
             banks.append(CandidateBank(column, "level", None, partner[:, None]))
-        banks.append(CandidateBank(column, "rate", None, _standardise(rate(x, data.t[real], groups)[:, None])))
+        banks.append(CandidateBank(column, "rate", None, standardised(rate(x, data.t[real], groups)[:, None])[0]))
         # The lag restarts at each real group's first row, exactly as its surrogates do.
         recipe = LagRecipe.of(x, data.t[real], groups, taus)
         banks.append(CandidateBank(column, "lag", taus, recipe.own(x[:, None])[:, 0, :], partner, recipe))

@@ -78,7 +78,7 @@ from svrqp.gap.localise import Region, localise
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
 from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
-from svrqp.gap.transforms import negligible, smooth, tau_grid
+from svrqp.gap.transforms import smooth, standardised, tau_grid
 
 Progress = Callable[[str, float], None]
 
@@ -105,11 +105,8 @@ def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
     if data.prediction is not None:
         return np.zeros((int(real.sum()), 0))
     inputs = data.X if baseline.kind == "mlr" else np.column_stack([data.X, baseline.y_hat])
-    columns = np.column_stack([inputs, smooth(inputs, data.groups)])[real]
-    centred = columns - columns.mean(axis=0)
-    scale = centred.std(axis=0)
-    varying = ~negligible(scale, columns)
-    return centred[:, varying] / scale[varying]
+    Z, varying = standardised(np.column_stack([inputs, smooth(inputs, data.groups)])[real])
+    return Z[:, varying]
 
 
 def one_offset(groups: np.ndarray) -> bool:

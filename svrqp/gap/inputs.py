@@ -34,7 +34,7 @@ import numpy as np
 
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transforms import smooth
+from svrqp.gap.transforms import smooth, standardised
 
 EXTRAPOLATING_SHARE = 0.5
 """An input outside its train range on at least this share of the real rows is extrapolated."""
@@ -105,10 +105,8 @@ def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.
     for j, column in enumerate(data.features):
         x = data.X[:, j]
         low, high = float(x[train].min()), float(x[train].max())
-        own = np.column_stack([x, smooth(x, data.groups)])[real]
-        own = own - own.mean(axis=0)
-        scale = own.std(axis=0)
-        own = own[:, scale > 0] / scale[scale > 0]
+        own, varying = standardised(np.column_stack([x, smooth(x, data.groups)])[real])
+        own = own[:, varying]
         after = float(np.sqrt(np.mean(CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base**2)))
         shrink = 1.0 - after / before if before > 0 else 0.0
         beyond = 1.0 - after / offsets_only if offsets_only > 0 else None

@@ -64,6 +64,22 @@ def negligible(spread: np.ndarray, values: np.ndarray, axis: int | None = 0) -> 
     return np.asarray(spread) <= CONSTANT_TOLERANCE * (1.0 + np.abs(values).max(axis=axis))
 
 
+def standardised(columns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Columns centred and scaled on the rows given, and which of them vary (:func:`negligible`).
+
+    Returns
+    -------
+    Z : ndarray, same shape as ``columns``
+        Standardised columns; a constant column becomes zeros.
+    varying : ndarray of bool, shape (q,)
+        The columns that are not constant (callers that drop constants take ``Z[:, varying]``).
+    """
+    centred = columns - columns.mean(axis=0)
+    scale = centred.std(axis=0)
+    varying = ~negligible(scale, columns)
+    return np.divide(centred, scale, out=np.zeros_like(centred), where=varying), varying
+
+
 def group_slices(group_codes: np.ndarray) -> list[slice]:
     """Contiguous slices of rows that share a group code (rows must be sorted by group).
 
