@@ -10,7 +10,6 @@ Two inputs, told apart by the suffix of INPUT:
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import typer
 from rich.console import Console
@@ -20,18 +19,10 @@ from sklearn.preprocessing import StandardScaler
 
 from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.exceptions import ProblemError
-from svrqp.export import FORMATS, build_document, read_document, verify, write
+from svrqp.export import FORMATS, build_document, read_document, write
 
 MODEL_SUFFIXES = {".json"}
 DATA_SUFFIXES = {".csv", ".parquet", ".pq"}
-
-
-def _document_from_model_file(path: Path) -> dict[str, Any]:
-    report = verify(path)
-    if not report.ok:
-        failed = "; ".join(f"{check.name}: {check.detail}" for check in report.checks if not check.ok)
-        raise ProblemError(f"{path} fails verification, not converting it ({failed})")
-    return read_document(path)
 
 
 def register(app: typer.Typer) -> None:
@@ -71,7 +62,7 @@ def register(app: typer.Typer) -> None:
             given = [name for name, value in data_options.items() if value is not None]
             if given:
                 raise ProblemError(f"{', '.join(given)} only apply when SOURCE is a data table, not a model file")
-            document = _document_from_model_file(source)
+            document = read_document(source)  # verified: refused unless every check passes
         elif suffix in DATA_SUFFIXES:
             if target is None or features is None:
                 raise ProblemError("a data table needs --target and --features")

@@ -12,7 +12,10 @@ Training-data hash (``training_data.sha256``)
     (before any scaling).
 
 Reading is strict: duplicate keys, ``NaN``/``Infinity`` and numbers that overflow a double are
-rejected, and nothing but ``json`` parsing happens (no pickle, no ``eval``).
+rejected, and nothing but ``json`` parsing happens (no pickle, no ``eval``). Hostile text is refused
+before the parser sees it or as it reads it: more than :data:`MAX_BYTES` bytes, arrays/objects nested
+deeper than :data:`MAX_DEPTH`, or a number written with more than :data:`MAX_NUMBER_CHARS`
+characters (an integer with more than :data:`MAX_INTEGER_DIGITS` digits).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -28,6 +32,20 @@ from numpy.typing import ArrayLike
 from svrqp.exceptions import ProblemError
 
 HASH_FIELD = "content_sha256"
+
+#: Largest model file read (bytes): ~50 000 support vectors of 20 inputs as JSON text.
+MAX_BYTES = 64 * 2**20
+
+#: Deepest nesting of arrays and objects; an svrqp.model/1 document needs 5.
+MAX_DEPTH = 32
+
+#: Longest number text; Python's repr of a double needs at most 24 characters.
+MAX_NUMBER_CHARS = 64
+
+#: Most digits in an integer; the document's integers are counts and degrees.
+MAX_INTEGER_DIGITS = 15
+
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 
 DATA_HASH_DEFINITION = (
     "sha256(X as little-endian float64, row-major, columns in the order of 'inputs', raw units; "
@@ -61,10 +79,27 @@ def _reject_constant(name: str) -> float:
 
 
 def _finite_float(text: str) -> float:
+    if len(text) > MAX_NUMBER_CHARS:
+        raise ProblemError(f"model file holds a number written with {len(text)} characters "
+                           f"(at most {MAX_NUMBER_CHARS}): {text[:20]}...")
     value = float(text)
     if not math.isfinite(value):
         raise ProblemError(f"model file holds the number {text}, which overflows a double")
     return value
+
+
+def _bounded_int(text: str) -> int:
+    if len(text.lstrip("-")) > MAX_INTEGER_DIGITS:
+        raise ProblemError(f"model file holds an integer with {len(text.lstrip('-'))} digits "
+                           f"(at most {MAX_INTEGER_DIGITS}): {text[:20]}...")
+    return int(text)
+
+
+def nesting_depth(text: str) -> int:
+    """Deepest nesting of ``[``/``{`` in JSON ``text``, brackets inside strings not counted."""
+    codes = np.frombuffer(_JSON_STRING.sub('""', text).encode("utf-8"), dtype=np.uint8)
+    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0))
 
 
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -76,9 +111,12 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def parse_strict(text: str) -> Any:
-    """Parse JSON text, rejecting duplicate keys and non-finite numbers."""
+    """Parse JSON text, rejecting duplicate keys, non-finite or over-long numbers and deep nesting."""
+    depth = nesting_depth(text)
+    if depth > MAX_DEPTH:
+        raise ProblemError(f"model file nests arrays/objects {depth} deep (at most {MAX_DEPTH})")
     try:
         return json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float,
-                          object_pairs_hook=_unique_keys)
+                          parse_int=_bounded_int, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as err:
         raise ProblemError(f"model file is not valid JSON: {err}") from None

@@ -20,13 +20,11 @@ import svrqp
 from svrqp.exceptions import ProblemError
 from svrqp.export import canonical, crosscheck, describe, evaluate
 from svrqp.export.schema import SCHEMA_ID, validate_document
+from svrqp.export.verify import PROBE_RELATIVE_TOLERANCE
 
 #: How many probe points a document stores when the caller gives none.
 N_PROBES = 16
 
-#: Probe tolerance relative to the magnitude of the summed terms (see evaluate.term_magnitude):
-#: far above reordering round-off (~1e-15), far below any change a reader would care about.
-PROBE_RELATIVE_TOLERANCE = 1e-9
 
 def unit_from_name(name: str) -> str | None:
     """The unit carried in a column name (``T7_C`` → °C, ``ch1(um)`` → μm), or None.

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterable
+from datetime import datetime
 from functools import cache
 from importlib.resources import files
 from typing import Any
@@ -53,7 +54,15 @@ def _check_length(field: str, values: list, expected: int, what: str) -> None:
         _fail(field, f"has {len(values)} entries, expected {expected} ({what})")
 
 
+def _check_created(text: str) -> None:
+    try:
+        datetime.strptime(text, "%Y-%m-%dT%H:%M:%SZ")
+    except ValueError:
+        _fail("created_utc", f"{text!r} is not a real date and time (YYYY-MM-DDTHH:MM:SSZ, UTC)")
+
+
 def _check_shapes(document: dict[str, Any]) -> None:
+    _check_created(document["created_utc"])
     d = len(document["inputs"])
     per_input = f"one per input, {d} inputs"
     if document["scaling"] is not None:

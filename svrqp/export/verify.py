@@ -2,16 +2,28 @@
 
 :func:`verify` runs three checks and reports each:
 
-1. **schema** — strict JSON parsing (no code is ever executed: no pickle, no ``eval``) and the
+1. **schema** — the file's size (:data:`~svrqp.export.canonical.MAX_BYTES`), strict JSON parsing
+   with nesting and number limits (no code is ever executed: no pickle, no ``eval``) and the
    ``svrqp.model/1`` JSON Schema with its shape checks (:func:`svrqp.export.schema.validate_document`);
 2. **hash** — ``content_sha256`` recomputed from the canonical content (:mod:`svrqp.export.canonical`);
 3. **probes** — the stored probe inputs re-evaluated from the file's numbers
    (:func:`svrqp.export.evaluate.predict`); the largest deviation from the stored predictions must
-   be within the stored tolerance.
+   be within the stored tolerance, and that tolerance may not exceed
+   :data:`~svrqp.export.document.PROBE_RELATIVE_TOLERANCE` times the magnitude of the summed terms
+   recomputed from the file (so a widened tolerance cannot hide changed coefficients).
+
+Every failure is a failed check in the report, never an exception. :func:`read_document` returns a
+document only when all checks pass.
+
+What the hash proves: that the file is the one its writer hashed — no byte of its content changed by
+accident or by an edit that did not recompute the hash. It is not a signature: anyone who edits a
+file can recompute ``content_sha256`` (and the probe predictions), so it says nothing about who
+wrote the file.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,6 +33,13 @@ import numpy as np
 from svrqp.exceptions import ProblemError
 from svrqp.export import canonical, evaluate
 from svrqp.export.schema import validate_document
+
+#: Probe tolerance relative to the magnitude of the summed terms (see evaluate.term_magnitude):
+#: far above reordering round-off (~1e-15), far below any change a reader would care about.
+PROBE_RELATIVE_TOLERANCE = 1e-9
+
+#: Slack on the recomputed tolerance bound: the magnitude is re-summed in another order.
+_BOUND_SLACK = 1.0 + 1e-9
 
 
 @dataclass(frozen=True)
@@ -43,56 +62,98 @@ class VerifyReport:
 
     @property
     def ok(self) -> bool:
-        """True when all three checks ran and passed."""
-        return len(self.checks) == 3 and all(check.ok for check in self.checks)
+        """True when every check ran and passed."""
+        return len(self.checks) == len(CHECKS) and all(check.ok for check in self.checks)
+
+    def failures(self) -> str:
+        """The failed checks as one line (empty when none failed)."""
+        return "; ".join(f"{check.name}: {check.detail}" for check in self.checks if not check.ok)
+
+
+def _parse(path: Path) -> dict[str, Any]:
+    """Read, parse and schema-check ``path``; every problem is a ProblemError naming the file."""
+    try:
+        size = path.stat().st_size
+        if size > canonical.MAX_BYTES:
+            raise ProblemError(f"file has {size} bytes, more than the {canonical.MAX_BYTES} a model file may have")
+        document = canonical.parse_strict(path.read_bytes().decode("utf-8"))
+        validate_document(document)
+    except (ProblemError, UnicodeDecodeError, OSError) as err:
+        raise ProblemError(f"{path}: {err}") from None
+    return document
+
+
+def probe_deviation(document: dict[str, Any]) -> float:
+    """Largest |stored − re-evaluated| prediction over the probe points (``inf`` if not finite)."""
+    probes = document["probes"]
+    with np.errstate(all="ignore"):
+        recomputed = evaluate.predict(document, np.asarray(probes["X"], dtype=float))
+        deviation = np.abs(recomputed - np.asarray(probes["prediction"]))
+    return float(np.max(deviation)) if np.all(np.isfinite(deviation)) else float("inf")
+
+
+def tolerance_bound(document: dict[str, Any]) -> float:
+    """The largest probe tolerance the file's own terms justify (``inf`` if they overflow)."""
+    with np.errstate(all="ignore"):
+        magnitude = float(evaluate.term_magnitude(document, np.asarray(document["probes"]["X"], dtype=float)).max())
+    return PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude) * _BOUND_SLACK if np.isfinite(magnitude) else 0.0
+
+
+def _check_hash(document: dict[str, Any], report: VerifyReport) -> Check:
+    stored = document["content_sha256"]
+    recomputed = canonical.content_sha256(document)
+    if stored == recomputed:
+        return Check("hash", True, f"content_sha256 {stored}")
+    return Check("hash", False, f"content_sha256 stored {stored}, recomputed {recomputed}")
+
+
+def _check_probes(document: dict[str, Any], report: VerifyReport) -> Check:
+    report.tolerance = tolerance = document["probes"]["tolerance"]
+    report.max_deviation = probe_deviation(document)
+    passed = report.max_deviation <= tolerance
+    detail = (f"{len(document['probes']['X'])} probe points, largest deviation "
+              f"{report.max_deviation:.3g} {'<=' if passed else '>'} tolerance {tolerance:.3g}")
+    bound = tolerance_bound(document)
+    if not tolerance <= bound:
+        return Check("probes", False, f"{detail}; but the tolerance exceeds {PROBE_RELATIVE_TOLERANCE:g} x the "
+                                      f"magnitude of the model's terms at the probes ({bound:.3g})")
+    return Check("probes", passed, detail)
+
+
+#: The checks after the schema, in order; each sees the parsed document and the report so far.
+CHECKS: tuple[str, ...] = ("schema", "hash", "probes")
+_DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = (_check_hash, _check_probes)
+
+
+def verify(path: str | Path) -> VerifyReport:
+    """Verify the model file at ``path``: size and schema, content hash, probe predictions."""
+    report = VerifyReport(str(path))
+    try:
+        document = _parse(Path(path))
+    except ProblemError as err:
+        report.checks.append(Check("schema", False, str(err)))
+        return report
+    report.checks.append(Check("schema", True, f"valid {document['schema']} ({document['kind']})"))
+    for check in _DOCUMENT_CHECKS:
+        report.checks.append(check(document, report))
+    return report
 
 
 def read_document(path: str | Path) -> dict[str, Any]:
-    """Parse a model file strictly and validate it; errors name the file and the field.
+    """Load a model file after verifying it (schema, content hash, probes); errors name the file.
 
     Raises
     ------
     ProblemError
-        When the file is not JSON, or not a valid ``svrqp.model/1`` document.
+        When the file is not JSON, not a valid ``svrqp.model/1`` document, its content does not
+        match its hash, or its model does not reproduce its probe predictions.
     FileNotFoundError
         When the file does not exist.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"model file not found: {path}")
-    try:
-        document = canonical.parse_strict(path.read_text(encoding="utf-8"))
-        validate_document(document)
-    except (ProblemError, UnicodeDecodeError) as err:
-        raise ProblemError(f"{path}: {err}") from None
-    return document
-
-
-def probe_deviation(document: dict[str, Any]) -> float:
-    """Largest |stored − re-evaluated| prediction over the probe points."""
-    probes = document["probes"]
-    recomputed = evaluate.predict(document, np.asarray(probes["X"], dtype=float))
-    return float(np.max(np.abs(recomputed - np.asarray(probes["prediction"]))))
-
-
-def verify(path: str | Path) -> VerifyReport:
-    """Verify the model file at ``path``: schema, content hash, probe predictions."""
-    report = VerifyReport(str(path))
-    try:
-        document = read_document(path)
-    except ProblemError as err:
-        report.checks.append(Check("schema", False, str(err)))
-        return report
-    report.checks.append(Check("schema", True, f"valid {document['schema']} ({document['kind']})"))
-    stored = document["content_sha256"]
-    recomputed = canonical.content_sha256(document)
-    report.checks.append(Check("hash", stored == recomputed,
-                               f"content_sha256 {stored}" if stored == recomputed
-                               else f"content_sha256 stored {stored}, recomputed {recomputed}"))
-    report.max_deviation = probe_deviation(document)
-    report.tolerance = document["probes"]["tolerance"]
-    passed = report.max_deviation <= report.tolerance
-    report.checks.append(Check("probes", passed,
-                               f"{len(document['probes']['X'])} probe points, largest deviation "
-                               f"{report.max_deviation:.3g} {'<=' if passed else '>'} tolerance {report.tolerance:.3g}"))
-    return report
+    report = verify(path)
+    if not report.ok:
+        raise ProblemError(f"{path} fails verification: {report.failures()}")
+    return _parse(path)

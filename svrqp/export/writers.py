@@ -20,6 +20,7 @@ from typing import Any
 
 from svrqp.exceptions import ProblemError
 from svrqp.export.c_source import c_source, header_source
+from svrqp.export.safe_text import comment_text
 from svrqp.export.schema import validate_document
 
 FORMATS = ("json", "csv", "c")
@@ -68,7 +69,7 @@ def _comments(document: dict[str, Any]) -> list[str]:
         lines.append(f"scaling: u = (x - mean) / scale, mean = {scaling['mean']!r}, scale = {scaling['scale']!r}; "
                      "the input columns below are u")
     lines.append(f"content_sha256 of the JSON document: {document['content_sha256']}")
-    return [f"# {line}\n" for line in lines]
+    return [f"# {comment_text(line)}\n" for line in lines]
 
 
 def _table(document: dict[str, Any]) -> list[list[Any]]:
@@ -114,6 +115,8 @@ def write(document: dict[str, Any], path: str | Path, format: str | None = None,
     ------
     FileExistsError
         When a file to be written exists and ``overwrite`` is false.
+    ProblemError
+        When a file to be written is a symbolic link (dangling or not): never written through.
     """
     validate_document(document)
     path = Path(path)
@@ -121,6 +124,11 @@ def write(document: dict[str, Any], path: str | Path, format: str | None = None,
     if fmt not in FORMATS:
         raise ProblemError(f"format must be one of {FORMATS}, got {fmt!r}")
     targets = _targets(path, fmt)
+    links = [str(target) for target in targets if target.is_symlink()]
+    if links:
+        # exists() is false for a dangling link, and writing would follow it to wherever it points.
+        raise ProblemError(f"refusing to write through the symbolic link(s) {', '.join(links)}; "
+                           "give the path of a regular file")
     existing = [str(target) for target in targets if target.exists()]
     if existing and not overwrite:
         raise FileExistsError(f"refusing to overwrite existing {', '.join(existing)} (use --force / overwrite=True)")
@@ -130,7 +138,8 @@ def write(document: dict[str, Any], path: str | Path, format: str | None = None,
         texts = [csv_text(document)]
     else:
         header = targets[1]
-        guard = "".join(ch if ch.isalnum() else "_" for ch in header.name).upper()
+        guard = "".join(ch if ch.isascii() and ch.isalnum() else "_" for ch in header.name).upper()
+        guard = guard if guard[0].isalpha() else f"H_{guard}"
         texts = [c_source(document, header.name), header_source(document, guard)]
     for target, text in zip(targets, texts, strict=True):
         target.parent.mkdir(parents=True, exist_ok=True)
