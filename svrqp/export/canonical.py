@@ -57,7 +57,11 @@ def canonical_bytes(document: dict[str, Any]) -> bytes:
     """The canonical serialisation of ``document`` with its hash field left out."""
     content = {key: value for key, value in document.items() if key != HASH_FIELD}
     text = json.dumps(content, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-    return text.encode("utf-8")
+    try:
+        return text.encode("utf-8")
+    except UnicodeEncodeError as err:  # JSON's "\ud800" escape reads as a lone surrogate
+        raise ProblemError(f"model file holds a string that is not valid Unicode ({err.reason}: "
+                           f"{text[err.start:err.end]!a})") from None
 
 
 def content_sha256(document: dict[str, Any]) -> str:

@@ -78,6 +78,7 @@ def _parse(path: Path) -> dict[str, Any]:
             raise ProblemError(f"file has {size} bytes, more than the {canonical.MAX_BYTES} a model file may have")
         document = canonical.parse_strict(path.read_bytes().decode("utf-8"))
         validate_document(document)
+        canonical.canonical_bytes(document)  # every string must be encodable to be hashed
     except (ProblemError, UnicodeDecodeError, OSError) as err:
         raise ProblemError(f"{path}: {err}") from None
     return document
