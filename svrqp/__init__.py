@@ -10,6 +10,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 from svrqp.exceptions import (
     BackendNotAvailableError,
+    ExtrapolationWarning,
     ProblemError,
     SingularSystemError,
     SolverError,
@@ -23,6 +24,7 @@ except PackageNotFoundError:  # running from a source tree that was not installe
 
 __all__ = [
     "BackendNotAvailableError",
+    "ExtrapolationWarning",
     "ProblemError",
     "SingularSystemError",
     "SolverError",
@@ -33,3 +35,7 @@ __all__ = [
 from svrqp.estimators import LSSVR, EpsilonSVR  # noqa: E402  (after __version__ on purpose)
 
 __all__ += ["EpsilonSVR", "LSSVR"]
+
+from svrqp.guard import Guarded  # noqa: E402
+
+__all__ += ["Guarded"]

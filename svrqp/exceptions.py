@@ -34,3 +34,12 @@ class BackendNotAvailableError(SvrqpError, ImportError):
 
 class SingularSystemError(SvrqpError, np.linalg.LinAlgError):
     """A linear system or normal-equation matrix is singular or numerically rank deficient."""
+
+
+class ExtrapolationWarning(UserWarning):
+    """Rows to predict lie outside the input domain the model was fitted on.
+
+    Raised by :class:`svrqp.Guarded` (``predict``, ``predict_interval``) when a row is outside
+    the training range of an input or further from the training data than a calibrated
+    Mahalanobis distance; ``Guarded.check_domain(X)`` says which inputs and by how much.
+    """

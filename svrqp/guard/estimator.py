@@ -1,0 +1,203 @@
+r"""``Guarded``: a regressor with calibrated prediction intervals and an input-domain guard.
+
+For a fitted model :math:`\hat f`, coverage :math:`1 - \alpha` and the conformal quantile
+:math:`q` of :mod:`svrqp.guard.conformal`,
+
+.. math::
+
+    [\hat f(x) - q\,\sigma(x),\ \hat f(x) + q\,\sigma(x)], \qquad \sigma \equiv 1
+    \text{ for } \texttt{method="absolute"},
+
+holds a new measurement with probability about :math:`1 - \alpha` while the new rows are
+exchangeable with the calibration rows (between groups, when ``groups`` are given). Rows outside the
+training domain (:mod:`svrqp.guard.domain`) break that premise: ``predict`` and
+``predict_interval`` warn with :class:`svrqp.ExtrapolationWarning` for them.
+"""
+
+from __future__ import annotations
+
+import warnings
+from numbers import Integral, Real
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
+from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted
+
+from svrqp.exceptions import ExtrapolationWarning, ProblemError
+from svrqp.guard import conformal
+from svrqp.guard.domain import InputDomain, standardised
+
+
+class Guarded(RegressorMixin, BaseEstimator):
+    """Wrap a regressor with conformal prediction intervals and a training-domain check.
+
+    Parameters
+    ----------
+    estimator
+        Any scikit-learn regressor (an svrqp estimator, a ``Pipeline`` ending in one, ...).
+    coverage
+        Nominal coverage :math:`1 - \\alpha` of the intervals, in (0, 1).
+    method
+        ``"absolute"`` (interval :math:`\\hat f \\pm q`, the same width everywhere) or
+        ``"normalized"`` (:math:`\\hat f \\pm q\\,\\sigma(x)`, wider where the out-of-fold errors
+        are larger).
+    n_splits
+        Folds of the cross-validated calibration (whole groups when ``groups`` are given).
+    min_groups
+        Fewest distinct groups for group-aware calibration; with fewer, a
+        :class:`~svrqp.guard.conformal.GroupFallbackWarning` says so and contiguous row folds
+        are used.
+    domain_quantile
+        Quantile of the training rows' Mahalanobis distances used as the domain threshold
+        (1.0: further out than every training row).
+
+    Attributes
+    ----------
+    estimator_
+        ``estimator`` refitted on every row; it makes the predictions.
+    calibration_ : Calibration
+        Folds, group labels, sorted scores, the quantile ``q`` and the difficulty model.
+    domain_ : InputDomain
+        Training ranges, standardisation, precision matrix and distance threshold.
+    feature_names_in_ : ndarray of str
+        Input names (from ``X``'s columns, else ``x0``, ``x1``, ...).
+    """
+
+    _parameter_constraints = {
+        "estimator": [HasMethods(["fit", "predict"])],
+        "coverage": [Interval(Real, 0.0, 1.0, closed="neither")],
+        "method": [StrOptions(set(conformal.METHODS))],
+        "n_splits": [Interval(Integral, 2, None, closed="left")],
+        "min_groups": [Interval(Integral, 2, None, closed="left")],
+        "domain_quantile": [Interval(Real, 0.0, 1.0, closed="right")],
+    }
+
+    def __init__(self, estimator, coverage=0.9, method="absolute", n_splits=10, min_groups=3, domain_quantile=1.0):
+        self.estimator = estimator
+        self.coverage = coverage
+        self.method = method
+        self.n_splits = n_splits
+        self.min_groups = min_groups
+        self.domain_quantile = domain_quantile
+
+    def _check_parameters(self) -> None:
+        coverage = self.coverage
+        if isinstance(coverage, bool) or not isinstance(coverage, Real) or not 0.0 < coverage < 1.0:
+            raise ProblemError(f"coverage must be a number strictly between 0 and 1, got {coverage!r}")
+        if not is_regressor(self.estimator):
+            raise ProblemError(f"estimator must be a regressor, got {type(self.estimator).__name__} "
+                               "(scikit-learn's is_regressor is false for it)")
+        try:
+            self._validate_params()
+        except ValueError as err:
+            raise ProblemError(str(err)) from None
+
+    def _table(self, X: ArrayLike, fitting: bool) -> pd.DataFrame:
+        """``X`` as a float DataFrame with the fitted (or new) column names; finite rows only."""
+        frame = X.copy() if isinstance(X, pd.DataFrame) else pd.DataFrame(np.asarray(X, dtype=float))
+        if frame.ndim != 2 or frame.shape[1] == 0:
+            raise ProblemError(f"X must be 2-D with at least one column, got shape {np.shape(X)}")
+        if not isinstance(X, pd.DataFrame):
+            frame.columns = (self.feature_names_in_ if not fitting and len(self.feature_names_in_) == frame.shape[1]
+                             else [f"x{j}" for j in range(frame.shape[1])])
+        frame.columns = [str(c) for c in frame.columns]
+        try:
+            frame = frame.astype(float)
+        except (TypeError, ValueError) as err:
+            raise ProblemError(f"X must be numeric: {err}") from None
+        if not fitting and list(frame.columns) != list(self.feature_names_in_):
+            raise ProblemError(f"X has columns {list(frame.columns)}, the model was fitted on "
+                               f"{list(self.feature_names_in_)}")
+        bad = np.flatnonzero(~np.isfinite(frame.to_numpy()).all(axis=1))
+        if len(bad):
+            raise ProblemError(f"X: {len(bad)} row(s) hold NaN or infinite values (positions {bad[:10].tolist()}"
+                               f"{', ...' if len(bad) > 10 else ''}); drop or fill them first")
+        return frame
+
+    def fit(self, X: ArrayLike, y: ArrayLike, groups: ArrayLike | None = None) -> Guarded:
+        """Fit the model on every row and calibrate its intervals on out-of-fold residuals.
+
+        Parameters
+        ----------
+        X : array-like (n, d)
+            Inputs, raw units; a DataFrame's column names become the input names.
+        y : array-like (n,)
+            Target.
+        groups : array-like (n,), optional
+            Run/batch/cycle label per row: calibration folds are whole groups.
+        """
+        self._check_parameters()
+        frame = self._table(X, fitting=True)
+        y = np.asarray(y, dtype=float).ravel()
+        if len(y) != len(frame):
+            raise ProblemError(f"y has {len(y)} values for {len(frame)} rows of X")
+        if not np.all(np.isfinite(y)):
+            raise ProblemError(f"y: {int(np.sum(~np.isfinite(y)))} value(s) are NaN or infinite; drop those rows")
+        if groups is not None:
+            groups = np.asarray(groups).ravel()
+            if len(groups) != len(y):
+                raise ProblemError(f"groups has {len(groups)} labels for {len(y)} rows")
+            if pd.isna(groups).any():
+                raise ProblemError("groups: some labels are missing (NaN); give every row a group")
+        self.feature_names_in_ = np.asarray(frame.columns, dtype=object)
+        self.n_features_in_ = frame.shape[1]
+        X_raw = frame.to_numpy()
+        self.domain_ = InputDomain.fit(X_raw, list(frame.columns), self.domain_quantile)
+        Z = standardised(X_raw, self.domain_.mean, self.domain_.scale)
+        inner = frame if isinstance(X, pd.DataFrame) else X_raw
+        self.calibration_ = conformal.calibrate(self.estimator, inner, y, Z, groups, coverage=self.coverage,
+                                                method=self.method, n_splits=self.n_splits,
+                                                min_groups=self.min_groups)
+        self.estimator_ = clone(self.estimator).fit(inner, y)
+        self._inner_is_frame = isinstance(X, pd.DataFrame)
+        return self
+
+    def _inner(self, frame: pd.DataFrame):
+        return frame if self._inner_is_frame else frame.to_numpy()
+
+    def _predict(self, X: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Raw inputs and predictions; warns (for the public caller) when rows are outside."""
+        check_is_fitted(self)
+        frame = self._table(X, fitting=False)
+        X_raw = frame.to_numpy()
+        outside = self.domain_.outside(X_raw)
+        if outside.any():
+            warnings.warn(ExtrapolationWarning(
+                f"{int(outside.sum())} of {len(outside)} row(s) lie outside the training domain of "
+                f"{', '.join(self.domain_.names)}; the model extrapolates there and the interval's coverage "
+                "does not hold — see check_domain(X)"), stacklevel=3)
+        return X_raw, np.asarray(self.estimator_.predict(self._inner(frame)), dtype=float).ravel()
+
+    def predict(self, X: ArrayLike) -> NDArray[np.float64]:
+        """The wrapped model's prediction; warns with ExtrapolationWarning for rows outside the domain."""
+        return self._predict(X)[1]
+
+    def _half_width(self, X_raw: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:math:`q\\,\\sigma(x)` per row (``q`` everywhere for ``method="absolute"``)."""
+        calibration = self.calibration_
+        if calibration.difficulty_coef is None:
+            return np.full(len(X_raw), calibration.quantile)
+        Z = standardised(X_raw, self.domain_.mean, self.domain_.scale)
+        return calibration.quantile * conformal.difficulty(Z, calibration.difficulty_coef,
+                                                           calibration.difficulty_intercept)
+
+    def predict_interval(self, X: ArrayLike) -> NDArray[np.float64]:
+        """``(n, 2)``: lower and upper end of the interval per row (warns like :meth:`predict`)."""
+        X_raw, prediction = self._predict(X)
+        width = self._half_width(X_raw)
+        return np.column_stack([prediction - width, prediction + width])
+
+    def check_domain(self, X: ArrayLike) -> pd.DataFrame:
+        """Per row: outside or not, which inputs, by how much (see :meth:`InputDomain.table`)."""
+        check_is_fitted(self)
+        table = self.domain_.table(self._table(X, fitting=False).to_numpy())
+        table.index = X.index if isinstance(X, pd.DataFrame) else table.index
+        return table
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.allow_nan = False
+        return tags
