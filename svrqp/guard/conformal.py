@@ -34,12 +34,11 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from crepes import ConformalRegressor
 from numpy.typing import NDArray
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold, KFold
 
-from svrqp.exceptions import ProblemError
+from svrqp.exceptions import BackendNotAvailableError, ProblemError
 
 METHODS = ("absolute", "normalized")
 
@@ -109,6 +108,10 @@ def conformal_quantile(scores: NDArray[np.float64], coverage: float) -> float:
     if (1.0 - coverage) * (n + 1) < 1.0:
         raise ProblemError(f"coverage {coverage} needs at least {math.ceil(1 / (1 - coverage)) - 1} calibration "
                            f"rows, got {n}: lower the coverage or give more rows")
+    try:
+        from crepes import ConformalRegressor
+    except ImportError as err:
+        raise BackendNotAvailableError("calibrated intervals need crepes: pip install 'svrqp[guard]'") from err
     regressor = ConformalRegressor().fit(residuals=scores, sigmas=np.ones(n))
     return float(regressor.predict_int(np.zeros(1), sigmas=np.ones(1), confidence=coverage)[0, 1])
 
