@@ -1,12 +1,13 @@
 """Tampered model files: every one must end in a failed ``verify`` report or the library's own error.
 
 Each case takes a valid ``svrqp.model/1`` file (an RBF ε-SVR on standardised inputs, a linear
-model, a Legendre polynomial), tampers with it in one of :data:`TAMPERS` ways drawn from a seeded
+model, a Legendre polynomial, a guarded linear model with interval and domain), tampers with it in one of :data:`TAMPERS` ways drawn from a seeded
 generator, writes it and runs ``verify``, then ``read_document`` and the C writer. The outcome:
 
 * ``documented error`` — ``verify`` reports a failed check, or svrqp raises its own ``SvrqpError``;
 * ``right answer`` — the file verifies, and the model it holds predicts what the original predicts
-  (within the original's probe tolerance, at the probes and at the support vectors), and no text
+  (within the original's probe tolerance, at the probes and at the support vectors; for a guarded
+  model also the interval and the out-of-domain flags), and no text
   of the file reaches the generated C outside a comment;
 * ``silent wrong`` — the file verifies but its model predicts otherwise, or its text became code;
 * ``crash`` — any other exception (a traceback).
@@ -40,10 +41,11 @@ import pandas as pd
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from svrqp import EpsilonSVR
+from svrqp import EpsilonSVR, Guarded
 from svrqp.exceptions import SvrqpError
 from svrqp.export import build_document, content_sha256, evaluate, read_document, verify
 from svrqp.export.c_source import c_source
+from svrqp.export.guarded import predict_guarded
 from svrqp.linear_models import LinearLS, PolynomialLS
 
 OUTCOMES = ("documented error", "right answer", "silent wrong", "crash")
@@ -66,15 +68,17 @@ class Case:
 
 @cache
 def base_documents() -> dict[str, dict[str, Any]]:
-    """Three valid documents, each of another kind, fitted on seeded synthetic thermal data."""
+    """Four valid documents, each of another kind, fitted on seeded synthetic thermal data."""
     rng = np.random.default_rng(20261125)
     X = pd.DataFrame({"T7_C": rng.uniform(28.0, 40.0, 40), "T9_C": rng.uniform(27.0, 33.0, 40)})
     y = pd.Series(3.0 * (X["T7_C"] - 34.0) - np.sin(X["T9_C"]) + rng.normal(0, 0.1, 40), name="error_um")
     svr = make_pipeline(StandardScaler(), EpsilonSVR(C=100.0, epsilon=0.1, gamma=0.5)).fit(X, y)
     x_mm = pd.DataFrame({"x_mm": np.linspace(0.0, 550.0, 23)})
     dx = pd.Series(1e-6 * (x_mm["x_mm"] - 275.0) ** 2 + rng.normal(0, 0.01, 23), name="delta_x_um")
+    guarded = Guarded(LinearLS(), coverage=0.8).fit(X, y, groups=np.arange(40) // 8)
     return {"svr": build_document(svr, X, y), "mlr": build_document(LinearLS().fit(X, y), X, y),
-            "poly": build_document(PolynomialLS(degree=3).fit(x_mm, dx), x_mm, dx)}
+            "poly": build_document(PolynomialLS(degree=3).fit(x_mm, dx), x_mm, dx),
+            "guarded": build_document(guarded, X, y)}
 
 
 def leaves(node: Any, path: tuple = ()) -> list[tuple]:
@@ -232,8 +236,15 @@ def _same_model(original: dict, loaded: dict) -> bool:
         scaling = original["scaling"]
         X = np.vstack([X, U if scaling is None else U * np.asarray(scaling["scale"]) + np.asarray(scaling["mean"])])
     with np.errstate(all="ignore"):
-        deviation = np.abs(evaluate.predict(loaded, X) - evaluate.predict(original, X))
-    return bool(np.all(deviation <= original["probes"]["tolerance"]))
+        if "interval" not in original:
+            deviation = np.abs(evaluate.predict(loaded, X) - evaluate.predict(original, X))
+            return bool(np.all(deviation <= original["probes"]["tolerance"]))
+        if "interval" not in loaded:
+            return False
+        *values, flags = predict_guarded(loaded, X)
+        *reference, reference_flags = predict_guarded(original, X)
+    deviation = max(float(np.max(np.abs(a - b))) for a, b in zip(values, reference, strict=True))
+    return deviation <= original["probes"]["tolerance"] and np.array_equal(flags, reference_flags)
 
 
 def outcome(original: dict, text: str) -> str:

@@ -22,7 +22,7 @@ def test_untouched_file_verifies(exported):
     _, path = exported
     report = verify(path)
     assert report.ok, report.checks
-    assert [check.name for check in report.checks] == ["schema", "hash", "probes"]
+    assert [check.name for check in report.checks] == ["schema", "hash", "probes", "guard"]
     assert report.max_deviation <= report.tolerance
 
 
@@ -54,7 +54,7 @@ def test_rehashed_tampering_is_caught_by_the_probes(exported):
     tampered["content_sha256"] = content_sha256(tampered)
     path.write_text(json.dumps(tampered), encoding="utf-8")
     report = verify(path)
-    assert [check.ok for check in report.checks] == [True, True, False]
+    assert [check.ok for check in report.checks] == [True, True, False, True]
     assert report.max_deviation > report.tolerance
 
 

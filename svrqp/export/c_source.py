@@ -1,5 +1,8 @@
 """A dependency-free C99 evaluator of an ``svrqp.model/1`` document: ``double svrqp_predict(const double *x)``.
 
+A guarded document (:mod:`svrqp.export.guarded`) also gets ``int svrqp_predict_guarded(x, &prediction,
+&lower, &upper)``: the prediction, the conformal interval and the out-of-domain flag.
+
 The generated ``.c`` holds the coefficients as ``static const double`` arrays (each number written
 as Python's ``repr``, the shortest text that a correctly rounding C compiler reads back as the same
 double), applies the recorded scaling and evaluates the model with the kernel inlined — the
@@ -20,6 +23,7 @@ from svrqp.exceptions import ProblemError
 from svrqp.export.safe_text import c_file_name, c_macro_name, comment_text
 
 PREDICT_SIGNATURE = "double svrqp_predict(const double *x)"
+GUARDED_SIGNATURE = "int svrqp_predict_guarded(const double *x, double *prediction, double *lower, double *upper)"
 
 
 def _number(value: float) -> str:
@@ -58,8 +62,65 @@ def header_source(document: dict[str, Any], guard: str = "SVRQP_MODEL_H") -> str
             "#ifdef __cplusplus\nextern \"C\" {\n#endif\n\n"
             "/* The model's prediction at raw inputs x[0 .. SVRQP_N_INPUTS-1]; reentrant, no allocation. */\n"
             f"{PREDICT_SIGNATURE};\n\n"
+            f"{_guarded_prototype(document)}"
             "#ifdef __cplusplus\n}\n#endif\n\n"
             f"#endif /* {guard} */\n")
+
+
+def _guarded_prototype(document: dict[str, Any]) -> str:
+    if "interval" not in document:
+        return ""
+    return ("#define SVRQP_GUARDED 1\n\n"
+            f"/* Prediction, the {document['interval']['coverage']!r} conformal interval [lower, upper] and the\n"
+            " * out-of-domain flag (returned: 1 outside the training domain or for a NaN input, else 0). */\n"
+            f"{GUARDED_SIGNATURE};\n\n")
+
+
+def _guard_code(document: dict[str, Any]) -> str:
+    """Data and body of ``svrqp_predict_guarded`` (the formulas of :mod:`svrqp.export.guarded`)."""
+    if "interval" not in document:
+        return ""
+    interval, domain = document["interval"], document["domain"]
+    data = (_array("DOMAIN_LOW", domain["low"]) + _array("DOMAIN_HIGH", domain["high"])
+            + _array("DOMAIN_MEAN", domain["mean"]) + _array("DOMAIN_SCALE", domain["scale"])
+            + _matrix("DOMAIN_PRECISION", domain["precision"])
+            + f"static const double DOMAIN_THRESHOLD = {_number(domain['threshold'])};\n"
+            + f"static const double INTERVAL_QUANTILE = {_number(interval['quantile'])};\n")
+    half = "    half = INTERVAL_QUANTILE;\n"
+    if interval["difficulty"] is not None:
+        data += (_array("DIFFICULTY_COEF", interval["difficulty"]["coef"])
+                 + f"static const double DIFFICULTY_INTERCEPT = {_number(interval['difficulty']['intercept'])};\n")
+        half = ("    s = DIFFICULTY_INTERCEPT;\n"
+                "    for (j = 0; j < SVRQP_N_INPUTS; ++j) {\n"
+                "        s += DIFFICULTY_COEF[j] * z[j];\n"
+                "    }\n"
+                "    half = INTERVAL_QUANTILE * exp(s);\n")
+    # Written as !(inside) so that a NaN input is outside.
+    return (f"\n{data}\n{GUARDED_SIGNATURE}\n{{\n"
+            "    double z[SVRQP_N_INPUTS];\n"
+            "    double d2 = 0.0, s = 0.0, half;\n"
+            "    int j, k, outside = 0;\n"
+            "    (void)s;\n"
+            "    for (j = 0; j < SVRQP_N_INPUTS; ++j) {\n"
+            "        if (!(x[j] >= DOMAIN_LOW[j] && x[j] <= DOMAIN_HIGH[j])) {\n"
+            "            outside = 1;\n"
+            "        }\n"
+            "        z[j] = (x[j] - DOMAIN_MEAN[j]) / DOMAIN_SCALE[j];\n"
+            "    }\n"
+            "    for (j = 0; j < SVRQP_N_INPUTS; ++j) {\n"
+            "        for (k = 0; k < SVRQP_N_INPUTS; ++k) {\n"
+            "            d2 += z[j] * DOMAIN_PRECISION[j][k] * z[k];\n"
+            "        }\n"
+            "    }\n"
+            "    if (!(sqrt(d2 > 0.0 ? d2 : 0.0) <= DOMAIN_THRESHOLD)) {\n"
+            "        outside = 1;\n"
+            "    }\n"
+            f"{half}"
+            "    *prediction = svrqp_predict(x);\n"
+            "    *lower = *prediction - half;\n"
+            "    *upper = *prediction + half;\n"
+            "    return outside;\n"
+            "}\n")
 
 
 def _scaling_code(document: dict[str, Any]) -> tuple[str, str]:
@@ -154,4 +215,5 @@ def c_source(document: dict[str, Any], header_name: str = "svrqp_model.h") -> st
             f"{scaling_body}"
             "    }\n"
             f"{model_body}"
-            "}\n")
+            "}\n"
+            f"{_guard_code(document)}")

@@ -8,6 +8,7 @@ predicted by the live model; it is validated against the schema before it is ret
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from datetime import datetime, timezone
 from typing import Any
@@ -17,8 +18,8 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 import svrqp
-from svrqp.exceptions import ProblemError
-from svrqp.export import canonical, crosscheck, describe, evaluate
+from svrqp.exceptions import ExtrapolationWarning, ProblemError
+from svrqp.export import canonical, crosscheck, describe, evaluate, guarded
 from svrqp.export.schema import SCHEMA_ID, validate_document
 from svrqp.export.verify import PROBE_RELATIVE_TOLERANCE
 
@@ -109,7 +110,9 @@ def build_document(
     Parameters
     ----------
     model
-        A fitted svrqp estimator, or a ``Pipeline(StandardScaler, estimator)``.
+        A fitted svrqp estimator, a ``Pipeline(StandardScaler, estimator)``, or a
+        :class:`svrqp.Guarded` wrapping either (the document then also holds the interval and
+        the domain, :mod:`svrqp.export.guarded`).
     X, y
         The training data, in raw units. When given, the document records their SHA-256 and the
         cross-check against an independent reference fitted on them; without them both are null.
@@ -127,11 +130,14 @@ def build_document(
     dict
         The document, schema-checked, with ``content_sha256`` set.
     """
+    outer = model
+    if guarded.is_guarded(model):
+        model = model.estimator_  # the model that predicts; the interval and domain come from outer
     scaling, estimator = describe.split_pipeline(model)
     kind = describe.kind_of(estimator)
     section = describe.model_section(kind, estimator)
     d = int(estimator.n_features_in_)
-    names = _names(feature_names, X, model, d)
+    names = _names(feature_names, X, outer, d)
     if target_name is None:
         target_name = str(y.name) if isinstance(y, pd.Series) and y.name is not None else "y"
     X_raw, y_raw = _checked_data(X, y, d)
@@ -160,6 +166,19 @@ def build_document(
     document["probes"] = {"X": [describe.floats(row) for row in probe_X],
                           "prediction": describe.floats(probe_prediction),
                           "tolerance": PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude)}
+    if outer is not model:
+        _add_guard(document, outer, probe_X)
     document["content_sha256"] = canonical.content_sha256(document)
     validate_document(document)
     return document
+
+
+def _add_guard(document: dict[str, Any], model: Any, probe_X: NDArray[np.float64]) -> None:
+    """The interval and domain sections, and the probes' intervals and flags from the live model."""
+    document.update(guarded.sections(model))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtrapolationWarning)  # probes may be chosen outside on purpose
+        interval = model.predict_interval(pd.DataFrame(probe_X, columns=model.feature_names_in_))
+    document["probes"]["lower"] = describe.floats(interval[:, 0])
+    document["probes"]["upper"] = describe.floats(interval[:, 1])
+    document["probes"]["outside"] = [bool(flag) for flag in model.domain_.outside(probe_X)]

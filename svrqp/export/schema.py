@@ -61,6 +61,32 @@ def _check_created(text: str) -> None:
         _fail("created_utc", f"{text!r} is not a real date and time (YYYY-MM-DDTHH:MM:SSZ, UTC)")
 
 
+def _check_guard_shapes(document: dict[str, Any], d: int) -> None:
+    """A guarded document has both sections and the probes' intervals; others have none of them."""
+    guarded = [key for key in ("interval", "domain") if key in document]
+    probe_keys = [key for key in ("lower", "upper", "outside") if key in document["probes"]]
+    if not guarded:
+        if probe_keys:
+            _fail(f"probes.{probe_keys[0]}", "is only allowed with an interval and a domain")
+        return
+    if len(guarded) == 1:
+        _fail(guarded[0], "comes with its partner: give both interval and domain, or neither")
+    for key in ("lower", "upper", "outside"):
+        if key not in probe_keys:
+            _fail("probes", f"a guarded document stores the probes' {key!r}")
+        _check_length(f"probes.{key}", document["probes"][key], len(document["probes"]["X"]), "one per probe input")
+    domain = document["domain"]
+    per_input = f"one per input, {d} inputs"
+    for key in ("low", "high", "mean", "scale", "precision"):
+        _check_length(f"domain.{key}", domain[key], d, per_input)
+    for i, row in enumerate(domain["precision"]):
+        _check_length(f"domain.precision[{i}]", row, d, per_input)
+    if document["interval"]["difficulty"] is not None:
+        _check_length("interval.difficulty.coef", document["interval"]["difficulty"]["coef"], d, per_input)
+    if (document["interval"]["method"] == "normalized") != (document["interval"]["difficulty"] is not None):
+        _fail("interval.difficulty", "is given exactly when method is 'normalized'")
+
+
 def _check_shapes(document: dict[str, Any]) -> None:
     _check_created(document["created_utc"])
     d = len(document["inputs"])
@@ -87,6 +113,7 @@ def _check_shapes(document: dict[str, Any]) -> None:
             _fail("model.domain", f"must be increasing, got [{low}, {high}]")
     else:
         _check_length("model.coef", model["coef"], d, per_input)
+    _check_guard_shapes(document, d)
     probes = document["probes"]
     for i, row in enumerate(probes["X"]):
         _check_length(f"probes.X[{i}]", row, d, per_input)

@@ -1,6 +1,6 @@
 """Load and verify an exported model from the file alone.
 
-:func:`verify` runs three checks and reports each:
+:func:`verify` runs four checks and reports each:
 
 1. **schema** — the file's size (:data:`~svrqp.export.canonical.MAX_BYTES`), strict JSON parsing
    with nesting and number limits (no code is ever executed: no pickle, no ``eval``) and the
@@ -10,7 +10,10 @@
    (:func:`svrqp.export.evaluate.predict`); the largest deviation from the stored predictions must
    be within the stored tolerance, and that tolerance may not exceed
    :data:`~svrqp.export.document.PROBE_RELATIVE_TOLERANCE` times the magnitude of the summed terms
-   recomputed from the file (so a widened tolerance cannot hide changed coefficients).
+   recomputed from the file (so a widened tolerance cannot hide changed coefficients);
+4. **guard** — for guarded models, the interval's quantile re-derived from the stored scores, the
+   domain's consistency, and the probes' intervals and out-of-domain flags re-evaluated
+   (:func:`svrqp.export.guarded.guard_problems`).
 
 Every failure is a failed check in the report, never an exception. :func:`read_document` returns a
 document only when all checks pass.
@@ -31,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from svrqp.exceptions import ProblemError
-from svrqp.export import canonical, evaluate
+from svrqp.export import canonical, evaluate, guarded
 from svrqp.export.schema import validate_document
 
 #: Probe tolerance relative to the magnitude of the summed terms (see evaluate.term_magnitude):
@@ -121,9 +124,22 @@ def _check_probes(document: dict[str, Any], report: VerifyReport) -> Check:
     return Check("probes", passed, detail)
 
 
-#: The checks after the schema, in order; each sees the parsed document and the report so far.
-CHECKS: tuple[str, ...] = ("schema", "hash", "probes")
-_DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = (_check_hash, _check_probes)
+def _check_guard(document: dict[str, Any], report: VerifyReport) -> Check:
+    if "interval" not in document:
+        return Check("guard", True, "no interval or domain (not a guarded model)")
+    problems = guarded.guard_problems(document, document["probes"]["tolerance"])
+    if problems:
+        return Check("guard", False, "; ".join(problems))
+    interval = document["interval"]
+    return Check("guard", True, f"{interval['coverage']:g} {interval['method']} interval, quantile "
+                                f"{interval['quantile']:.4g} = conformal order statistic of {len(interval['scores'])} "
+                                "scores; domain and probe intervals reproduced")
+
+
+#: The checks, in order; each after the schema sees the parsed document and the report so far.
+CHECKS: tuple[str, ...] = ("schema", "hash", "probes", "guard")
+_DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = (_check_hash, _check_probes,
+                                                                                  _check_guard)
 
 
 def verify(path: str | Path) -> VerifyReport:

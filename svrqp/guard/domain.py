@@ -48,6 +48,14 @@ def mahalanobis(Z: NDArray[np.float64], precision: NDArray[np.float64]) -> NDArr
     return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", Z, precision, Z), 0.0))
 
 
+def outside_rows(X: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],
+                 mean: NDArray[np.float64], scale: NDArray[np.float64], precision: NDArray[np.float64],
+                 threshold: float) -> NDArray[np.bool_]:
+    """True per row outside ``[low, high]`` in some input or with :math:`D(x) > \tau` (NaN: outside)."""
+    in_range = np.all((X >= low) & (X <= high), axis=1)
+    return ~(in_range & (mahalanobis(standardised(X, mean, scale), precision) <= threshold))
+
+
 @dataclass(frozen=True)
 class InputDomain:
     """The fitted domain (all arrays per input, raw units for ``low``/``high``)."""
@@ -84,8 +92,8 @@ class InputDomain:
 
     def outside(self, X: ArrayLike) -> NDArray[np.bool_]:
         """True for each row outside the range of some input or beyond the distance threshold."""
-        X = np.asarray(X, dtype=float)
-        return np.any((X < self.low) | (X > self.high), axis=1) | (self.distance(X) > self.threshold)
+        return outside_rows(np.asarray(X, dtype=float), self.low, self.high, self.mean, self.scale,
+                            self.precision, self.threshold)
 
     def table(self, X: ArrayLike) -> pd.DataFrame:
         """Per row: outside or not, which inputs left their range, by how much, and the distance.

@@ -1,0 +1,166 @@
+"""A guarded model in the svrqp.model/1 file: round trip, verify re-checks, and the C evaluator.
+
+The C evaluator's ``svrqp_predict_guarded`` is compiled with the system C compiler like the other C
+export tests and compared with the live Python model (``Guarded.predict_interval`` and
+``check_domain``) on points inside and outside the training domain.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+from export_cases import thermal_raw
+from svrqp import EpsilonSVR, ExtrapolationWarning, Guarded
+from svrqp.export import build_document, content_sha256, read_document, verify, write
+from svrqp.export.guarded import predict_guarded
+from svrqp.linear_models import LinearLS
+
+DRIVER = r"""
+#include <stdio.h>
+#include "svrqp_model.h"
+
+int main(void)
+{
+    double x[SVRQP_N_INPUTS], prediction, lower, upper;
+    for (;;) {
+        int j, outside;
+        for (j = 0; j < SVRQP_N_INPUTS; ++j) {
+            if (scanf("%lf", &x[j]) != 1) {
+                return 0;
+            }
+        }
+        outside = svrqp_predict_guarded(x, &prediction, &lower, &upper);
+        printf("%.17g %.17g %.17g %d\n", prediction, lower, upper, outside);
+    }
+}
+"""
+
+
+def guarded_svr(method: str) -> tuple[Guarded, pd.DataFrame, pd.Series]:
+    X, y = thermal_raw()
+    groups = np.arange(len(y)) * 6 // len(y)  # six contiguous runs
+    model = Guarded(make_pipeline(StandardScaler(), EpsilonSVR(C=100.0, epsilon=0.2, gamma=0.5)),
+                    coverage=0.8, method=method).fit(X, y, groups=groups)
+    return model, X, y
+
+
+def points(X: pd.DataFrame) -> np.ndarray:
+    """400 points on a box 20 % wider than the training range: many are outside the domain."""
+    low, high = X.min().to_numpy(), X.max().to_numpy()
+    pad = 0.2 * (high - low)
+    a, b = np.meshgrid(np.linspace(low[0] - pad[0], high[0] + pad[0], 20),
+                       np.linspace(low[1] - pad[1], high[1] + pad[1], 20))
+    return np.column_stack([a.ravel(), b.ravel()])
+
+
+def python_reference(model: Guarded, P: np.ndarray, columns) -> tuple[np.ndarray, ...]:
+    frame = pd.DataFrame(P, columns=columns)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtrapolationWarning)
+        prediction, interval = model.predict(frame), model.predict_interval(frame)
+    return prediction, interval[:, 0], interval[:, 1], model.check_domain(frame)["outside"].to_numpy()
+
+
+@pytest.mark.parametrize("method", ["absolute", "normalized"])
+def test_file_round_trip_reproduces_intervals_and_flags(method, tmp_path):
+    model, X, y = guarded_svr(method)
+    document = build_document(model, X, y)
+    (path,) = write(document, tmp_path / "model.json")
+    report = verify(path)
+    assert report.ok, report.failures()
+    assert report.checks[3].name == "guard" and "conformal order statistic" in report.checks[3].detail
+    loaded = read_document(path)
+    assert loaded["interval"]["calibration"]["groups"] == ["0", "1", "2", "3", "4", "5"]
+    assert loaded["interval"]["coverage"] == 0.8 and loaded["interval"]["method"] == method
+    P = points(X)
+    expected = python_reference(model, P, X.columns)
+    got = predict_guarded(loaded, P)
+    for a, b in zip(got[:3], expected[:3], strict=True):
+        assert np.max(np.abs(a - b)) <= 1e-12
+    assert np.array_equal(got[3], expected[3]) and 0 < got[3].sum() < len(P)
+
+
+def _rewrite(path, change) -> None:
+    document = json.loads(path.read_text(encoding="utf-8"))
+    change(document)
+    document["content_sha256"] = content_sha256(document)
+    path.write_text(json.dumps(document), encoding="utf-8")
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d["interval"].update(quantile=d["interval"]["quantile"] * 0.5), "order statistic|not the"),
+    (lambda d: d["interval"].update(coverage=0.5), "not the"),
+    (lambda d: d["domain"].update(threshold=d["domain"]["threshold"] * 10), "flags"),
+    (lambda d: d["domain"]["precision"][0].__setitem__(1, 5.0), "symmetric"),
+    (lambda d: d["probes"]["upper"].__setitem__(0, d["probes"]["upper"][0] + 1.0), "deviate"),
+])
+def test_verify_rechecks_the_guard_from_the_file(change, message, tmp_path):
+    model, X, y = guarded_svr("absolute")
+    # probes on the points grid so that some are outside: a wider threshold changes their flags
+    (path,) = write(build_document(model, X, y, probes=points(X)), tmp_path / "model.json")
+    _rewrite(path, change)
+    report = verify(path)
+    assert [check.name for check in report.checks if not check.ok] == ["guard"]
+    assert any(fragment in report.checks[3].detail for fragment in message.split("|"))
+
+
+def test_a_guarded_document_needs_both_sections(tmp_path):
+    model, X, y = guarded_svr("absolute")
+    (path,) = write(build_document(model, X, y), tmp_path / "model.json")
+    _rewrite(path, lambda d: d.pop("domain"))
+    report = verify(path)
+    assert not report.ok and "interval" in report.checks[0].detail
+
+
+@pytest.fixture(scope="module")
+def gcc() -> str:
+    path = shutil.which("gcc")
+    if path is None:
+        message = "gcc is not installed: the generated C cannot be compiled here"
+        if os.environ.get("CI"):
+            pytest.fail(message + " — CI must have a C compiler")
+        pytest.skip(message)
+    return path
+
+
+def c_guarded(gcc: str, document: dict, P: np.ndarray, directory) -> np.ndarray:
+    source, header = write(document, directory)
+    assert "int svrqp_predict_guarded(" in header.read_text()
+    (directory / "driver.c").write_text(DRIVER)
+    binary = directory / "guarded"
+    subprocess.run([gcc, "-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-o", str(binary),
+                    str(directory / "driver.c"), str(source), "-lm"], check=True, capture_output=True, text=True)
+    text = "\n".join(" ".join(repr(float(v)) for v in row) for row in P)
+    output = subprocess.run([str(binary)], input=text, check=True, capture_output=True, text=True).stdout
+    return np.array([[float(v) for v in line.split()] for line in output.splitlines()])
+
+
+@pytest.mark.parametrize("method", ["absolute", "normalized"])
+def test_c_matches_python_to_1e12_with_flags(gcc, method, tmp_path):
+    model, X, y = guarded_svr(method)
+    P = points(X)
+    c = c_guarded(gcc, build_document(model, X, y), P, tmp_path)
+    prediction, lower, upper, outside = python_reference(model, P, X.columns)
+    assert c.shape == (len(P), 4)
+    for j, python in enumerate((prediction, lower, upper)):
+        assert np.max(np.abs(c[:, j] - python)) <= 1e-12
+    assert np.array_equal(c[:, 3].astype(bool), outside) and 0 < outside.sum() < len(P)
+
+
+def test_c_flags_nan_and_training_rows(gcc, tmp_path):
+    """Every training row is inside in C too (rounding margin); a NaN input is outside."""
+    X, y = thermal_raw()
+    model = Guarded(LinearLS(), coverage=0.9).fit(X, y)
+    P = np.vstack([X.to_numpy(), [[np.nan, 30.0]]])
+    c = c_guarded(gcc, build_document(model, X, y), P, tmp_path)
+    assert c[:-1, 3].sum() == 0 and c[-1, 3] == 1
