@@ -17,6 +17,15 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from svrqp.cli._guard import (
+    COVERAGE_HELP,
+    GROUP_HELP,
+    INTERVAL_HELP,
+    describe_interval,
+    fit_guarded,
+    group_labels,
+    guarded_or_plain,
+)
 from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.exceptions import ProblemError
 from svrqp.export import FORMATS, build_document, read_document, write
@@ -53,10 +62,13 @@ def register(app: typer.Typer) -> None:
         solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP),
         standardize: bool = typer.Option(False, "--standardize", help="Data tables: standardise the inputs "
                                                                       "first (recorded in the file)."),
+        coverage: float = typer.Option(None, "--coverage", help="Data tables: " + COVERAGE_HELP),
+        group: str = typer.Option(None, "--group", help="Data tables: " + GROUP_HELP),
+        interval: str = typer.Option("absolute", "--interval", help="Data tables: " + INTERVAL_HELP),
     ) -> None:
         """Export a model as svrqp.model/1 JSON, a CSV coefficient table (S0 Table 1) or C source."""
         suffix = source.suffix.lower()
-        data_options = {"--target": target, "--features": features}
+        data_options = {"--target": target, "--features": features, "--coverage": coverage, "--group": group}
         console = Console(stderr=True)
         if suffix in MODEL_SUFFIXES:
             given = [name for name, value in data_options.items() if value is not None]
@@ -72,17 +84,21 @@ def register(app: typer.Typer) -> None:
             estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
                                        forgetting=forgetting, solver=solver)
             fitted_model = make_pipeline(StandardScaler(), estimator) if standardize else estimator
+            fitted_model = guarded_or_plain(fitted_model, coverage, group, interval)
+            groups = group_labels(table, group)
             X, y = table[columns], table[target]
             with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
                           console=console, transient=True) as progress:
                 task = progress.add_task(f"fitting {model} on {len(table)} rows", total=None)
-                fitted_model.fit(X, y)
+                fit_guarded(fitted_model, X, y, groups)
                 progress.update(task, description="cross-checking against the reference and hashing")
                 document = build_document(fitted_model, X, y)
         else:
             raise ProblemError(f"SOURCE must be a model file (.json) or a data table (.csv, .parquet), got {source}")
         for path in write(document, out, format, overwrite=force):
             typer.echo(f"wrote {path}")
+        if "interval" in document:
+            typer.echo(describe_interval(document["interval"]))
         cross_check = document["cross_check"]
         if cross_check is not None:
             typer.echo(f"cross-check vs {cross_check['reference']}: max |Δprediction| = "

@@ -18,9 +18,21 @@ from rich.table import Table
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from svrqp.cli._guard import (
+    COVERAGE_HELP,
+    GROUP_HELP,
+    INTERVAL_HELP,
+    describe_interval,
+    fit_guarded,
+    group_labels,
+    guarded_or_plain,
+    interval_table,
+)
 from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.compensate import online_compensation, residual_metrics
 from svrqp.exceptions import ProblemError
+from svrqp.export.guarded import sections
+from svrqp.guard import Guarded
 from svrqp.linear_models import PolynomialLS, split_unit
 
 
@@ -109,6 +121,9 @@ def register(app: typer.Typer) -> None:
         solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP),
         standardize: bool = typer.Option(False, "--standardize", help="svr/lssvr: standardise the inputs "
                                          "before the kernel."),
+        coverage: float = typer.Option(None, "--coverage", help=COVERAGE_HELP),
+        group: str = typer.Option(None, "--group", help=GROUP_HELP),
+        interval: str = typer.Option("absolute", "--interval", help=INTERVAL_HELP),
     ) -> None:
         """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
         table = read_table(data)
@@ -121,6 +136,8 @@ def register(app: typer.Typer) -> None:
         estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
                                    forgetting=forgetting, solver=solver)
         fitted = make_pipeline(StandardScaler(), estimator) if standardize else estimator
+        fitted = guarded_or_plain(fitted, coverage, group, interval)
+        groups = group_labels(table, group)
         mask = select_train_rows(table, train)
         X, y = table[columns], table[target]
         X_train, y_train, X_other, y_other = X[mask], y[mask], X[~mask], y[~mask]
@@ -128,9 +145,11 @@ def register(app: typer.Typer) -> None:
         with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
                       console=Console(stderr=True), transient=True) as progress:
             progress.add_task(f"fitting {model} on {len(y_train)} rows", total=None)
-            fitted.fit(X_train, y_train)
+            fit_guarded(fitted, X_train, y_train, None if groups is None else groups[mask])
         typer.echo(f"{model}: {target} ~ {', '.join(columns)}; {len(y_train)} train rows, "
                    f"{len(y_other)} other rows")
+        guarded = fitted if isinstance(fitted, Guarded) else None
+        fitted = fitted.estimator_ if guarded is not None else fitted
         _print_model(console, fitted, target)
         rows = [("train", y_train.to_numpy(dtype=float) - fitted.predict(X_train))]
         if len(y_other):
@@ -139,3 +158,7 @@ def register(app: typer.Typer) -> None:
                 online = online_compensation(fitted, X_other, y_other)
                 rows.append(("online", online.run.residual_um))
         console.print(_metrics_table(rows, split_unit(target)[1]))
+        if guarded is not None:
+            typer.echo(describe_interval(sections(guarded)["interval"]))
+            row_sets = [("train", X_train, y_train)] + ([("other", X_other, y_other)] if len(y_other) else [])
+            console.print(interval_table(guarded, row_sets, split_unit(target)[1]))
