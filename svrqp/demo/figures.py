@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from svrqp.demo.steps import S2_TRAVEL_MM, S2Result, S4Result  # noqa: E402
+from svrqp.guard.figures import draw_guard  # noqa: E402
 
 BATCH_TITLES = {"x1": "x1 (summer, training batch)", "x2": "x2 (summer)", "x3": "x3 (autumn)"}
 
@@ -32,6 +33,7 @@ def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
     top.plot(rows["time_min"], rows["error_um"], color="black", lw=1.2, label="measured (simulated)")
     top.plot(rows["time_min"], rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
     top.plot(rows["time_min"], rows["svr_um"], color="tab:blue", lw=1, ls="--", label="ε-SVR")
+    draw_guard(top, rows["time_min"], rows["svr_lower_um"], rows["svr_upper_um"], rows["svr_outside"], coverage=0.9)
     top.set_ylabel("axial thermal error (μm)")
     top.set_title(f"S0 — batch {BATCH_TITLES.get(batch, batch)}")
     top.legend(loc="best", fontsize=8)

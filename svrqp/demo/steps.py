@@ -30,6 +30,8 @@ from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
 from svrqp.gap.diagnose import diagnose
 from svrqp.gap.report import GapReport
+from svrqp.guard import Guarded
+from svrqp.guard.figures import interval_columns
 from svrqp.kernels import gamma_from_sigma_s0, gamma_from_sigma_s4
 from svrqp.linear_models import LinearLS, PolynomialLS
 from svrqp.tuning import SearchResult, grid_search
@@ -73,9 +75,11 @@ def s0_thermal(data: pd.DataFrame, *, quick: bool, n_jobs: int, progress: Progre
     search = grid_search(X_train, y_train, C=grid["C"], gamma=grid["gamma"], epsilon=[S0_EPSILON_UM],
                          model="svr", cv=S0_FOLDS, n_jobs=n_jobs, progress=progress)
     svr = search.best_estimator().fit(X_train, y_train)
+    guarded = Guarded(search.best_estimator(), coverage=0.9).fit(X_train, y_train)  # the bands of the figures
     predictions = pd.DataFrame({
         "batch": data["batch"], "time_min": data["time_min"], "error_um": data[S0_TARGET],
         "mlr_um": mlr.predict(data[S0_FEATURES]), "svr_um": svr.predict(data[S0_FEATURES]),
+        **interval_columns(guarded, data[S0_FEATURES]),
     }).reset_index(drop=True)
     rows = []
     for batch, rows_of_batch in predictions.groupby("batch", sort=True):
