@@ -13,6 +13,7 @@ from sklearn.cluster import KMeans
 from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from svrqp import EpsilonSVR, ExtrapolationWarning, Guarded
 from svrqp.exceptions import ProblemError, SvrqpError
@@ -131,7 +132,7 @@ def test_works_with_scikit_learn_and_svrqp_regressors_and_arrays():
     for estimator in (LinearRegression(), EpsilonSVR(C=1.0, epsilon=0.1), LinearLS()):
         model = Guarded(estimator, coverage=0.8).fit(X.to_numpy(), y)
         assert model.predict_interval(X.to_numpy()[:5]).shape == (5, 2)
-        assert list(model.feature_names_in_) == ["x0", "x1"]
+        assert model.domain_.names == ("x0", "x1") and not hasattr(model, "feature_names_in_")
 
 
 @pytest.mark.parametrize("coverage", [0.0, 1.0, 1.5, -0.1, "0.9", True, float("nan")])
@@ -149,7 +150,7 @@ def test_bad_input_is_refused_with_clear_errors():
     holed.iloc[[3, 9], 0] = np.nan
     with pytest.raises(ProblemError, match=r"2 row\(s\) hold NaN.*\[3, 9\]"):
         Guarded(LinearLS()).fit(holed, y)
-    with pytest.raises(ProblemError, match="y: 1 value"):
+    with pytest.raises(ProblemError, match="y contains NaN"):
         Guarded(LinearLS()).fit(X, np.where(np.arange(50) == 4, np.nan, y))
     with pytest.raises(ProblemError, match="at least 99 calibration rows"):
         Guarded(LinearLS(), coverage=0.99).fit(X, y)
@@ -160,5 +161,10 @@ def test_bad_input_is_refused_with_clear_errors():
     model = Guarded(LinearLS()).fit(X, y)
     with pytest.raises(ProblemError, match="NaN"):
         model.predict(holed)
-    with pytest.raises(SvrqpError, match="columns"):
+    with pytest.raises(SvrqpError, match="feature names should match"):
         model.predict(X.rename(columns={"T9_C": "T8_C"}))
+
+
+@parametrize_with_checks([Guarded(LinearRegression()), Guarded(LinearLS(), method="normalized")])
+def test_scikit_learn_estimator_manners(estimator, check):
+    check(estimator)

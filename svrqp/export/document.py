@@ -178,7 +178,7 @@ def _add_guard(document: dict[str, Any], model: Any, probe_X: NDArray[np.float64
     document.update(guarded.sections(model))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)  # probes may be chosen outside on purpose
-        interval = model.predict_interval(pd.DataFrame(probe_X, columns=model.feature_names_in_))
+        interval = model.predict_interval(_as_model_input(model, probe_X))
     document["probes"]["lower"] = describe.floats(interval[:, 0])
     document["probes"]["upper"] = describe.floats(interval[:, 1])
     document["probes"]["outside"] = [bool(flag) for flag in model.domain_.outside(probe_X)]

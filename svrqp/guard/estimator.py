@@ -24,7 +24,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp.exceptions import ExtrapolationWarning, ProblemError
 from svrqp.guard import conformal
@@ -62,8 +62,10 @@ class Guarded(RegressorMixin, BaseEstimator):
         Folds, group labels, sorted scores, the quantile ``q`` and the difficulty model.
     domain_ : InputDomain
         Training ranges, standardisation, precision matrix and distance threshold.
+    n_features_in_ : int
+        Number of inputs.
     feature_names_in_ : ndarray of str
-        Input names (from ``X``'s columns, else ``x0``, ``x1``, ...).
+        Input names, when ``X`` was a DataFrame (the domain then names them; else ``x0``, ``x1``, ...).
     """
 
     _parameter_constraints = {
@@ -95,27 +97,30 @@ class Guarded(RegressorMixin, BaseEstimator):
         except ValueError as err:
             raise ProblemError(str(err)) from None
 
-    def _table(self, X: ArrayLike, fitting: bool) -> pd.DataFrame:
-        """``X`` as a float DataFrame with the fitted (or new) column names; finite rows only."""
-        frame = X.copy() if isinstance(X, pd.DataFrame) else pd.DataFrame(np.asarray(X, dtype=float))
-        if frame.ndim != 2 or frame.shape[1] == 0:
-            raise ProblemError(f"X must be 2-D with at least one column, got shape {np.shape(X)}")
-        if not isinstance(X, pd.DataFrame):
-            frame.columns = (self.feature_names_in_ if not fitting and len(self.feature_names_in_) == frame.shape[1]
-                             else [f"x{j}" for j in range(frame.shape[1])])
-        frame.columns = [str(c) for c in frame.columns]
+    def _inputs(self, X: ArrayLike, y: ArrayLike | None = None, *, fitting: bool):
+        """Validate ``X`` (and ``y``) the scikit-learn way, then refuse non-finite rows by position.
+
+        Returns the float array of ``X`` (and ``y`` when given); errors are ``ProblemError``.
+        """
         try:
-            frame = frame.astype(float)
-        except (TypeError, ValueError) as err:
-            raise ProblemError(f"X must be numeric: {err}") from None
-        if not fitting and list(frame.columns) != list(self.feature_names_in_):
-            raise ProblemError(f"X has columns {list(frame.columns)}, the model was fitted on "
-                               f"{list(self.feature_names_in_)}")
-        bad = np.flatnonzero(~np.isfinite(frame.to_numpy()).all(axis=1))
+            if fitting:
+                X_raw, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64, ensure_all_finite=False,
+                                         ensure_min_samples=2)
+            else:
+                X_raw = validate_data(self, X, reset=False, dtype=np.float64, ensure_all_finite=False)
+        except ValueError as err:
+            raise ProblemError(str(err)) from None
+        bad = np.flatnonzero(~np.isfinite(X_raw).all(axis=1))
         if len(bad):
             raise ProblemError(f"X: {len(bad)} row(s) hold NaN or infinite values (positions {bad[:10].tolist()}"
                                f"{', ...' if len(bad) > 10 else ''}); drop or fill them first")
-        return frame
+        return X_raw if y is None else (X_raw, y)  # validate_data refused a non-finite y
+
+    def _model_input(self, X_raw: NDArray[np.float64]):
+        """What the wrapped model sees: a DataFrame with the fitted column names, or the array."""
+        if hasattr(self, "feature_names_in_"):
+            return pd.DataFrame(X_raw, columns=self.feature_names_in_)
+        return X_raw
 
     def fit(self, X: ArrayLike, y: ArrayLike, groups: ArrayLike | None = None) -> Guarded:
         """Fit the model on every row and calibrate its intervals on out-of-fold residuals.
@@ -130,46 +135,34 @@ class Guarded(RegressorMixin, BaseEstimator):
             Run/batch/cycle label per row: calibration folds are whole groups.
         """
         self._check_parameters()
-        frame = self._table(X, fitting=True)
-        y = np.asarray(y, dtype=float).ravel()
-        if len(y) != len(frame):
-            raise ProblemError(f"y has {len(y)} values for {len(frame)} rows of X")
-        if not np.all(np.isfinite(y)):
-            raise ProblemError(f"y: {int(np.sum(~np.isfinite(y)))} value(s) are NaN or infinite; drop those rows")
+        X_raw, y = self._inputs(X, y, fitting=True)
         if groups is not None:
             groups = np.asarray(groups).ravel()
             if len(groups) != len(y):
                 raise ProblemError(f"groups has {len(groups)} labels for {len(y)} rows")
             if pd.isna(groups).any():
                 raise ProblemError("groups: some labels are missing (NaN); give every row a group")
-        self.feature_names_in_ = np.asarray(frame.columns, dtype=object)
-        self.n_features_in_ = frame.shape[1]
-        X_raw = frame.to_numpy()
-        self.domain_ = InputDomain.fit(X_raw, list(frame.columns), self.domain_quantile)
+        names = [str(name) for name in getattr(self, "feature_names_in_", [f"x{j}" for j in range(X_raw.shape[1])])]
+        self.domain_ = InputDomain.fit(X_raw, names, self.domain_quantile)
         Z = standardised(X_raw, self.domain_.mean, self.domain_.scale)
-        inner = frame if isinstance(X, pd.DataFrame) else X_raw
+        inner = self._model_input(X_raw)
         self.calibration_ = conformal.calibrate(self.estimator, inner, y, Z, groups, coverage=self.coverage,
                                                 method=self.method, n_splits=self.n_splits,
                                                 min_groups=self.min_groups)
         self.estimator_ = clone(self.estimator).fit(inner, y)
-        self._inner_is_frame = isinstance(X, pd.DataFrame)
         return self
-
-    def _inner(self, frame: pd.DataFrame):
-        return frame if self._inner_is_frame else frame.to_numpy()
 
     def _predict(self, X: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Raw inputs and predictions; warns (for the public caller) when rows are outside."""
         check_is_fitted(self)
-        frame = self._table(X, fitting=False)
-        X_raw = frame.to_numpy()
+        X_raw = self._inputs(X, fitting=False)
         outside = self.domain_.outside(X_raw)
         if outside.any():
             warnings.warn(ExtrapolationWarning(
                 f"{int(outside.sum())} of {len(outside)} row(s) lie outside the training domain of "
                 f"{', '.join(self.domain_.names)}; the model extrapolates there and the interval's coverage "
                 "does not hold — see check_domain(X)"), stacklevel=3)
-        return X_raw, np.asarray(self.estimator_.predict(self._inner(frame)), dtype=float).ravel()
+        return X_raw, np.asarray(self.estimator_.predict(self._model_input(X_raw)), dtype=float).ravel()
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
         """The wrapped model's prediction; warns with ExtrapolationWarning for rows outside the domain."""
@@ -193,7 +186,7 @@ class Guarded(RegressorMixin, BaseEstimator):
     def check_domain(self, X: ArrayLike) -> pd.DataFrame:
         """Per row: outside or not, which inputs, by how much (see :meth:`InputDomain.table`)."""
         check_is_fitted(self)
-        table = self.domain_.table(self._table(X, fitting=False).to_numpy())
+        table = self.domain_.table(self._inputs(X, fitting=False))
         table.index = X.index if isinstance(X, pd.DataFrame) else table.index
         return table
 
