@@ -21,8 +21,8 @@ from svrqp.formulations.nine_line import COMPONENTS, identify_improved
 from svrqp.machine import datasets as generators
 
 FL_THERMAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "fl_thermal" / "data.csv"
-NAMES = ("chen2012", "lin_gantry", "miao2013", "yang_turning", "zhou_axis_x", "zhou_axis_x_true")
-TARGETS = {"miao2013": "error_um", "chen2012": "error_um", "yang_turning": "error_um",
+NAMES = ("chen2012", "lin_gantry", "miao2013", "miao2013_rise", "yang_turning", "zhou_axis_x", "zhou_axis_x_true")
+TARGETS = {"miao2013": "error_um", "miao2013_rise": "error_um", "chen2012": "error_um", "yang_turning": "error_um",
            "lin_gantry": "deviation_um"}
 
 
@@ -115,6 +115,45 @@ def test_miao_autumn_failure_is_the_lagged_ambient_effect_carried_by_t8(miao):
     assert max(candidates, key=candidates.get) == "T8_C"
     ambient = miao.groupby("batch")["effect_ambient_drift_um"].agg(np.ptp)
     assert ambient["x3"] > 5 * max(ambient["x1"], ambient["x2"])  # hardly excited in summer
+
+
+# ---------------------------------------------------------------- miao2013_rise (S0's set-up)
+
+
+@pytest.fixture(scope="module")
+def miao_rise():
+    return datasets.load("miao2013_rise")
+
+
+def test_miao_rise_is_the_same_runs_as_rises_from_the_first_reading(miao, miao_rise):
+    for batch, absolute in miao.groupby("batch"):
+        rise = miao_rise[miao_rise["batch"] == batch]
+        for i in range(1, 10):
+            expected = absolute[f"T{i}_C"].to_numpy() - absolute[f"T{i}_C"].iloc[0]
+            np.testing.assert_allclose(rise[f"T{i}_rise_C"], expected, rtol=0, atol=1.5e-3)
+        first = rise.iloc[0]
+        assert first[[c for c in rise.columns if c.startswith("effect_")]].abs().max() == 0.0
+        assert first["error_um"] == first["noise_um"]  # the probe is zeroed at the start
+        np.testing.assert_array_equal(rise["noise_um"], absolute["noise_um"])  # same seeds, same noise
+
+
+def test_miao_rise_ranges_are_those_of_s0_table_1(miao_rise):
+    # S0's support vectors span T7 ≈ 1.4 … 7.25 °C and T9 ≈ 0.25 … 5.25 °C: rises of a few °C.
+    assert 3.0 < miao_rise["T7_rise_C"].max() < 10.0
+    assert 0.0 < miao_rise["T9_rise_C"].max() < 6.0
+    x1, x3 = (miao_rise[miao_rise["batch"] == b] for b in ("x1", "x3"))
+    assert x3["T9_rise_C"].max() > 5 * x1["T9_rise_C"].max()  # autumn's ambient rise is unseen in summer
+
+
+def test_miao_rise_mlr_degrades_in_autumn_as_the_card_says(miao_rise):
+    features = ["T7_rise_C", "T9_rise_C"]
+    x1 = miao_rise[miao_rise["batch"] == "x1"]
+    model = LinearRegression().fit(x1[features], x1["error_um"])
+    rms = {batch: float(np.sqrt(np.mean((group["error_um"] - model.predict(group[features])) ** 2)))
+           for batch, group in miao_rise.groupby("batch")}
+    card = datasets.card("miao2013_rise")
+    for batch in ("x1", "x2", "x3"):
+        assert f"{rms[batch]:.2f}" in card.split("## What the physics produces")[1].split("##")[0]
 
 
 # ---------------------------------------------------------------- the others

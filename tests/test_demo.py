@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from html import escape as html_escape
 
 import numpy as np
 import pandas as pd
@@ -61,19 +62,44 @@ def test_report_links_only_files_that_exist(demo):
 
 def test_s0_table_is_what_the_predictions_say(demo):
     out, results = demo
+    assert results["s0"]["dataset"] == "miao2013_rise" and "RMS" in results["s0"]["metric"]
     predictions = pd.read_csv(out / results["s0"]["predictions"])
-    std = {}
+    rms = {}
     for row in results["s0"]["table"]:
         rows = predictions[predictions["batch"] == row["batch"]]
         column = "mlr_um" if row["model"] == "MLR" else "svr_um"
         residual = rows["error_um"] - rows[column]
-        assert row["std_um"] == pytest.approx(residual.std(ddof=0), rel=1e-9)
         assert row["rms_um"] == pytest.approx(np.sqrt(np.mean(residual**2)), rel=1e-9)
-        std[(row["model"], row["batch"])] = row["std_um"]
-    assert {batch for _, batch in std} == {"x1", "x2", "x3"}
-    better_on_x3 = min(("MLR", "ε-SVR"), key=lambda model: std[(model, "x3")])
+        assert row["std_um"] == pytest.approx(residual.std(ddof=0), rel=1e-9)
+        rms[(row["model"], row["batch"])] = row["rms_um"]
+    assert {batch for _, batch in rms} == {"x1", "x2", "x3"}
+    better_on_x3 = min(("MLR", "ε-SVR"), key=lambda model: rms[(model, "x3")])
     assert results["s0"]["x3_better_model"] == better_on_x3
-    assert results["s0"]["sentence"].startswith(f"On the autumn batch x3 the {better_on_x3} leaves the smaller")
+    assert results["s0"]["sentence"].startswith(f"On the autumn batch x3, with S0's temperature rises, the "
+                                                f"{better_on_x3} leaves the smaller RMS residual")
+
+
+def test_s0_says_where_the_models_extrapolate(demo):
+    _, results = demo
+    data = datasets.load("miao2013_rise")
+    x1, x3 = (data[data["batch"] == batch] for batch in ("x1", "x3"))
+    outside = ((x3["T9_rise_C"] < x1["T9_rise_C"].min()) | (x3["T9_rise_C"] > x1["T9_rise_C"].max())).mean()
+    row = next(r for r in results["s0"]["input_ranges"] if r["batch"] == "x3" and r["input"] == "T9_rise_C")
+    assert row["share_outside"] == pytest.approx(outside)
+    assert outside > 0.5
+    assert any(note.startswith("On x3 the models extrapolate") and "T9_rise_C" in note
+               for note in results["s0"]["extrapolation"])
+    variant = results["s0"]["absolute_variant"]
+    assert variant["dataset"] == "miao2013" and variant["features"] == ["T7_C", "T9_C"]
+    assert any("100 % of the rows outside" in note for note in variant["extrapolation"])
+
+
+def test_report_writes_its_maths_as_plain_text(demo):
+    out, results = demo
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "\\" not in page  # no LaTeX (\\mathrm …) left for a renderer that is not there
+    assert html_escape(results["s0"]["mlr_formula"]) in page
+    assert "µ" not in page  # one micro sign: μ (U+03BC)
 
 
 def test_exported_model_is_the_demo_svr_and_verifies(demo):
@@ -81,7 +107,7 @@ def test_exported_model_is_the_demo_svr_and_verifies(demo):
     assert results["export"]["verify"]["ok"]
     assert verify(out / "export" / "s0_svr.json").ok
     document = read_document(out / "export" / "s0_svr.json")
-    x1 = datasets.load("miao2013").query("batch == 'x1'")
+    x1 = datasets.load(results["s0"]["dataset"]).query("batch == 'x1'")
     predictions = pd.read_csv(out / results["s0"]["predictions"]).query("batch == 'x1'")
     from_file = predict(document, x1[results["s0"]["features"]].to_numpy())
     assert np.max(np.abs(from_file - predictions["svr_um"].to_numpy())) <= 1e-9  # CSV round trip of predictions

@@ -15,12 +15,13 @@ from svrqp.demo.report import SIMULATED_NOTE, verdict_label
 
 
 def _s0_table(s0: dict[str, Any]) -> Table:
-    table = Table(title="S0 — residual std (μm), models fitted on x1", caption=s0["sentence"])
-    for column in ("model", "batch", "std (μm)", "RMS (μm)", "S0 published std (μm)"):
+    table = Table(title=f"S0 — RMS of the residuals (μm), models fitted on x1 ({s0['dataset']}: temperature rises)",
+                  caption=s0["sentence"])
+    for column in ("model", "batch", "RMS (μm)", "S0 published RMS (μm)", "std, mean removed (μm)"):
         table.add_column(column, justify="left" if column in ("model", "batch") else "right")
     for row in s0["table"]:
-        table.add_row(row["model"], row["batch"], f"{row['std_um']:.3f}", f"{row['rms_um']:.3f}",
-                      "—" if row["paper_std_um"] is None else f"{row['paper_std_um']:.3f}")
+        table.add_row(row["model"], row["batch"], f"{row['rms_um']:.3f}",
+                      "—" if row["paper_rms_um"] is None else f"{row['paper_rms_um']:.3f}", f"{row['std_um']:.3f}")
     return table
 
 
@@ -28,6 +29,8 @@ def print_summary(console: Console, results: dict[str, Any], out: Path) -> None:
     """The demo's results as the terminal shows them."""
     console.print(f"[bold]{SIMULATED_NOTE}[/bold]")
     console.print(_s0_table(results["s0"]))
+    for note in results["s0"]["extrapolation"]:
+        console.print(note)
     best = results["s0"]["cv"]["best_params"]
     console.print(f"ε-SVR: 5-fold CV chose C = {best['C']:g}, γ = g = {best['gamma']:g} (ε = "
                   f"{results['s0']['epsilon_um']} μm), {results['s0']['n_support']} support vectors (S0: 56).")

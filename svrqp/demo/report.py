@@ -30,20 +30,38 @@ def _figure(path: str, caption: str) -> str:
             f'width="640"></a><figcaption>{html.escape(caption)}</figcaption></figure>')
 
 
+def _s0_table(table: list[dict[str, Any]]) -> str:
+    rows = [[r["model"], r["batch"], r["rms_um"], r["paper_rms_um"], r["std_um"], r["max_abs_um"]] for r in table]
+    return _table(["model", "batch", "RMS of residual (μm)", "S0's published RMS (μm)",
+                   "std of residual, mean removed (μm)", "max |residual| (μm)"], rows)
+
+
+def _paragraphs(sentences: list[str]) -> str:
+    return "".join(f"<p>{html.escape(sentence)}</p>" for sentence in sentences)
+
+
 def _s0(s0: dict[str, Any]) -> str:
-    rows = [[r["model"], r["batch"], r["std_um"], r["rms_um"], r["max_abs_um"], r["paper_std_um"]] for r in s0["table"]]
     best = s0["cv"]["best_params"]
+    variant = s0["absolute_variant"]
     return (f"<h2>S0 — spindle thermal error: MLR vs ε-SVR (fit on x1)</h2>"
+            f"<p>Data: <code>{html.escape(s0['dataset'])}</code>, S0's set-up — temperature rises from the start "
+            f"of each run and the probe zeroed at the start; inputs {', '.join(s0['features'])}.</p>"
             f"<p>ε-SVR: RBF kernel, ε = {s0['epsilon_um']} μm fixed; {s0['cv']['folds']}-fold CV over "
             f"C ∈ {s0['cv']['grid']['C']}, γ ∈ {s0['cv']['grid']['gamma']} chose C = {best['C']:g}, "
             f"γ = g = {best['gamma']:g} (CV MSE {s0['cv']['best_mse_um2']:.4g} μm²); {s0['n_support']} support "
             f"vectors (S0: 56). MLR: {html.escape(s0['mlr_formula'])}.</p>"
-            + _table(["model", "batch", "std of residual (μm)", "RMS (μm)", "max |residual| (μm)",
-                      "S0's published std (μm)"], rows)
-            + f"<p>{html.escape(s0['sentence'])}</p>"
+            f"<p>Metric: {html.escape(s0['metric'])}.</p>"
+            + _s0_table(s0["table"])
+            + f"<p>{html.escape(s0['sentence'])}</p>" + _paragraphs(s0["extrapolation"])
             + "".join(_figure(path, f"S0 batch {batch}: measured vs predicted vs residual over time")
                       for batch, path in s0["figures"].items())
-            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: {_link(s0['cv_table'])}.</p>")
+            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: {_link(s0['cv_table'])}.</p>"
+            + f"<h3>Variant: absolute temperatures (<code>{html.escape(variant['dataset'])}</code>)</h3>"
+            f"<p>The same pipeline on absolute temperatures {', '.join(variant['features'])}, with the error "
+            "counted from the machine at 20 °C: not S0's set-up, kept to show what extrapolation does. MLR: "
+            f"{html.escape(variant['mlr_formula'])}; ε-SVR C = {variant['best_params']['C']:g}, γ = "
+            f"{variant['best_params']['gamma']:g}.</p>"
+            + _s0_table(variant["table"]) + _paragraphs(variant["extrapolation"]))
 
 
 def _s4(s4: dict[str, Any]) -> str:

@@ -47,34 +47,60 @@ MIAO_DURATION_MIN = 250.0
 MIAO_BATCHES = (("x1", 185.0, 0.8, 12.0, 1), ("x2", 205.0, 0.8, 12.5, 2), ("x3", 290.0, 3.5, 9.0, 3))
 
 
-def miao2013_config(day_of_year: float, daily_amplitude_C: float, start_hour: float) -> ThermalConfig:
+def miao2013_config(day_of_year: float, daily_amplitude_C: float, start_hour: float, *,
+                    zero_at_start: bool = False) -> ThermalConfig:
     """S0 set-up: a vertical machining centre run at 4500 rpm, no axis motion.
 
-    The error is counted from the 20 °C reference state (``zero_at_start=False``), as a probe
-    zeroed on the machine soaked at 20 °C would read it, so the structure's temperature level
-    (which follows the season) is part of the error.
+    With ``zero_at_start=False`` the error is counted from the 20 °C reference state, as a
+    probe zeroed on the machine soaked at 20 °C would read it, so the structure's temperature
+    level (which follows the season) is part of the error (the ``miao2013`` variant). With
+    ``zero_at_start=True`` the probe is zeroed at the start of each run, as in S0
+    (``miao2013_rise``).
     """
     return ThermalConfig(
         cycle=(CycleSegment(MIAO_DURATION_MIN + 1.0, 4500.0, 0.0),),
         ambient=Ambient(day_of_year=day_of_year, daily_amplitude_C=daily_amplitude_C,
                         start_hour=start_hour),
         sensors=MIAO_SENSORS,
-        zero_at_start=False,
+        zero_at_start=zero_at_start,
     )
 
 
-def miao2013() -> pd.DataFrame:
-    """Three batches: x1, x2 in summer (≈ 30 °C), x3 in autumn (≈ 24 °C); 0–250 min at 1 min."""
-    batches = []
+def _miao_batches(zero_at_start: bool) -> list[tuple[str, pd.DataFrame]]:
+    """Each batch's simulated run, 0–250 min; the seeds make the temperatures identical either way."""
+    runs = []
     for batch, day, amplitude, start, seed in MIAO_BATCHES:
-        run = simulate_thermal(miao2013_config(day, amplitude, start), seed=seed)
-        run = run[run["time_min"] <= MIAO_DURATION_MIN]
-        sensors = [f"{s.name}_C" for s in MIAO_SENSORS]
-        columns = ["time_min", "speed_rpm", *sensors, "error_um", *_effect_columns(EFFECTS), "noise_um"]
-        run = _round(run[columns].round(DECIMALS), "error_um", EFFECTS)
-        batches.append(run.assign(batch=batch))
+        config = miao2013_config(day, amplitude, start, zero_at_start=zero_at_start)
+        run = simulate_thermal(config, seed=seed)
+        runs.append((batch, run[run["time_min"] <= MIAO_DURATION_MIN].reset_index(drop=True)))
+    return runs
+
+
+def _miao_table(runs: list[tuple[str, pd.DataFrame]], sensors: list[str]) -> pd.DataFrame:
+    columns = ["time_min", "speed_rpm", *sensors, "error_um", *_effect_columns(EFFECTS), "noise_um"]
+    batches = [_round(run[columns].round(DECIMALS), "error_um", EFFECTS).assign(batch=batch)
+               for batch, run in runs]
     table = pd.concat(batches, ignore_index=True)
     return table[["batch", *table.columns[:-1]]]
+
+
+def miao2013() -> pd.DataFrame:
+    """Absolute temperatures, error from the 20 °C reference: the extrapolation variant of S0."""
+    return _miao_table(_miao_batches(zero_at_start=False), [f"{s.name}_C" for s in MIAO_SENSORS])
+
+
+def miao2013_rise() -> pd.DataFrame:
+    """S0's set-up: temperature rises and the error from the start of each run (probe zeroed).
+
+    A rise is the sensor's reading minus its first reading of the run (S0 Table 1's support
+    vectors start near 0 °C), so the first row of every batch holds zeros.
+    """
+    runs = _miao_batches(zero_at_start=True)
+    for _, run in runs:
+        for sensor in MIAO_SENSORS:
+            reading = run[f"{sensor.name}_C"].round(DECIMALS)
+            run[f"{sensor.name}_rise_C"] = (reading - reading.iloc[0]).round(DECIMALS)
+    return _miao_table(runs, [f"{s.name}_rise_C" for s in MIAO_SENSORS])
 
 
 # ---------------------------------------------------------------- S1: Chen & Gong 2012
@@ -168,6 +194,7 @@ def lin_gantry() -> pd.DataFrame:
 
 BUILDERS: dict[str, Callable[[], pd.DataFrame]] = {
     "miao2013": miao2013,
+    "miao2013_rise": miao2013_rise,
     "chen2012": chen2012,
     "zhou_axis_x": zhou_axis_x,
     "zhou_axis_x_true": zhou_axis_x_true,
