@@ -17,6 +17,7 @@ from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
 from svrqp.exceptions import ProblemError
+from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved
 from svrqp.machine import datasets as generators
 
@@ -188,12 +189,26 @@ def test_yang_fifty_workpieces_and_a_drifting_static_model():
     assert np.abs(later).max() > 8  # S3: static LS leaves about 12 μm
 
 
-def test_lin_gantry_is_the_s4_stroke_at_15_hz():
+def test_lin_gantry_is_the_s4_stroke_at_15_hz_repeated():
     table = datasets.load("lin_gantry")
-    np.testing.assert_allclose(np.diff(table["time_s"]), 1 / 15.0, atol=1e-4)
-    assert table["x_mm"].iloc[-1] == pytest.approx(150.0, abs=0.01)
-    assert table["feed_mm_min"].max() == pytest.approx(400.0)
-    assert 10 < np.ptp(table["deviation_um"]) < 20
+    assert sorted(table["run"].unique()) == [1, 2, 3]
+    for _, run in table.groupby("run"):
+        np.testing.assert_allclose(np.diff(run["time_s"]), 1 / 15.0, atol=1e-4)
+        assert run["x_mm"].iloc[-1] == pytest.approx(150.0, abs=0.01)
+        assert run["feed_mm_min"].max() == pytest.approx(400.0)
+        assert 8 < np.ptp(run["deviation_um"]) < 20
+    # The runs share the machine, not the noise: the same geometry, different laser noise.
+    first, second = (table[table["run"] == k] for k in (1, 2))
+    np.testing.assert_array_equal(first["effect_guideway_straightness_um"], second["effect_guideway_straightness_um"])
+    assert not np.array_equal(first["noise_um"], second["noise_um"])
+
+
+def test_lin_gantry_card_states_the_straightness_of_each_run():
+    table = datasets.load("lin_gantry")
+    ranges = []
+    for _, run in table[table["feed_mm_min"] > 0].groupby("run"):
+        ranges.append(straightness(run["x_mm"].to_numpy(), 1e3 * run["y_mm"].to_numpy()).straightness)
+    assert ", ".join(f"{value:.2f}" for value in ranges[:-1]) + f" and {ranges[-1]:.2f} μm" in datasets.card("lin_gantry")
 
 
 # ---------------------------------------------------------------- FL_THERMAL loader

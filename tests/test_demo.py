@@ -120,6 +120,11 @@ def test_s4_and_s2_numbers_are_consistent(demo):
     s4 = results["s4"]
     assert s4["improvement_percent"] == pytest.approx(100 * (1 - s4["after_um"] / s4["before_um"]))
     assert s4["n_support"] == 82 and s4["paper"]["improvement_percent"] == 53.0
+    assert s4["out_of_sample"] is True and s4["train_run"] not in s4["test_runs"]
+    unseen = [run for run in s4["runs"] if not run["fitted_on"]]
+    assert [run["run"] for run in unseen] == s4["test_runs"]
+    assert s4["before_um"] == pytest.approx(np.mean([run["before_um"] for run in unseen]))
+    assert s4["after_um"] == pytest.approx(np.mean([run["after_um"] for run in unseen]))
     s2 = results["s2"]
     assert set(s2["max_error_improved"]) == set(s2["max_error_original"])
     assert all(value >= 0 for value in s2["mse_um2"].values())

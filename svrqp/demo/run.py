@@ -114,11 +114,16 @@ def _s0_section(result: steps.S0Result, absolute: steps.S0Result, quick: bool) -
 
 
 def _s4_section(result: steps.S4Result) -> dict[str, Any]:
+    runs = [{"run": run.run, "fitted_on": run.run == result.train_run, "before_um": run.before_um,
+             "after_um": run.after_um, "improvement_percent": run.improvement_percent} for run in result.runs]
     return {
         "sigma_mm": steps.S4_SIGMA_MM, "gamma": gamma_from_sigma_s4(steps.S4_SIGMA_MM), "C": steps.S4_C,
         "n_support": result.n_support, "feed_forward_mm": steps.S4_FEED_FORWARD_MM,
-        "dead_band_um": steps.S4_DEAD_BAND_UM, "before_um": result.compensated.before.peak_to_peak_um,
-        "after_um": result.compensated.after.peak_to_peak_um, "improvement_percent": result.improvement_percent,
+        "dead_band_um": steps.S4_DEAD_BAND_UM,
+        "metric": "straightness: peak-to-valley of the deviation from the least-squares line (μm), S4 eqs. 2–3",
+        "out_of_sample": True, "train_run": result.train_run, "test_runs": [run.run for run in result.test_runs],
+        "before_um": result.before_um, "after_um": result.after_um,
+        "improvement_percent": result.improvement_percent, "runs": runs,
         "paper": steps.S4_PAPER, "figure": "s4_straightness.png",
     }
 
