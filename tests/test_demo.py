@@ -128,6 +128,12 @@ def test_s4_and_s2_numbers_are_consistent(demo):
     s2 = results["s2"]
     assert set(s2["max_error_improved"]) == set(s2["max_error_original"])
     assert all(value >= 0 for value in s2["mse_um2"].values())
+    # The note names exactly the components the improved method identifies more closely.
+    better = [c for c, e in s2["max_error_improved"].items() if e < s2["max_error_original"][c]]
+    assert f"identifies {len(better)} of 6 components more closely than the original ({', '.join(better)})" in \
+        s2["identification_note"]
+    assert max(max(errors.values()) for errors in s2["max_error_noise_free"].values()) < 1e-5
+    assert s2["periodic_ms_um2"] > 10 * s2["paper"]["mse_svr"]  # the aliased floor the note describes
 
 
 def test_gap_report_is_schema_valid_and_matches(demo):

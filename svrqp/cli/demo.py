@@ -46,6 +46,7 @@ def print_summary(console: Console, results: dict[str, Any], out: Path) -> None:
                   f"SVR {s2['mse_um2']['svr_fit']:.4g} vs 5th-order LSM {s2['mse_um2']['lsm_fit']:.4g} μm² (fit), "
                   f"{s2['mse_um2']['svr_loo']:.4g} vs {s2['mse_um2']['lsm_loo']:.4g} μm² (leave-one-out); S2: "
                   f"{s2['paper']['mse_svr']} vs {s2['paper']['mse_lsm']}.")
+    console.print(s2["periodic_note"])
     verify = results["export"]["verify"]
     console.print(f"Export — {', '.join(results['export']['files'])}: verify "
                   f"{'OK' if verify['ok'] else 'FAIL'} (largest probe deviation {verify['max_deviation']:.3g}).")

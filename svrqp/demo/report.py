@@ -88,14 +88,16 @@ def _s2(s2: dict[str, Any]) -> str:
     mse = s2["mse_um2"]
     paper = s2["paper"]
     return ("<h2>S2 — nine-line identification and δx(x) models</h2>"
-            "<p>Largest error of the identified components against the simulator's truth:</p>"
+            "<p>Largest error of the identified components against the simulator's truth (μm for δ, μrad for θ):</p>"
             + _table(["component", "improved method", "original method"], rows)
+            + f"<p>{html.escape(s2['identification_note'])}</p>"
             + f"<p>δx(x): ε-SVR (5-fold CV: C = {s2['svr_params']['C']:g}, γ = {s2['svr_params']['gamma']:.4g} "
               f"on u = x/550; {s2['n_support']} SVs) vs 5th-order least-squares polynomial.</p>"
             + _table(["MSE (μm²)", "ε-SVR", "5th-order LSM"],
                      [["fit (as S2 reports)", mse["svr_fit"], mse["lsm_fit"]],
                       ["leave-one-out", mse["svr_loo"], mse["lsm_loo"]],
-                      ["S2 published", paper["mse_svr"], paper["mse_lsm"]]])
+                      ["S2 published (fit)", paper["mse_svr"], paper["mse_lsm"]]])
+            + f"<p>Metric: {html.escape(s2['metric'])}. {html.escape(s2['periodic_note'])}</p>"
             + _figure(s2["figure"], "S2 δx identification and models"))
 
 

@@ -166,7 +166,9 @@ def yang_turning() -> pd.DataFrame:
 
 # ---------------------------------------------------------------- S2: Zhou et al.
 
-ZHOU_AXIS = AxisConfig()
+#: S2 measures at 20 °C after the machine and the interferometer reach thermal equilibrium, so
+#: the scale is at its reference temperature (no scale expansion).
+ZHOU_AXIS = AxisConfig(axis_temperature_C=20.0)
 
 
 def zhou_axis_x() -> pd.DataFrame:
