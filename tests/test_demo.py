@@ -136,6 +136,25 @@ def test_s4_and_s2_numbers_are_consistent(demo):
     assert s2["periodic_ms_um2"] > 10 * s2["paper"]["mse_svr"]  # the aliased floor the note describes
 
 
+def test_reproduction_table_repeats_the_sections_numbers(demo):
+    out, results = demo
+    rows = results["reproduction"]
+    assert {row["seed"] for row in rows} == {"S0", "S4", "S2"}
+    s0 = {(r["model"], r["batch"]): (r["paper_rms_um"], r["rms_um"]) for r in results["s0"]["table"]}
+    for row in rows:
+        assert row["metric"] and row["qualitatively"] in {"agrees", "differs"}
+        if row["seed"] == "S0":
+            model, batch = row["quantity"].split(", batch ")
+            assert (row["paper"], row["ours"]) == s0[(model, batch)]
+        if row["qualitatively"] == "differs":
+            assert row["note"]  # a qualitative difference always comes with its measured reason
+    s2_rows = [row for row in rows if row["seed"] == "S2"]
+    svr_better = results["s2"]["mse_um2"]["svr_fit"] < results["s2"]["mse_um2"]["lsm_fit"]
+    assert all(row["qualitatively"] == ("agrees" if svr_better else "differs") for row in s2_rows)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "Reproduction, seed by seed" in page
+
+
 def test_gap_report_is_schema_valid_and_matches(demo):
     import jsonschema
 

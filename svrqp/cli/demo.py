@@ -25,9 +25,20 @@ def _s0_table(s0: dict[str, Any]) -> Table:
     return table
 
 
+def _reproduction_table(rows: list[dict[str, Any]]) -> Table:
+    table = Table(title="Reproduction: the papers' numbers and ours (reasons in report.html)")
+    for column in ("seed", "quantity", "metric", "paper", "ours", "qualitatively"):
+        table.add_column(column, justify="right" if column in ("paper", "ours") else "left")
+    for row in rows:
+        table.add_row(row["seed"], row["quantity"], row["metric"], f"{row['paper']:.4g}", f"{row['ours']:.4g}",
+                      row["qualitatively"])
+    return table
+
+
 def print_summary(console: Console, results: dict[str, Any], out: Path) -> None:
     """The demo's results as the terminal shows them."""
     console.print(f"[bold]{SIMULATED_NOTE}[/bold]")
+    console.print(_reproduction_table(results["reproduction"]))
     console.print(_s0_table(results["s0"]))
     for note in results["s0"]["extrapolation"]:
         console.print(note)

@@ -129,14 +129,23 @@ def _gap(gap: dict[str, Any]) -> str:
             + f"<p>Full report: {_link(gap['html'])}; JSON: {_link(gap['json'])}.</p>")
 
 
+def _reproduction(rows: list[dict[str, Any]]) -> str:
+    return ("<h2>Reproduction, seed by seed</h2><p>The papers' numbers against ours on the simulated data, each "
+            "with its metric; where ours differs qualitatively, the measured reason.</p>"
+            + _table(["seed", "quantity", "metric", "paper", "ours", "qualitatively", "why"],
+                     [[r["seed"], r["quantity"], r["metric"], r["paper"], r["ours"], r["qualitatively"], r["note"]]
+                      for r in rows]))
+
+
 def report_html(results: dict[str, Any]) -> str:
     """The demo's report page (figures and exported files are linked by relative paths)."""
-    sections = [_s0(results["s0"]), _s4(results["s4"]), _s2(results["s2"]), _export(results["export"])]
+    sections = [_reproduction(results["reproduction"]), _s0(results["s0"]), _s4(results["s4"]), _s2(results["s2"]),
+                _export(results["export"])]
     if results.get("gap") is not None:
         sections.append(_gap(results["gap"]))
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>svrqp demo</title>"
             "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
-            "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}</style></head><body>"
+            "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}td:last-child{text-align:left}</style></head><body>"
             f"<h1>svrqp demo</h1><p><b>{html.escape(SIMULATED_NOTE)}</b></p>"
             f"<p>{'Quick run (--quick): smaller CV grid. ' if results['quick'] else ''}"
             f"Run time {results['runtime_s']:.1f} s; numbers in {_link('results.json')}.</p>"

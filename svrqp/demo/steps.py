@@ -162,6 +162,9 @@ class S4Run:
     compensated: CompensatedRun
     before_um: float
     after_um: float
+    #: Straightness after compensation had the run no force ripple and no laser noise (their
+    #: columns are known in a simulation): what those two leave, no window mean can follow.
+    after_without_ripple_noise_um: float
 
     @property
     def improvement_percent(self) -> float:
@@ -219,8 +222,12 @@ def s4_straightness(runs: pd.DataFrame, train_run: int = S4_TRAIN_RUN) -> S4Resu
             x_run, e_run, lambda x: model.predict(x[:, None]), samples_per_period=S4_SAMPLES_PER_PERIOD,
             feed_forward_mm=S4_FEED_FORWARD_MM, dead_band_um=S4_DEAD_BAND_UM)
         after = straightness(x_run, compensated.residual_um).straightness
+        # e = g(x) − y counts the effects with the opposite sign of deviation_um: adding them removes them.
+        moving = run[run["feed_mm_min"] > 0]
+        floor = (moving["effect_ripple_um"] + moving["noise_um"]).to_numpy()
         compensated_runs.append(S4Run(int(run_id), x_run, e_run, compensated,
-                                      straightness(x_run, e_run).straightness, after))
+                                      straightness(x_run, e_run).straightness, after,
+                                      straightness(x_run, compensated.residual_um + floor).straightness))
     return S4Result(x_mm, deviation_um, model.predict(x_mm[:, None]), compensated_runs, len(model.support_),
                     train_run)
 
