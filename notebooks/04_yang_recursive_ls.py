@@ -29,10 +29,15 @@
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from IPython.display import Math, display
+from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
 from svrqp.compensate import online_compensation, residual_metrics
+from svrqp.formulations import least_squares
 from svrqp.linear_models import LinearLS, RecursiveLS, merge_models
+from svrqp.problems import LinearSystem
+from svrqp.solve import solve_linear_system
 
 data = datasets.load("yang_turning")
 features, target = ["coolant_C", "nut_C", "spindle_C", "bed_C"], "error_um"
@@ -83,7 +88,31 @@ recursive = RecursiveLS().fit(data[features], data[target])
 batch = LinearLS().fit(data[features], data[target])
 print("max |coef RLS − coef batch| =", np.abs(recursive.coef_ - batch.coef_).max())
 print("|intercept RLS − intercept batch| =", abs(recursive.intercept_ - batch.intercept_))
-print(batch.to_latex())
+display(Math(batch.to_latex()))
+
+# %% [markdown]
+# ## The batch model as a linear system, solved two ways
+#
+# With $x_i = (1, 	heta_c, 	heta_n, 	heta_s, 	heta_b)$ the batch model solves
+# $igl(\sum_i x_i x_i^	opigr) a = \sum_i x_i y_i$ (S3 eq. 6) — in matrix form
+# $D^	op D\,a = D^	op y$. Stated as a `LinearSystem`, solved by LU and by the equilibrated
+# Cholesky factorisation, and refereed by NumPy's `lstsq` and scikit-learn's `LinearRegression`;
+# the recursion's $P_k$ after all samples is $(D^	op D)^{-1}$:
+
+# %%
+design = np.column_stack([np.ones(len(data)), data[features].to_numpy()])
+y = data[target].to_numpy()
+system = LinearSystem(M=design.T @ design, rhs=design.T @ y, name="S3 eq. 6, all 50 workpieces",
+                      statement=r"\Bigl(\sum_i x_i x_i^\top\Bigr) a = \sum_i x_i y_i,\quad "
+                                r"x_i = (1, \theta_c, \theta_n, \theta_s, \theta_b)^\top")
+display(Math(system.to_latex()))
+reference = LinearRegression().fit(data[features], y)
+pd.DataFrame({"LU": solve_linear_system(system).x,
+              "Cholesky (equilibrated)": least_squares.solve_normal_equations(design, y).coef,
+              "RecursiveLS (S3 eqs. 13–17)": [recursive.intercept_, *recursive.coef_],
+              "numpy lstsq": np.linalg.lstsq(design, y, rcond=None)[0],
+              "scikit-learn": [reference.intercept_, *reference.coef_]},
+             index=["C0 (μm)", *(f"C for {f} (μm/°C)" for f in features)])
 
 # %% [markdown]
 # ## Batch merge (S3 eqs. 20–24)
