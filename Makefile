@@ -21,6 +21,7 @@ test: export OPENBLAS_NUM_THREADS = 1
 test: export OMP_NUM_THREADS = 1
 test: $(STAMP)
 	$(PY) -m pytest -n 2 --dist loadfile -q tests
+	$(PY) notebooks/build.py --check
 	if ls notebooks/*.ipynb >/dev/null 2>&1; then $(PY) -m pytest -q -n 2 --nbmake notebooks; fi
 	if [ -f mkdocs.yml ]; then $(VENV)/bin/mkdocs build --strict --quiet --site-dir $(VENV)/site; fi
 

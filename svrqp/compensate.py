@@ -30,8 +30,10 @@ with the measured :math:`y_k` (S3 eqs. (13)–(17)); :func:`online_compensation`
 
 Residual metrics
 ----------------
-For residuals :math:`r_1 \dots r_n`: RMS :math:`\sqrt{\tfrac1n\sum r_i^2}`, standard deviation
-:math:`\sqrt{\tfrac1n\sum (r_i - \bar r)^2}` (S0's table), max :math:`\lvert r \rvert` and mean
+For residuals :math:`r_1 \dots r_n`: RMS :math:`\sqrt{\tfrac1n\sum r_i^2}` (S0's table: S0 calls it
+the "standard deviation" :math:`s` but computes the root mean square of the residuals, §4.3),
+the standard deviation proper :math:`\sqrt{\tfrac1n\sum (r_i - \bar r)^2}` (the RMS with the mean
+removed, i.e. what a per-run offset recalibration would leave), max :math:`\lvert r \rvert` and mean
 :math:`\lvert r \rvert` (S3's table), peak-to-peak :math:`\max r - \min r` (S4's straightness),
 and the improvement :math:`100\,(1 - m_\text{after}/m_\text{before})` % of a metric :math:`m`.
 """
@@ -52,7 +54,11 @@ from svrqp.formulations.least_squares import check_finite_matrix
 
 @dataclass(frozen=True)
 class ResidualMetrics:
-    """Residual statistics (μm) as the papers report them."""
+    """Residual statistics (μm) as the papers report them.
+
+    ``rms_um`` is S0's "standard deviation" (the root mean square of the residuals); ``std_um``
+    removes the mean first and is never what S0 tabulates.
+    """
 
     rms_um: float
     std_um: float

@@ -30,7 +30,8 @@ from the crossover) or are the converged interior-point solution; a fit that is 
 as failed.
 
 **Genetic algorithm** (S1, on `pygad <https://pygad.readthedocs.io>`_): real-coded individuals
-:math:`(\log_{10} C, \log_{10}\varepsilon, \log_{10}\gamma)` inside given ranges, population 100,
+:math:`(\log_{10} C, \log_{10}\varepsilon)` inside given ranges with the RBF :math:`\gamma` fixed, as
+S1 tunes C and ε only (:math:`\log_{10}\gamma` becomes a third gene on request), population 100,
 crossover probability 0.85, mutation probability 0.02 (a mutated gene is redrawn uniformly in
 its range), rank selection, 50 generations, fitness :math:`-\operatorname{CV}(\theta)`, one elite
 kept per generation; seeded, so a run is reproducible.
@@ -438,8 +439,9 @@ def ga_search(
     y: ArrayLike,
     *,
     C_range: Sequence[float] = (1e-1, 1e5),
-    gamma_range: Sequence[float] = (1e-3, 1e2),
     epsilon_range: Sequence[float] = (1e-3, 1.0),
+    gamma: float | str = "scale",
+    gamma_range: Sequence[float] | None = None,
     model: str = "svr",
     population: int = 100,
     generations: int = 50,
@@ -455,15 +457,23 @@ def ga_search(
     scheduler: Any = None,
     progress: Progress | None = None,
 ) -> SearchResult:
-    """Genetic-algorithm search of S1 over (log C, log ε, log γ), fitness = −CV MSE (pygad).
+    """Genetic-algorithm search of S1 over (log C, log ε), fitness = −CV MSE (pygad).
+
+    S1 tunes C and ε of an RBF ε-SVR; the kernel width stays fixed at ``gamma``. Given a
+    ``gamma_range``, γ becomes a third gene (an extension beyond S1).
 
     Parameters
     ----------
     X, y
         Training data.
-    C_range, gamma_range, epsilon_range : (low, high)
+    C_range, epsilon_range : (low, high)
         Search ranges, ``0 < low < high`` (genes are their base-10 logarithms);
         ``epsilon_range`` is ignored for ``model="lssvr"``.
+    gamma : float or "scale"
+        The fixed RBF γ (scikit-learn's convention ``exp(-γ‖x−x'‖²)``) when ``gamma_range`` is
+        None; ``"scale"`` is scikit-learn's and libsvm's default ``1 / (n_features · Var(X))``.
+    gamma_range : (low, high), optional
+        Tune γ too, inside this range (off by default, as in S1).
     model : {"svr", "lssvr"}
     population, generations : int
         S1: 100 and 50. Small values make quick runs (tests, notebooks).
@@ -485,8 +495,13 @@ def ga_search(
 
     _check_model(model)
     X, y = _validated(X, y)
-    names = ["C", "epsilon", "gamma"] if model == "svr" else ["C", "gamma"]
+    names = ["C", "epsilon"] if model == "svr" else ["C"]
     ranges = {"C": C_range, "epsilon": epsilon_range, "gamma": gamma_range}
+    fixed = {}
+    if gamma_range is None:
+        fixed["gamma"] = _fixed_gamma(gamma, X)
+    else:
+        names.append("gamma")
     gene_space = [dict(zip(("low", "high"), _log_range(ranges[name], name))) for name in names]
     if population < 2 or generations < 1:
         raise ProblemError(f"need population >= 2 and generations >= 1, got {population} and {generations}")
@@ -502,7 +517,7 @@ def ga_search(
         rows = [tuple(map(float, genes)) for genes in np.atleast_2d(solutions)]
         fresh = [genes for genes in dict.fromkeys(rows) if genes not in evaluated]  # GA repeats itself
         if fresh:
-            candidates = pd.DataFrame(10.0 ** np.array(fresh), columns=names)
+            candidates = pd.DataFrame(10.0 ** np.array(fresh), columns=names).assign(**fixed)
             mse = _cv_mse(X, y, candidates, model, folds, solver, tol, False, None)
             for column, genes in enumerate(fresh):
                 evaluated[genes] = (mse[:, column], ga.generations_completed)
@@ -532,12 +547,27 @@ def ga_search(
         ga.run()
     elapsed_s = time.perf_counter() - start
     genes = list(evaluated)
-    candidates = pd.DataFrame(10.0 ** np.array(genes), columns=names)
+    candidates = pd.DataFrame(10.0 ** np.array(genes), columns=names).assign(**fixed)
+    candidates = candidates[[*(["C", "epsilon"] if model == "svr" else ["C"]), "gamma"]]
     candidates["generation"] = [evaluated[g][1] for g in genes]
     table = _scored_table(candidates, np.column_stack([evaluated[g][0] for g in genes]))
     best_params, best_mse = _best(table, model)
     return SearchResult("ga", model, best_params, best_mse, table, elapsed_s, len(genes) * len(folds),
                         convergence_mse=-np.asarray(ga.best_solutions_fitness, dtype=float))
+
+
+def _fixed_gamma(gamma: float | str, X: NDArray) -> float:
+    """The RBF γ held fixed by the GA: a positive number, or scikit-learn's ``"scale"``."""
+    if isinstance(gamma, str):
+        if gamma != "scale":
+            raise ProblemError(f"gamma must be a positive number or 'scale', got {gamma!r}")
+        variance = float(X.var())
+        if not variance > 0:
+            raise ProblemError("gamma='scale' needs features that vary (Var(X) is 0); give gamma explicitly")
+        return 1.0 / (X.shape[1] * variance)
+    if not (np.isfinite(gamma) and gamma > 0):
+        raise ProblemError(f"gamma must be a positive number or 'scale', got {gamma!r}")
+    return float(gamma)
 
 
 def _mean_or_inf(fold_mse: NDArray) -> float:

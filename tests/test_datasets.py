@@ -17,12 +17,13 @@ from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
 from svrqp.exceptions import ProblemError
+from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved
 from svrqp.machine import datasets as generators
 
 FL_THERMAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "fl_thermal" / "data.csv"
-NAMES = ("chen2012", "lin_gantry", "miao2013", "yang_turning", "zhou_axis_x", "zhou_axis_x_true")
-TARGETS = {"miao2013": "error_um", "chen2012": "error_um", "yang_turning": "error_um",
+NAMES = ("chen2012", "lin_gantry", "miao2013", "miao2013_rise", "yang_turning", "zhou_axis_x", "zhou_axis_x_true")
+TARGETS = {"miao2013": "error_um", "miao2013_rise": "error_um", "chen2012": "error_um", "yang_turning": "error_um",
            "lin_gantry": "deviation_um"}
 
 
@@ -117,6 +118,45 @@ def test_miao_autumn_failure_is_the_lagged_ambient_effect_carried_by_t8(miao):
     assert ambient["x3"] > 5 * max(ambient["x1"], ambient["x2"])  # hardly excited in summer
 
 
+# ---------------------------------------------------------------- miao2013_rise (S0's set-up)
+
+
+@pytest.fixture(scope="module")
+def miao_rise():
+    return datasets.load("miao2013_rise")
+
+
+def test_miao_rise_is_the_same_runs_as_rises_from_the_first_reading(miao, miao_rise):
+    for batch, absolute in miao.groupby("batch"):
+        rise = miao_rise[miao_rise["batch"] == batch]
+        for i in range(1, 10):
+            expected = absolute[f"T{i}_C"].to_numpy() - absolute[f"T{i}_C"].iloc[0]
+            np.testing.assert_allclose(rise[f"T{i}_rise_C"], expected, rtol=0, atol=1.5e-3)
+        first = rise.iloc[0]
+        assert first[[c for c in rise.columns if c.startswith("effect_")]].abs().max() == 0.0
+        assert first["error_um"] == first["noise_um"]  # the probe is zeroed at the start
+        np.testing.assert_array_equal(rise["noise_um"], absolute["noise_um"])  # same seeds, same noise
+
+
+def test_miao_rise_ranges_are_those_of_s0_table_1(miao_rise):
+    # S0's support vectors span T7 ≈ 1.4 … 7.25 °C and T9 ≈ 0.25 … 5.25 °C: rises of a few °C.
+    assert 3.0 < miao_rise["T7_rise_C"].max() < 10.0
+    assert 0.0 < miao_rise["T9_rise_C"].max() < 6.0
+    x1, x3 = (miao_rise[miao_rise["batch"] == b] for b in ("x1", "x3"))
+    assert x3["T9_rise_C"].max() > 5 * x1["T9_rise_C"].max()  # autumn's ambient rise is unseen in summer
+
+
+def test_miao_rise_mlr_degrades_in_autumn_as_the_card_says(miao_rise):
+    features = ["T7_rise_C", "T9_rise_C"]
+    x1 = miao_rise[miao_rise["batch"] == "x1"]
+    model = LinearRegression().fit(x1[features], x1["error_um"])
+    rms = {batch: float(np.sqrt(np.mean((group["error_um"] - model.predict(group[features])) ** 2)))
+           for batch, group in miao_rise.groupby("batch")}
+    card = datasets.card("miao2013_rise")
+    for batch in ("x1", "x2", "x3"):
+        assert f"{rms[batch]:.2f}" in card.split("## What the physics produces")[1].split("##")[0]
+
+
 # ---------------------------------------------------------------- the others
 
 
@@ -149,12 +189,26 @@ def test_yang_fifty_workpieces_and_a_drifting_static_model():
     assert np.abs(later).max() > 8  # S3: static LS leaves about 12 μm
 
 
-def test_lin_gantry_is_the_s4_stroke_at_15_hz():
+def test_lin_gantry_is_the_s4_stroke_at_15_hz_repeated():
     table = datasets.load("lin_gantry")
-    np.testing.assert_allclose(np.diff(table["time_s"]), 1 / 15.0, atol=1e-4)
-    assert table["x_mm"].iloc[-1] == pytest.approx(150.0, abs=0.01)
-    assert table["feed_mm_min"].max() == pytest.approx(400.0)
-    assert 10 < np.ptp(table["deviation_um"]) < 20
+    assert sorted(table["run"].unique()) == [1, 2, 3]
+    for _, run in table.groupby("run"):
+        np.testing.assert_allclose(np.diff(run["time_s"]), 1 / 15.0, atol=1e-4)
+        assert run["x_mm"].iloc[-1] == pytest.approx(150.0, abs=0.01)
+        assert run["feed_mm_min"].max() == pytest.approx(400.0)
+        assert 8 < np.ptp(run["deviation_um"]) < 20
+    # The runs share the machine, not the noise: the same geometry, different laser noise.
+    first, second = (table[table["run"] == k] for k in (1, 2))
+    np.testing.assert_array_equal(first["effect_guideway_straightness_um"], second["effect_guideway_straightness_um"])
+    assert not np.array_equal(first["noise_um"], second["noise_um"])
+
+
+def test_lin_gantry_card_states_the_straightness_of_each_run():
+    table = datasets.load("lin_gantry")
+    ranges = []
+    for _, run in table[table["feed_mm_min"] > 0].groupby("run"):
+        ranges.append(straightness(run["x_mm"].to_numpy(), 1e3 * run["y_mm"].to_numpy()).straightness)
+    assert ", ".join(f"{value:.2f}" for value in ranges[:-1]) + f" and {ranges[-1]:.2f} μm" in datasets.card("lin_gantry")
 
 
 # ---------------------------------------------------------------- FL_THERMAL loader

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from html import escape as html_escape
 
 import numpy as np
 import pandas as pd
@@ -61,19 +62,44 @@ def test_report_links_only_files_that_exist(demo):
 
 def test_s0_table_is_what_the_predictions_say(demo):
     out, results = demo
+    assert results["s0"]["dataset"] == "miao2013_rise" and "RMS" in results["s0"]["metric"]
     predictions = pd.read_csv(out / results["s0"]["predictions"])
-    std = {}
+    rms = {}
     for row in results["s0"]["table"]:
         rows = predictions[predictions["batch"] == row["batch"]]
         column = "mlr_um" if row["model"] == "MLR" else "svr_um"
         residual = rows["error_um"] - rows[column]
-        assert row["std_um"] == pytest.approx(residual.std(ddof=0), rel=1e-9)
         assert row["rms_um"] == pytest.approx(np.sqrt(np.mean(residual**2)), rel=1e-9)
-        std[(row["model"], row["batch"])] = row["std_um"]
-    assert {batch for _, batch in std} == {"x1", "x2", "x3"}
-    better_on_x3 = min(("MLR", "ε-SVR"), key=lambda model: std[(model, "x3")])
+        assert row["std_um"] == pytest.approx(residual.std(ddof=0), rel=1e-9)
+        rms[(row["model"], row["batch"])] = row["rms_um"]
+    assert {batch for _, batch in rms} == {"x1", "x2", "x3"}
+    better_on_x3 = min(("MLR", "ε-SVR"), key=lambda model: rms[(model, "x3")])
     assert results["s0"]["x3_better_model"] == better_on_x3
-    assert results["s0"]["sentence"].startswith(f"On the autumn batch x3 the {better_on_x3} leaves the smaller")
+    assert results["s0"]["sentence"].startswith(f"On the autumn batch x3, with S0's temperature rises, the "
+                                                f"{better_on_x3} leaves the smaller RMS residual")
+
+
+def test_s0_says_where_the_models_extrapolate(demo):
+    _, results = demo
+    data = datasets.load("miao2013_rise")
+    x1, x3 = (data[data["batch"] == batch] for batch in ("x1", "x3"))
+    outside = ((x3["T9_rise_C"] < x1["T9_rise_C"].min()) | (x3["T9_rise_C"] > x1["T9_rise_C"].max())).mean()
+    row = next(r for r in results["s0"]["input_ranges"] if r["batch"] == "x3" and r["input"] == "T9_rise_C")
+    assert row["share_outside"] == pytest.approx(outside)
+    assert outside > 0.5
+    assert any(note.startswith("On x3 the models extrapolate") and "T9_rise_C" in note
+               for note in results["s0"]["extrapolation"])
+    variant = results["s0"]["absolute_variant"]
+    assert variant["dataset"] == "miao2013" and variant["features"] == ["T7_C", "T9_C"]
+    assert any("100 % of the rows outside" in note for note in variant["extrapolation"])
+
+
+def test_report_writes_its_maths_as_plain_text(demo):
+    out, results = demo
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "\\" not in page  # no LaTeX (\\mathrm …) left for a renderer that is not there
+    assert html_escape(results["s0"]["mlr_formula"]) in page
+    assert "µ" not in page  # one micro sign: μ (U+03BC)
 
 
 def test_exported_model_is_the_demo_svr_and_verifies(demo):
@@ -81,7 +107,7 @@ def test_exported_model_is_the_demo_svr_and_verifies(demo):
     assert results["export"]["verify"]["ok"]
     assert verify(out / "export" / "s0_svr.json").ok
     document = read_document(out / "export" / "s0_svr.json")
-    x1 = datasets.load("miao2013").query("batch == 'x1'")
+    x1 = datasets.load(results["s0"]["dataset"]).query("batch == 'x1'")
     predictions = pd.read_csv(out / results["s0"]["predictions"]).query("batch == 'x1'")
     from_file = predict(document, x1[results["s0"]["features"]].to_numpy())
     assert np.max(np.abs(from_file - predictions["svr_um"].to_numpy())) <= 1e-9  # CSV round trip of predictions
@@ -94,9 +120,39 @@ def test_s4_and_s2_numbers_are_consistent(demo):
     s4 = results["s4"]
     assert s4["improvement_percent"] == pytest.approx(100 * (1 - s4["after_um"] / s4["before_um"]))
     assert s4["n_support"] == 82 and s4["paper"]["improvement_percent"] == 53.0
+    assert s4["out_of_sample"] is True and s4["train_run"] not in s4["test_runs"]
+    unseen = [run for run in s4["runs"] if not run["fitted_on"]]
+    assert [run["run"] for run in unseen] == s4["test_runs"]
+    assert s4["before_um"] == pytest.approx(np.mean([run["before_um"] for run in unseen]))
+    assert s4["after_um"] == pytest.approx(np.mean([run["after_um"] for run in unseen]))
     s2 = results["s2"]
     assert set(s2["max_error_improved"]) == set(s2["max_error_original"])
     assert all(value >= 0 for value in s2["mse_um2"].values())
+    # The note names exactly the components the improved method identifies more closely.
+    better = [c for c, e in s2["max_error_improved"].items() if e < s2["max_error_original"][c]]
+    assert f"identifies {len(better)} of 6 components more closely than the original ({', '.join(better)})" in \
+        s2["identification_note"]
+    assert max(max(errors.values()) for errors in s2["max_error_noise_free"].values()) < 1e-5
+    assert s2["periodic_ms_um2"] > 10 * s2["paper"]["mse_svr"]  # the aliased floor the note describes
+
+
+def test_reproduction_table_repeats_the_sections_numbers(demo):
+    out, results = demo
+    rows = results["reproduction"]
+    assert {row["seed"] for row in rows} == {"S0", "S4", "S2"}
+    s0 = {(r["model"], r["batch"]): (r["paper_rms_um"], r["rms_um"]) for r in results["s0"]["table"]}
+    for row in rows:
+        assert row["metric"] and row["qualitatively"] in {"agrees", "differs"}
+        if row["seed"] == "S0":
+            model, batch = row["quantity"].split(", batch ")
+            assert (row["paper"], row["ours"]) == s0[(model, batch)]
+        if row["qualitatively"] == "differs":
+            assert row["note"]  # a qualitative difference always comes with its measured reason
+    s2_rows = [row for row in rows if row["seed"] == "S2"]
+    svr_better = results["s2"]["mse_um2"]["svr_fit"] < results["s2"]["mse_um2"]["lsm_fit"]
+    assert all(row["qualitatively"] == ("agrees" if svr_better else "differs") for row in s2_rows)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "Reproduction, seed by seed" in page
 
 
 def test_gap_report_is_schema_valid_and_matches(demo):

@@ -162,9 +162,30 @@ def test_ga_convergence_curve_and_search_space(sine_wave):
 def test_lssvr_ga_searches_c_and_gamma_only(sine_wave):
     X, y = sine_wave
     result = ga_search(X, y, model="lssvr", population=6, generations=2, seed=1, cv=SHUFFLED_5_FOLD,
-                       backend="sequential")
+                       backend="sequential", gamma_range=(0.1, 100.0))
     assert set(result.best_params) == {"C", "gamma"}
+    assert result.table["gamma"].nunique() > 1
     assert isinstance(result.best_estimator(), LSSVR)
+
+
+def test_ga_tunes_c_and_epsilon_only_by_default_as_s1(sine_wave):
+    X, y = sine_wave
+    result = ga_search(X, y, population=6, generations=2, seed=3, cv=SHUFFLED_5_FOLD, backend="sequential")
+    assert result.table["C"].nunique() > 1 and result.table["epsilon"].nunique() > 1
+    # γ stays at scikit-learn's "scale", computed here independently by scikit-learn itself.
+    from sklearn.svm import SVR
+
+    reference_gamma = SVR(gamma="scale").fit(X, y)._gamma
+    assert result.table["gamma"].nunique() == 1
+    assert result.table["gamma"].iloc[0] == pytest.approx(reference_gamma, rel=1e-12)
+    assert result.best_params["gamma"] == pytest.approx(reference_gamma, rel=1e-12)
+    fixed = ga_search(X, y, gamma=10.0, population=6, generations=2, seed=3, cv=SHUFFLED_5_FOLD,
+                      backend="sequential")
+    assert set(fixed.table["gamma"]) == {10.0}
+    with pytest.raises(ProblemError, match="gamma must be a positive number or 'scale'"):
+        ga_search(X, y, gamma=-1.0, population=4, generations=1)
+    with pytest.raises(ProblemError, match="gamma must be a positive number or 'scale'"):
+        ga_search(X, y, gamma="auto", population=4, generations=1)
 
 
 def test_dask_local_cluster_gives_the_serial_results(sine_wave):

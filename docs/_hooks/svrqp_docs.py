@@ -150,7 +150,7 @@ def _notebooks() -> str:
                         for line in "".join(cell["source"]).splitlines() if line.startswith("# ")), None)
         if heading is None:
             raise PluginError(f"docs: {path.name} has no '# ' title in a markdown cell")
-        rows.append(f"| `{path.name}` | {heading[2:].strip()} |")
+        rows.append(f"| [`{path.name}`](notebooks/{path.name}) | {heading[2:].strip()} |")
     if not rows:
         raise PluginError("docs: no notebook found in notebooks/")
     return "\n".join(["| notebook | what it does |", "|---|---|", *rows])

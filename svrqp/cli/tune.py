@@ -37,7 +37,7 @@ class Backend(str, Enum):
 #: Defaults per method: grid values, or (low, high) ranges for the GA.
 DEFAULTS = {
     Method.grid: {"C": "1,10,100,1000", "gamma": "0.01,0.1,1,10", "epsilon": "0.01,0.1"},
-    Method.ga: {"C": "0.1,100000", "gamma": "0.001,100", "epsilon": "0.001,1"},
+    Method.ga: {"C": "0.1,100000", "gamma": "scale", "epsilon": "0.001,1"},
 }
 
 
@@ -97,7 +97,8 @@ def tune(
     C: str = typer.Option(None, "--C", help="grid: comma-separated values; ga: low,high range. "
                           "Defaults: grid 1,10,100,1000; ga 0.1,100000."),
     gamma: str = typer.Option(None, "--gamma", help="RBF γ in exp(-γ‖x−x'‖²), in 1/(feature unit)²; grid: values, "
-                              "ga: low,high. Defaults: grid 0.01,0.1,1,10; ga 0.001,100."),
+                              "ga: one value (fixed, as S1) or low,high (tuned). Defaults: grid 0.01,0.1,1,10; ga fixed at "
+                              "scikit-learn's 'scale'."),
     epsilon: str = typer.Option(None, "--epsilon", help="ε-tube half-width in target units (svr only); grid: values, "
                                 "ga: low,high. Defaults: grid 0.01,0.1; ga 0.001,1."),
     folds: int = typer.Option(5, "--folds", help="Number of cross-validation folds (S0, S2: 5)."),
@@ -128,8 +129,8 @@ def tune(
         raise ProblemError("--features: give at least one column")
     split_columns(target, table, "--target", numeric=True)
     X, y = table[names].to_numpy(dtype=float), table[target].to_numpy(dtype=float)
-    values = {name: _numbers(given or DEFAULTS[method][name], f"--{name}")
-              for name, given in (("C", C), ("gamma", gamma), ("epsilon", epsilon))}
+    texts = {name: given or DEFAULTS[method][name] for name, given in (("C", C), ("gamma", gamma), ("epsilon", epsilon))}
+    values = {name: [] if text == "scale" else _numbers(text, f"--{name}") for name, text in texts.items()}
     cv = KFold(folds, shuffle=True, random_state=seed) if shuffle else folds
     common = dict(model=model.value, cv=cv, solver=solver, tol=tol, backend=backend.value, n_jobs=jobs,
                   scheduler=scheduler)
@@ -145,7 +146,9 @@ def tune(
             result = grid_search(X, y, C=values["C"], gamma=values["gamma"], epsilon=values["epsilon"],
                                  progress=advance, **common)
         else:
-            result = ga_search(X, y, C_range=values["C"], gamma_range=values["gamma"],
+            gammas = values["gamma"]  # none: 'scale'; one: fixed; two: a range to tune
+            result = ga_search(X, y, C_range=values["C"], gamma=gammas[0] if len(gammas) == 1 else "scale",
+                               gamma_range=gammas if len(gammas) > 1 else None,
                                epsilon_range=values["epsilon"], population=population, generations=generations,
                                seed=seed, progress=advance, **common)
     _print_result(Console(), result)

@@ -47,15 +47,17 @@ def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
 
 
 def s4_figure(result: S4Result, path: Path) -> Path:
-    """Straightness deviation, its LS-SVR model and what remains after compensation, along x."""
+    """The first unseen run's deviation, the model fitted on another run, and what remains, along x."""
+    run = result.test_runs[0]
     figure, axis = plt.subplots(figsize=(7.5, 4))
-    axis.plot(result.x_mm, result.deviation_um, color="black", lw=0.8, label="deviation from LS line (simulated)")
-    axis.plot(result.x_mm, result.model_um, color="tab:blue", lw=1.2, label="LS-SVR model")
-    axis.plot(result.x_mm, result.compensated.residual_um, color="tab:green", lw=0.8,
-              label="after compensation (feed-forward, dead band)")
+    axis.plot(run.x_mm, run.deviation_um, color="black", lw=0.8,
+              label=f"run {run.run}: deviation e = g(x) − y from its LS line (simulated)")
+    axis.plot(result.x_mm, result.model_um, color="tab:blue", lw=1.2, label=f"LS-SVR model fitted on run {result.train_run}")
+    axis.plot(run.x_mm, run.compensated.residual_um, color="tab:green", lw=0.8,
+              label=f"run {run.run} after compensation (feed-forward, dead band)")
     axis.set_xlabel("x (mm)")
     axis.set_ylabel("straightness deviation (μm)")
-    axis.set_title("S4 — gantry straightness")
+    axis.set_title("S4 — gantry straightness, scored on a run the model never saw")
     axis.legend(loc="best", fontsize=8)
     return _save(figure, path)
 

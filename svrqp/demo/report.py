@@ -30,32 +30,56 @@ def _figure(path: str, caption: str) -> str:
             f'width="640"></a><figcaption>{html.escape(caption)}</figcaption></figure>')
 
 
+def _s0_table(table: list[dict[str, Any]]) -> str:
+    rows = [[r["model"], r["batch"], r["rms_um"], r["paper_rms_um"], r["std_um"], r["max_abs_um"]] for r in table]
+    return _table(["model", "batch", "RMS of residual (μm)", "S0's published RMS (μm)",
+                   "std of residual, mean removed (μm)", "max |residual| (μm)"], rows)
+
+
+def _paragraphs(sentences: list[str]) -> str:
+    return "".join(f"<p>{html.escape(sentence)}</p>" for sentence in sentences)
+
+
 def _s0(s0: dict[str, Any]) -> str:
-    rows = [[r["model"], r["batch"], r["std_um"], r["rms_um"], r["max_abs_um"], r["paper_std_um"]] for r in s0["table"]]
     best = s0["cv"]["best_params"]
+    variant = s0["absolute_variant"]
     return (f"<h2>S0 — spindle thermal error: MLR vs ε-SVR (fit on x1)</h2>"
+            f"<p>Data: <code>{html.escape(s0['dataset'])}</code>, S0's set-up — temperature rises from the start "
+            f"of each run and the probe zeroed at the start; inputs {', '.join(s0['features'])}.</p>"
             f"<p>ε-SVR: RBF kernel, ε = {s0['epsilon_um']} μm fixed; {s0['cv']['folds']}-fold CV over "
             f"C ∈ {s0['cv']['grid']['C']}, γ ∈ {s0['cv']['grid']['gamma']} chose C = {best['C']:g}, "
             f"γ = g = {best['gamma']:g} (CV MSE {s0['cv']['best_mse_um2']:.4g} μm²); {s0['n_support']} support "
             f"vectors (S0: 56). MLR: {html.escape(s0['mlr_formula'])}.</p>"
-            + _table(["model", "batch", "std of residual (μm)", "RMS (μm)", "max |residual| (μm)",
-                      "S0's published std (μm)"], rows)
-            + f"<p>{html.escape(s0['sentence'])}</p>"
+            f"<p>Metric: {html.escape(s0['metric'])}.</p>"
+            + _s0_table(s0["table"])
+            + f"<p>{html.escape(s0['sentence'])}</p>" + _paragraphs(s0["extrapolation"])
             + "".join(_figure(path, f"S0 batch {batch}: measured vs predicted vs residual over time")
                       for batch, path in s0["figures"].items())
-            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: {_link(s0['cv_table'])}.</p>")
+            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: {_link(s0['cv_table'])}.</p>"
+            + f"<h3>Variant: absolute temperatures (<code>{html.escape(variant['dataset'])}</code>)</h3>"
+            f"<p>The same pipeline on absolute temperatures {', '.join(variant['features'])}, with the error "
+            "counted from the machine at 20 °C: not S0's set-up, kept to show what extrapolation does. MLR: "
+            f"{html.escape(variant['mlr_formula'])}; ε-SVR C = {variant['best_params']['C']:g}, γ = "
+            f"{variant['best_params']['gamma']:g}.</p>"
+            + _s0_table(variant["table"]) + _paragraphs(variant["extrapolation"]))
 
 
 def _s4(s4: dict[str, Any]) -> str:
     paper = s4["paper"]
-    rows = [["straightness before (μm, peak-to-valley)", s4["before_um"], paper["before_um"]],
+    unseen = ", ".join(str(run) for run in s4["test_runs"])
+    rows = [[f"straightness before (μm, mean of runs {unseen})", s4["before_um"], paper["before_um"]],
             ["after compensation (μm)", s4["after_um"], paper["after_um"]],
             ["improvement (%)", s4["improvement_percent"], paper["improvement_percent"]]]
-    return (f"<h2>S4 — LS-SVR straightness compensation</h2>"
+    per_run = [[run["run"], "fitted on (in sample)" if run["fitted_on"] else "unseen", run["before_um"],
+                run["after_um"], run["improvement_percent"]] for run in s4["runs"]]
+    return (f"<h2>S4 — LS-SVR straightness compensation (out of sample)</h2>"
             f"<p>LS-SVR with S4's σ = {s4['sigma_mm']} mm (2σ² convention, γ = {s4['gamma']:.4g}) and "
-            f"C = {s4['C']}, {s4['n_support']} support vectors; output = window mean over the next "
-            f"{s4['feed_forward_mm']} mm with a {s4['dead_band_um']} μm dead band (S4 eq. 8).</p>"
-            + _table(["", "this run", "S4"], rows) + _figure(s4["figure"], "S4 straightness before and after"))
+            f"C = {s4['C']}, {s4['n_support']} support vectors, fitted on run {s4['train_run']}; output = window "
+            f"mean over the next {s4['feed_forward_mm']} mm with a {s4['dead_band_um']} μm dead band (S4 eq. 8), "
+            f"applied to runs {unseen}, which the model never saw.</p><p>Metric: {html.escape(s4['metric'])}.</p>"
+            + _table(["", "unseen runs", "S4"], rows)
+            + _table(["run", "role", "before (μm)", "after (μm)", "improvement (%)"], per_run)
+            + _figure(s4["figure"], "S4 straightness of an unseen run before and after"))
 
 
 def _s2(s2: dict[str, Any]) -> str:
@@ -64,14 +88,16 @@ def _s2(s2: dict[str, Any]) -> str:
     mse = s2["mse_um2"]
     paper = s2["paper"]
     return ("<h2>S2 — nine-line identification and δx(x) models</h2>"
-            "<p>Largest error of the identified components against the simulator's truth:</p>"
+            "<p>Largest error of the identified components against the simulator's truth (μm for δ, μrad for θ):</p>"
             + _table(["component", "improved method", "original method"], rows)
+            + f"<p>{html.escape(s2['identification_note'])}</p>"
             + f"<p>δx(x): ε-SVR (5-fold CV: C = {s2['svr_params']['C']:g}, γ = {s2['svr_params']['gamma']:.4g} "
               f"on u = x/550; {s2['n_support']} SVs) vs 5th-order least-squares polynomial.</p>"
             + _table(["MSE (μm²)", "ε-SVR", "5th-order LSM"],
                      [["fit (as S2 reports)", mse["svr_fit"], mse["lsm_fit"]],
                       ["leave-one-out", mse["svr_loo"], mse["lsm_loo"]],
-                      ["S2 published", paper["mse_svr"], paper["mse_lsm"]]])
+                      ["S2 published (fit)", paper["mse_svr"], paper["mse_lsm"]]])
+            + f"<p>Metric: {html.escape(s2['metric'])}. {html.escape(s2['periodic_note'])}</p>"
             + _figure(s2["figure"], "S2 δx identification and models"))
 
 
@@ -103,14 +129,23 @@ def _gap(gap: dict[str, Any]) -> str:
             + f"<p>Full report: {_link(gap['html'])}; JSON: {_link(gap['json'])}.</p>")
 
 
+def _reproduction(rows: list[dict[str, Any]]) -> str:
+    return ("<h2>Reproduction, seed by seed</h2><p>The papers' numbers against ours on the simulated data, each "
+            "with its metric; where ours differs qualitatively, the measured reason.</p>"
+            + _table(["seed", "quantity", "metric", "paper", "ours", "qualitatively", "why"],
+                     [[r["seed"], r["quantity"], r["metric"], r["paper"], r["ours"], r["qualitatively"], r["note"]]
+                      for r in rows]))
+
+
 def report_html(results: dict[str, Any]) -> str:
     """The demo's report page (figures and exported files are linked by relative paths)."""
-    sections = [_s0(results["s0"]), _s4(results["s4"]), _s2(results["s2"]), _export(results["export"])]
+    sections = [_reproduction(results["reproduction"]), _s0(results["s0"]), _s4(results["s4"]), _s2(results["s2"]),
+                _export(results["export"])]
     if results.get("gap") is not None:
         sections.append(_gap(results["gap"]))
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>svrqp demo</title>"
             "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
-            "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}</style></head><body>"
+            "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}td:last-child{text-align:left}</style></head><body>"
             f"<h1>svrqp demo</h1><p><b>{html.escape(SIMULATED_NOTE)}</b></p>"
             f"<p>{'Quick run (--quick): smaller CV grid. ' if results['quick'] else ''}"
             f"Run time {results['runtime_s']:.1f} s; numbers in {_link('results.json')}.</p>"

@@ -1,6 +1,6 @@
 r"""LS-SVR as a linear KKT system (S4, Lin et al. 2011, eqs. 4–7).
 
-Primal (S4 eq. 4): :math:`\min_{w,b,\xi} \tfrac12 w^\top w + \tfrac{C}{2}\sum_i \xi_i^2` s.t.
+Primal (S4 eq. 4, error term halved as explained below): :math:`\min_{w,b,\xi} \tfrac12 w^\top w + \tfrac{C}{2}\sum_i \xi_i^2` s.t.
 :math:`y_i = w^\top\varphi(x_i) + b + \xi_i`. Eliminating :math:`w, \xi` gives the KKT system
 (S4 eq. 5), with :math:`\Omega_{ij} = k(x_i, x_j)`:
 
@@ -10,6 +10,17 @@ Primal (S4 eq. 4): :math:`\min_{w,b,\xi} \tfrac12 w^\top w + \tfrac{C}{2}\sum_i 
     \begin{bmatrix} b \\ \alpha \end{bmatrix}
     = \begin{bmatrix} 0 \\ y \end{bmatrix},
     \qquad y(x) = \sum_i \alpha_i k(x, x_i) + b \quad\text{(S4 eq. 7)} .
+
+**Where S4's** :math:`C\sum\xi_i^2` **became** :math:`\tfrac{C}{2}\sum\xi_i^2`. S4's eq. (4) is the
+Lagrangian :math:`\tfrac12 w^\top w + C\sum_i\xi_i^2 - \sum_i\alpha_i[w^\top\varphi(x_i) + b + \xi_i -
+y_i]`; its stationarity in :math:`\xi_i` gives :math:`\alpha_i = 2C\xi_i` and so the block
+:math:`\Omega + (2C)^{-1} I`, not the :math:`\Omega + C^{-1} I` that S4 prints in eq. (5). The two
+equations disagree by a factor 2. This module writes the error term as
+:math:`\tfrac{C}{2}\sum\xi_i^2` (the usual LS-SVM convention, Suykens' :math:`\tfrac{\gamma}{2}`), which
+makes eq. (5), the system S4 actually solves, exact. What that does to C: S4's :math:`C = 0.5` is
+used as the ridge :math:`C^{-1} = 2` of eq. (5); a reader taking eq. (4) literally would need
+``C = 1.0`` here for the same model (in general: literal-eq.-(4) :math:`C` equals this module's
+:math:`C/2`).
 
 Solved by one Cholesky factorisation of :math:`H = \Omega + C^{-1} I` (positive definite) and
 the Schur complement of the bordered system: with :math:`H\nu = \mathbf 1` and :math:`H\mu = y`,

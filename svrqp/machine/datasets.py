@@ -47,34 +47,60 @@ MIAO_DURATION_MIN = 250.0
 MIAO_BATCHES = (("x1", 185.0, 0.8, 12.0, 1), ("x2", 205.0, 0.8, 12.5, 2), ("x3", 290.0, 3.5, 9.0, 3))
 
 
-def miao2013_config(day_of_year: float, daily_amplitude_C: float, start_hour: float) -> ThermalConfig:
+def miao2013_config(day_of_year: float, daily_amplitude_C: float, start_hour: float, *,
+                    zero_at_start: bool = False) -> ThermalConfig:
     """S0 set-up: a vertical machining centre run at 4500 rpm, no axis motion.
 
-    The error is counted from the 20 °C reference state (``zero_at_start=False``), as a probe
-    zeroed on the machine soaked at 20 °C would read it, so the structure's temperature level
-    (which follows the season) is part of the error.
+    With ``zero_at_start=False`` the error is counted from the 20 °C reference state, as a
+    probe zeroed on the machine soaked at 20 °C would read it, so the structure's temperature
+    level (which follows the season) is part of the error (the ``miao2013`` variant). With
+    ``zero_at_start=True`` the probe is zeroed at the start of each run, as in S0
+    (``miao2013_rise``).
     """
     return ThermalConfig(
         cycle=(CycleSegment(MIAO_DURATION_MIN + 1.0, 4500.0, 0.0),),
         ambient=Ambient(day_of_year=day_of_year, daily_amplitude_C=daily_amplitude_C,
                         start_hour=start_hour),
         sensors=MIAO_SENSORS,
-        zero_at_start=False,
+        zero_at_start=zero_at_start,
     )
 
 
-def miao2013() -> pd.DataFrame:
-    """Three batches: x1, x2 in summer (≈ 30 °C), x3 in autumn (≈ 24 °C); 0–250 min at 1 min."""
-    batches = []
+def _miao_batches(zero_at_start: bool) -> list[tuple[str, pd.DataFrame]]:
+    """Each batch's simulated run, 0–250 min; the seeds make the temperatures identical either way."""
+    runs = []
     for batch, day, amplitude, start, seed in MIAO_BATCHES:
-        run = simulate_thermal(miao2013_config(day, amplitude, start), seed=seed)
-        run = run[run["time_min"] <= MIAO_DURATION_MIN]
-        sensors = [f"{s.name}_C" for s in MIAO_SENSORS]
-        columns = ["time_min", "speed_rpm", *sensors, "error_um", *_effect_columns(EFFECTS), "noise_um"]
-        run = _round(run[columns].round(DECIMALS), "error_um", EFFECTS)
-        batches.append(run.assign(batch=batch))
+        config = miao2013_config(day, amplitude, start, zero_at_start=zero_at_start)
+        run = simulate_thermal(config, seed=seed)
+        runs.append((batch, run[run["time_min"] <= MIAO_DURATION_MIN].reset_index(drop=True)))
+    return runs
+
+
+def _miao_table(runs: list[tuple[str, pd.DataFrame]], sensors: list[str]) -> pd.DataFrame:
+    columns = ["time_min", "speed_rpm", *sensors, "error_um", *_effect_columns(EFFECTS), "noise_um"]
+    batches = [_round(run[columns].round(DECIMALS), "error_um", EFFECTS).assign(batch=batch)
+               for batch, run in runs]
     table = pd.concat(batches, ignore_index=True)
     return table[["batch", *table.columns[:-1]]]
+
+
+def miao2013() -> pd.DataFrame:
+    """Absolute temperatures, error from the 20 °C reference: the extrapolation variant of S0."""
+    return _miao_table(_miao_batches(zero_at_start=False), [f"{s.name}_C" for s in MIAO_SENSORS])
+
+
+def miao2013_rise() -> pd.DataFrame:
+    """S0's set-up: temperature rises and the error from the start of each run (probe zeroed).
+
+    A rise is the sensor's reading minus its first reading of the run (S0 Table 1's support
+    vectors start near 0 °C), so the first row of every batch holds zeros.
+    """
+    runs = _miao_batches(zero_at_start=True)
+    for _, run in runs:
+        for sensor in MIAO_SENSORS:
+            reading = run[f"{sensor.name}_C"].round(DECIMALS)
+            run[f"{sensor.name}_rise_C"] = (reading - reading.iloc[0]).round(DECIMALS)
+    return _miao_table(runs, [f"{s.name}_rise_C" for s in MIAO_SENSORS])
 
 
 # ---------------------------------------------------------------- S1: Chen & Gong 2012
@@ -140,7 +166,9 @@ def yang_turning() -> pd.DataFrame:
 
 # ---------------------------------------------------------------- S2: Zhou et al.
 
-ZHOU_AXIS = AxisConfig()
+#: S2 measures at 20 °C after the machine and the interferometer reach thermal equilibrium, so
+#: the scale is at its reference temperature (no scale expansion).
+ZHOU_AXIS = AxisConfig(axis_temperature_C=20.0)
 
 
 def zhou_axis_x() -> pd.DataFrame:
@@ -156,18 +184,28 @@ def zhou_axis_x_true() -> pd.DataFrame:
 
 # ---------------------------------------------------------------- S4: Lin et al. 2011
 
+# (run, minutes the motors have run before the record, seed): the same interpolation repeated as
+# the machine warms, so a model fitted on run 1 can be scored on runs it never saw.
+LIN_RUNS = ((1, 30.0, 4), (2, 50.0, 5), (3, 70.0, 6))
+
+
 def lin_gantry() -> pd.DataFrame:
-    """A 150 mm linear interpolation at 400 mm/min recorded at 15 Hz."""
-    run = simulate_gantry(GantryConfig(), seed=4)
-    table = run.round({"time_s": 4, "x_mm": 6, "y_mm": 6, "feed_mm_min": DECIMALS,
-                       "accel_mm_s2": DECIMALS, "motor_C": DECIMALS})
-    return _round(table, "deviation_um", GANTRY_EFFECTS)
+    """Three records of a 150 mm linear interpolation at 400 mm/min at 15 Hz, one per run."""
+    runs = []
+    for run_id, warm_min, seed in LIN_RUNS:
+        run = simulate_gantry(GantryConfig(motor_warm_min=warm_min), seed=seed)
+        table = run.round({"time_s": 4, "x_mm": 6, "y_mm": 6, "feed_mm_min": DECIMALS,
+                           "accel_mm_s2": DECIMALS, "motor_C": DECIMALS})
+        runs.append(_round(table, "deviation_um", GANTRY_EFFECTS).assign(run=run_id))
+    table = pd.concat(runs, ignore_index=True)
+    return table[["run", *table.columns[:-1]]]
 
 
 # ---------------------------------------------------------------- registry and writing
 
 BUILDERS: dict[str, Callable[[], pd.DataFrame]] = {
     "miao2013": miao2013,
+    "miao2013_rise": miao2013_rise,
     "chen2012": chen2012,
     "zhou_axis_x": zhou_axis_x,
     "zhou_axis_x_true": zhou_axis_x_true,
