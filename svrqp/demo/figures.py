@@ -32,7 +32,7 @@ def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
     top.plot(rows["time_min"], rows["error_um"], color="black", lw=1.2, label="measured (simulated)")
     top.plot(rows["time_min"], rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
     top.plot(rows["time_min"], rows["svr_um"], color="tab:blue", lw=1, ls="--", label="ε-SVR")
-    top.set_ylabel("axial thermal error since the run start (μm)")
+    top.set_ylabel("axial error since start (μm)")
     top.set_title(f"S0 — batch {BATCH_TITLES.get(batch, batch)}")
     top.legend(loc="best", fontsize=8)
     bottom.plot(rows["time_min"], rows["error_um"] - rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
