@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.svrqp-installed
 
-.PHONY: install test demo docs bench clean
+.PHONY: install test demo docs bench clean notebooks
 
 install: $(STAMP)
 
@@ -28,6 +28,11 @@ test: $(STAMP)
 # The demo writes only its own files into demo-output/; re-running `make demo` replaces them.
 demo: $(STAMP)
 	$(VENV)/bin/svrqp demo --force
+
+# Rebuild every notebook from its jupytext source (notebooks/NN_*.py), executed, outputs stored.
+notebooks: export OPENBLAS_NUM_THREADS = 1
+notebooks: $(STAMP)
+	$(PY) notebooks/build.py
 
 bench: $(STAMP)
 	$(PY) benchmarks/epsilon_svr_vs_libsvm.py

@@ -29,12 +29,12 @@
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+import scipy.linalg
 from IPython.display import Math, display
 from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
 from svrqp.compensate import online_compensation, residual_metrics
-from svrqp.formulations import least_squares
 from svrqp.linear_models import LinearLS, RecursiveLS, merge_models
 from svrqp.problems import LinearSystem
 from svrqp.solve import solve_linear_system
@@ -91,28 +91,29 @@ print("|intercept RLS − intercept batch| =", abs(recursive.intercept_ - batch.
 display(Math(batch.to_latex()))
 
 # %% [markdown]
-# ## The batch model as a linear system, solved two ways
+# ## The model's normal equations, from the model object, solved two ways
 #
-# With $x_i = (1, 	heta_c, 	heta_n, 	heta_s, 	heta_b)$ the batch model solves
-# $igl(\sum_i x_i x_i^	opigr) a = \sum_i x_i y_i$ (S3 eq. 6) — in matrix form
-# $D^	op D\,a = D^	op y$. Stated as a `LinearSystem`, solved by LU and by the equilibrated
-# Cholesky factorisation, and refereed by NumPy's `lstsq` and scikit-learn's `LinearRegression`;
-# the recursion's $P_k$ after all samples is $(D^	op D)^{-1}$:
+# The recursion carries $P_k^{-1} = \sum_i x_i x_i^\top$ and $b_k = \sum_i x_i y_i$ (S3 eqs. 20–24;
+# the regressors are $x_i = (1, \theta_i - \theta_\mathrm{ref})$, centred on the first sample for
+# conditioning), so the fitted `RecursiveLS` holds the linear system $P_k^{-1} a = b_k$ of S3 eq. 6.
+# Stated as a `LinearSystem`, solved by LU and by Cholesky, and refereed by NumPy's `lstsq` and
+# scikit-learn's `LinearRegression` on the same regressors:
 
 # %%
-design = np.column_stack([np.ones(len(data)), data[features].to_numpy()])
-y = data[target].to_numpy()
-system = LinearSystem(M=design.T @ design, rhs=design.T @ y, name="S3 eq. 6, all 50 workpieces",
-                      statement=r"\Bigl(\sum_i x_i x_i^\top\Bigr) a = \sum_i x_i y_i,\quad "
-                                r"x_i = (1, \theta_c, \theta_n, \theta_s, \theta_b)^\top")
+state = recursive.state_
+system = LinearSystem(M=state.information, rhs=state.b, name="S3 eq. 6 as the recursion holds it, 50 workpieces",
+                      statement=r"P_k^{-1} a = b_k,\quad P_k^{-1} = \sum_i x_i x_i^\top,\quad b_k = \sum_i x_i y_i,"
+                                r"\quad x_i = (1,\ \theta_i - \theta_\mathrm{ref})^\top")
 display(Math(system.to_latex()))
-reference = LinearRegression().fit(data[features], y)
+y = data[target].to_numpy()
+design = np.column_stack([np.ones(len(data)), data[features].to_numpy() - recursive.x_offset_])
+reference = LinearRegression().fit(design[:, 1:], y)
 pd.DataFrame({"LU": solve_linear_system(system).x,
-              "Cholesky (equilibrated)": least_squares.solve_normal_equations(design, y).coef,
-              "RecursiveLS (S3 eqs. 13–17)": [recursive.intercept_, *recursive.coef_],
+              "Cholesky": scipy.linalg.cho_solve(scipy.linalg.cho_factor(state.information), state.b),
+              "the recursion's a_k (eqs. 13–17)": state.a,
               "numpy lstsq": np.linalg.lstsq(design, y, rcond=None)[0],
               "scikit-learn": [reference.intercept_, *reference.coef_]},
-             index=["C0 (μm)", *(f"C for {f} (μm/°C)" for f in features)])
+             index=["a0 at θ_ref (μm)", *(f"a for {f} (μm/°C)" for f in features)])
 
 # %% [markdown]
 # ## Batch merge (S3 eqs. 20–24)

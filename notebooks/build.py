@@ -63,6 +63,19 @@ def drift(source: Path) -> list[str]:
     return problems
 
 
+def coalesced(outputs: list) -> list:
+    """Consecutive stream outputs of one stream joined: how a kernel chunks its output is timing."""
+    joined = []
+    for output in outputs:
+        previous = joined[-1] if joined else None
+        if (output.output_type == "stream" and previous is not None and previous.output_type == "stream"
+                and previous.name == output.name):
+            previous.text += output.text
+        else:
+            joined.append(output)
+    return joined
+
+
 def build(source: Path) -> Path:
     """Execute the notebook of ``source`` (working directory: this folder) and write its ``.ipynb``."""
     notebook = from_source(source)
@@ -71,6 +84,8 @@ def build(source: Path) -> Path:
     client.execute()
     for cell in notebook.cells:
         cell.get("metadata", {}).pop("execution", None)
+        if cell.cell_type == "code":
+            cell.outputs = coalesced(cell.outputs)
     notebook.metadata.pop("widgets", None)
     target = source.with_suffix(".ipynb")
     jupytext.write(notebook, target, fmt="ipynb")

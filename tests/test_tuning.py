@@ -333,3 +333,20 @@ def test_cli_tune_ga_and_bad_input(sine_wave_csv, capsys):
     assert "ga search" in capsys.readouterr().out
     assert _svrqp("tune", str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--C", "0,1") == 2
     assert "every C must be finite and positive" in capsys.readouterr().err
+
+
+def test_cli_tune_ga_fixes_gamma_unless_given_a_range(sine_wave_csv, tmp_path):
+    import json
+
+    common = [str(sine_wave_csv), "--target", "error_um", "--features", "x_mm", "--method", "ga", "--population", "4",
+              "--generations", "1", "--folds", "3", "--backend", "sequential"]
+    gammas = {}
+    for name, extra in (("default", []), ("fixed", ["--gamma", "10"]), ("range", ["--gamma", "1,100"])):
+        out_json = tmp_path / f"{name}.json"
+        assert _svrqp("tune", *common, *extra, "--json", str(out_json)) == 0
+        gammas[name] = {candidate["gamma"] for candidate in json.loads(out_json.read_text())["candidates"]}
+    x = np.loadtxt(sine_wave_csv, delimiter=",", skiprows=1, usecols=0)  # the x_mm column
+    (default,) = gammas["default"]
+    assert default == pytest.approx(1.0 / x.var(), rel=1e-12)  # scikit-learn's "scale"
+    assert gammas["fixed"] == {10.0}
+    assert len(gammas["range"]) > 1 and all(1.0 <= g <= 100.0 for g in gammas["range"])

@@ -61,7 +61,7 @@ def print_summary(console: Console, results: dict[str, Any], out: Path) -> None:
     verify = results["export"]["verify"]
     console.print(f"Export — {', '.join(results['export']['files'])}: verify "
                   f"{'OK' if verify['ok'] else 'FAIL'} (largest probe deviation {verify['max_deviation']:.3g}).")
-    console.print(f"Gap (summer MLR on autumn x3) — verdict: {verdict_label(results['gap']['verdict'])}. "
+    console.print(f"Gap (summer MLR on absolute temperatures, autumn x3) — verdict: {verdict_label(results['gap']['verdict'])}. "
                   f"{results['gap']['summary']}")
     console.print(f"Everything is in {out}/ — open {out / 'report.html'} ({results['runtime_s']:.0f} s).")
 

@@ -34,7 +34,7 @@ def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
     top.plot(rows["time_min"], rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
     top.plot(rows["time_min"], rows["svr_um"], color="tab:blue", lw=1, ls="--", label="ε-SVR")
     draw_guard(top, rows["time_min"], rows["svr_lower_um"], rows["svr_upper_um"], rows["svr_outside"], coverage=0.9)
-    top.set_ylabel("axial thermal error (μm)")
+    top.set_ylabel("axial error since start (μm)")
     top.set_title(f"S0 — batch {BATCH_TITLES.get(batch, batch)}")
     top.legend(loc="best", fontsize=8)
     bottom.plot(rows["time_min"], rows["error_um"] - rows["mlr_um"], color="tab:orange", lw=1, label="MLR")

@@ -123,7 +123,9 @@ def verdict_label(verdict: dict[str, Any]) -> str:
 
 
 def _gap(gap: dict[str, Any]) -> str:
-    return ("<h2>Gap diagnosis: why the summer MLR misses autumn</h2>"
+    return ("<h2>Gap diagnosis: why the summer MLR on absolute temperatures misses autumn</h2>"
+            "<p>Run on the absolute variant (<code>miao2013</code>, inputs T7_C and T9_C), where the summer "
+            "model is used far outside its training range in autumn.</p>"
             f"<p>Verdict: <b>{html.escape(verdict_label(gap['verdict']))}</b>"
             + f"</p><p>{html.escape(gap['summary'])}</p>"
             + f"<p>Full report: {_link(gap['html'])}; JSON: {_link(gap['json'])}.</p>")
