@@ -13,6 +13,7 @@ optimality conditions (:func:`dual_qp_point`) and its residuals are checked like
 from __future__ import annotations
 
 import time
+from functools import partial
 from importlib.metadata import version
 from numbers import Integral, Real
 from typing import Any
@@ -26,9 +27,11 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from svrqp import __version__, dual_ipm
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.export.mixin import ExportMixin
+from svrqp.fitted_state import CompactFitMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
 from svrqp.problems import QuadraticProgram, check_psd
+from svrqp.solver_choice import AUTO, SMO_CROSSOVER, solve_auto, solve_path
 from svrqp.solve import (
     BACKENDS,
     DEFAULT_CHECK_FACTOR,
@@ -39,8 +42,10 @@ from svrqp.solve import (
 
 #: ``EpsilonSVR(solver=DUAL_IPM)``: svrqp's own interior point with exact crossover (:mod:`svrqp.dual_ipm`).
 DUAL_IPM = "dual_ipm"
-#: Every value ``EpsilonSVR.solver`` accepts: the dual interior point and the QP backends.
-SOLVERS: tuple[str, ...] = (DUAL_IPM, *BACKENDS)
+#: Every value ``EpsilonSVR.solver`` accepts: the automatic choice, svrqp's exact paths and the QP backends.
+SOLVERS: tuple[str, ...] = (AUTO, SMO_CROSSOVER, DUAL_IPM, *BACKENDS)
+#: ``solver="auto"`` on the linear primal QP (a sparse QP with no kernel matrix: a stock backend).
+PRIMAL_AUTO_BACKEND = "clarabel"
 #: The QP statements a ``dual_ipm`` solution is certified on (the primal has no kernel matrix).
 DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 
@@ -185,7 +190,7 @@ class _KernelModel(RegressorMixin, BaseEstimator):
         return tags
 
 
-class EpsilonSVR(ExportMixin, _KernelModel):
+class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
     """ε-support vector regression solved as an explicit QP.
 
     Parameters
@@ -199,10 +204,14 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         RBF/polynomial scale in scikit-learn's convention (see :mod:`svrqp.kernels`).
     degree : int, default=3
     coef0 : float, default=0.0
-    solver : str, default="clarabel"
-        ``"dual_ipm"`` (the fast exact path: :func:`svrqp.dual_ipm.solve_exact`, an interior point
-        on the reduced n×n system with an exact active-set crossover, certified on the QP of
-        ``formulation``) or any backend of :data:`svrqp.solve.BACKENDS`.
+    solver : str, default="auto"
+        ``"auto"`` (:mod:`svrqp.solver_choice`: the fastest exact path for the problem, certified
+        on the QP of ``formulation``; the choice is kept as ``solver_used_``),
+        ``"smo_crossover"`` (:mod:`svrqp.warm_start`: a loose SMO run, then the exact active-set
+        crossover), ``"dual_ipm"`` (:func:`svrqp.dual_ipm.solve_exact`, an interior point on the
+        reduced n×n system with the same crossover) or any backend of
+        :data:`svrqp.solve.BACKENDS` (the QP handed to a stock solver). With
+        ``formulation="primal"``, ``"auto"`` hands the primal QP to Clarabel.
     formulation : {"split", "stacked", "primal"}, default="split"
         Which equivalent QP to solve (``"primal"`` needs ``kernel="linear"``). With
         ``solver="dual_ipm"``: the dual QP kept as ``problem_`` and whose residuals certify the
@@ -225,9 +234,13 @@ class EpsilonSVR(ExportMixin, _KernelModel):
     gamma_ : float
         The ``gamma`` actually used.
     problem_ : QuadraticProgram
-        The QP that was solved.
+        The QP that was solved (rebuilt from the training data on first access when the path did
+        not form it, and after unpickling: :mod:`svrqp.fitted_state`).
     solution_ : Solution
-        The certificate-checked solution.
+        The certificate-checked solution (after unpickling: the point, multipliers and
+        certificates rebuilt at the returned coefficients).
+    solver_used_ : str
+        The path or backend that produced the coefficients (``solution_.backend``).
     polished_ : bool
         Whether the active-set polish of :func:`svrqp.formulations.epsilon_svr.polish` replaced
         the solver's dual coefficients (dual formulations only); with ``solver="dual_ipm"``,
@@ -245,7 +258,7 @@ class EpsilonSVR(ExportMixin, _KernelModel):
     }
 
     def __init__(self, C=1.0, epsilon=0.1, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
-                 solver="clarabel", formulation="split", tol=1e-8, check_tol=None):
+                 solver="auto", formulation="split", tol=1e-8, check_tol=None):
         self.C = C
         self.epsilon = epsilon
         self.kernel = kernel
@@ -270,16 +283,26 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
-        if self.solver == DUAL_IPM:
+        kernel_parameters = {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
+        self.problem_ = None  # built by the paths that need it, otherwise rebuilt on demand
+        if self.solver in (AUTO, SMO_CROSSOVER) and self.formulation != "primal":
+            data = self._training_gram(X) if self.kernel == "precomputed" else X
+            beta, b, self.solution_ = (solve_auto if self.solver == AUTO else partial(solve_path, SMO_CROSSOVER))(
+                data, y, self.C, self.epsilon, kernel_parameters=kernel_parameters, formulation=self.formulation,
+                tol=self.tol, check_tol=self.check_tol)
+            self.polished_ = self.solution_.settings["crossover_exact"]
+        elif self.solver == DUAL_IPM:
             low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
             beta, b, self.problem_, self.solution_, self.polished_ = solve_dual_ipm(
                 self._training_gram(X), y, self.C, self.epsilon, formulation=self.formulation, tol=self.tol,
-                check_tol=self.check_tol, X=X if low_rank_possible else None,
-                kernel_parameters={"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
-                                   "coef0": self.coef0})
+                check_tol=self.check_tol, X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)
         elif self.formulation == "primal":
+            if self.solver == SMO_CROSSOVER:
+                raise ProblemError(f"solver={SMO_CROSSOVER!r} solves a kernel dual: formulation must be one of "
+                                   f"{DUAL_FORMULATIONS}, got 'primal'")
             self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
-            self.solution_ = solve_qp(self.problem_, self.solver, tol=self.tol, check_tol=self.check_tol)
+            backend = PRIMAL_AUTO_BACKEND if self.solver == AUTO else self.solver
+            self.solution_ = solve_qp(self.problem_, backend, tol=self.tol, check_tol=self.check_tol)
             beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
             d = X.shape[1]
             self.coef_ = self.solution_.x[:d].copy()
@@ -295,6 +318,8 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         self.support_vectors_ = X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
         self.dual_coef_ = beta[support][None, :]
         self.intercept_ = np.array([b])
+        self.solver_used_ = self.solution_.backend
+        self._keep_fit_data(X, y, self.formulation)
         return self
 
 

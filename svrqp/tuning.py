@@ -19,7 +19,7 @@ C grid (ascending) the ε-SVR dual of the previous C is a feasible starting poin
 (the box :math:`[-C, C]` only grows), so backends that accept a warm start
 (:data:`WARM_START_BACKENDS`) get it.
 
-**The fast exact path** (``solver="dual_ipm"``): each fit is the exact optimum of
+**The fast exact path** (``solver="dual_ipm"``, and the default ``"auto"``): each fit is the exact optimum of
 :func:`svrqp.dual_ipm.solve_exact` (interior point on the reduced system, then an active-set
 crossover). Along the C grid the previous optimum's active set — which coefficients are zero,
 free, or at the bound (moved from :math:`\pm C_{prev}` to :math:`\pm C`) — starts the crossover at
@@ -61,6 +61,7 @@ from sklearn.utils.validation import check_X_y
 
 from svrqp import dual_ipm
 from svrqp.estimators import DUAL_IPM, LSSVR, EpsilonSVR
+from svrqp.solver_choice import AUTO
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
@@ -132,9 +133,13 @@ def _check_model(model: str) -> None:
         raise ProblemError(f"model must be one of {MODELS}, got {model!r}")
 
 
-def _check_solver(solver: str) -> None:
+def _check_solver(solver: str) -> str:
+    """The solver the fits use: ``"auto"`` is the exact path on shared Gram matrices, ``dual_ipm``."""
+    if solver == AUTO:
+        return DUAL_IPM
     if solver != DUAL_IPM:
         require_backend(solver)
+    return solver
 
 
 def _grid_values(values: ArrayLike, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
@@ -365,7 +370,7 @@ def grid_search(
     model: str = "svr",
     cv: int | Any = 5,
     groups: ArrayLike | None = None,
-    solver: str = "clarabel",
+    solver: str = "auto",
     tol: float = 1e-8,
     warm_start: bool = True,
     backend: str = "loky",
@@ -392,9 +397,9 @@ def grid_search(
         Number of folds (``KFold`` without shuffling, as ``GridSearchCV``) or a splitter.
     groups : array-like, optional
         Group labels for group-aware splitters.
-    solver : str, default="clarabel"
-        ``"dual_ipm"`` (the fast exact path, see the module docstring) or the QP backend of the
-        ε-SVR fits.
+    solver : str, default="auto"
+        ``"auto"`` or ``"dual_ipm"`` (the fast exact path on shared Gram matrices, see the module
+        docstring) or the QP backend of the ε-SVR fits.
     tol : float, default=1e-8
         Solver accuracy (as :class:`~svrqp.EpsilonSVR`).
     warm_start : bool, default=True
@@ -422,7 +427,7 @@ def grid_search(
     grid = {"C": _grid_values(C, "C"), "gamma": _grid_values(gamma, "gamma")}
     if model == "svr":
         grid["epsilon"] = _grid_values(epsilon, "epsilon", allow_zero=True)
-        _check_solver(solver)
+        solver = _check_solver(solver)
     candidates = pd.DataFrame(list(ParameterGrid(grid)))[["C", "epsilon", "gamma"] if model == "svr" else ["C", "gamma"]]
     folds = _folds(cv, X, y, groups)
     start = time.perf_counter()
@@ -450,7 +455,7 @@ def ga_search(
     seed: int = 0,
     cv: int | Any = 5,
     groups: ArrayLike | None = None,
-    solver: str = "clarabel",
+    solver: str = "auto",
     tol: float = 1e-8,
     backend: str = "loky",
     n_jobs: int | None = None,
@@ -509,7 +514,7 @@ def ga_search(
         if not 0.0 <= p <= 1.0:
             raise ProblemError(f"{name} must be in [0, 1], got {p}")
     if model == "svr":
-        _check_solver(solver)
+        solver = _check_solver(solver)
     folds = _folds(cv, X, y, groups)
     evaluated: dict[tuple[float, ...], tuple[NDArray, int]] = {}  # genes -> (fold MSE, generation)
 

@@ -138,7 +138,7 @@ def test_solver_help_names_the_fast_exact_path():
     (["--features", "T7_C", "--standardize"], "applies to svr and lssvr only"),
     (["--features", "T7_C", "--model", "ridge"], "--model must be one of"),
     (["--features", "T7_C", "--model", "svr", "--gamma", "-1"], "--gamma must be positive"),
-    (["--features", "T7_C", "--model", "svr", "--solver", "gurobi"], "--solver must be one of dual_ipm, clarabel"),
+    (["--features", "T7_C", "--model", "svr", "--solver", "gurobi"], "--solver must be one of auto, smo_crossover, dual_ipm, clarabel"),
 ])
 def test_bad_input_is_one_error_line(s0_batches, capsys, options, message):
     with pytest.raises(SystemExit) as exit_info:

@@ -36,7 +36,7 @@ def test_fitted_attributes_and_latex():
     assert model.dual_coef_.shape == (1, model.support_.size)
     assert model.support_vectors_.shape == (model.support_.size, 1)
     assert model.intercept_.shape == (1,)
-    assert model.solution_.backend == "clarabel"
+    assert model.solution_.backend == model.solver_used_ == "smo_crossover"  # solver="auto" chose it
     assert r"\alpha^*" in model.problem_.to_latex()
 
 

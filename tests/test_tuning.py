@@ -272,12 +272,12 @@ def test_failed_fits_are_recorded_not_hidden(sine_wave, monkeypatch):
 
     monkeypatch.setattr(solve_module, "solve_qp", failing_at_large_c)
     X, y = sine_wave
-    result = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="sequential")
+    result = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, solver="clarabel", backend="sequential")
     failed = result.table[result.table["C"] == 100.0]
     assert np.isinf(failed["mse"]).all() and (failed["failed_folds"] == 5).all()
     assert result.best_params["C"] == 0.01
     with pytest.raises(SolverError, match="every candidate"):
-        grid_search(X, y, C=[100.0], gamma=[10.0], cv=SHUFFLED_5_FOLD, backend="sequential")
+        grid_search(X, y, C=[100.0], gamma=[10.0], cv=SHUFFLED_5_FOLD, solver="clarabel", backend="sequential")
 
 
 @pytest.fixture

@@ -10,14 +10,16 @@ import pandas as pd
 from svrqp.estimators import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
 from svrqp.exceptions import BackendNotAvailableError, ProblemError
 from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
+from svrqp.solver_choice import AUTO, SMO_CROSSOVER
 from svrqp.table_checks import check_numeric, check_present
 
 #: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
 MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
 
 #: ``--help`` of every ``--solver`` option that picks how an ε-SVR is solved.
-SOLVER_HELP = (f"svr: '{DUAL_IPM}' (svrqp's interior point with exact crossover, the fast exact path) "
-               f"or a QP backend: {', '.join(name for name in SOLVERS if name != DUAL_IPM)}.")
+SOLVER_HELP = (f"svr: '{AUTO}' (the default: the fastest certified exact path), '{SMO_CROSSOVER}' (loose SMO, "
+               f"then the exact crossover), '{DUAL_IPM}' (svrqp's interior point with exact crossover) or a QP "
+               f"backend: {', '.join(name for name in SOLVERS if name not in (AUTO, SMO_CROSSOVER, DUAL_IPM))}.")
 
 
 def read_table(path: str | Path) -> pd.DataFrame:

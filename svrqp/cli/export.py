@@ -59,7 +59,7 @@ def register(app: typer.Typer) -> None:
                                                            "'scale'/'auto'."),
         degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (one input)."),
         forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
-        solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP),
+        solver: str = typer.Option("auto", "--solver", help=SOLVER_HELP),
         standardize: bool = typer.Option(False, "--standardize", help="Data tables: standardise the inputs "
                                                                       "first (recorded in the file)."),
         coverage: float = typer.Option(None, "--coverage", help="Data tables: " + COVERAGE_HELP),

@@ -118,7 +118,7 @@ def register(app: typer.Typer) -> None:
                                   "(S0's g = 1/σ²; S4's σ gives 1/(2σ²)), or 'scale'/'auto'."),
         degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (S2: 5)."),
         forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
-        solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP),
+        solver: str = typer.Option("auto", "--solver", help=SOLVER_HELP),
         standardize: bool = typer.Option(False, "--standardize", help="svr/lssvr: standardise the inputs "
                                          "before the kernel."),
         coverage: float = typer.Option(None, "--coverage", help=COVERAGE_HELP),

@@ -107,7 +107,7 @@ def tune(
     seed: int = typer.Option(0, "--seed", help="Seed of the fold shuffle and of the GA."),
     population: int = typer.Option(100, "--population", help="GA population size (S1: 100)."),
     generations: int = typer.Option(50, "--generations", help="GA generations (S1: 50)."),
-    solver: str = typer.Option("clarabel", "--solver", help=SOLVER_HELP + " 'dual_ipm' also warm-starts "
+    solver: str = typer.Option("auto", "--solver", help=SOLVER_HELP + " 'dual_ipm' also warm-starts "
                                "along the C grid."),
     tol: float = typer.Option(1e-8, "--tol", help="Solver accuracy of every fit."),
     backend: Backend = typer.Option(Backend.loky, "--backend", help="Where the fold × candidate fits run: local "

@@ -1,0 +1,67 @@
+r"""Certificates of an ε-SVR dual QP at :math:`(\beta, b)` from :math:`K\beta` alone, P never formed.
+
+The QPs of :mod:`svrqp.formulations.epsilon_svr` touch the kernel only through :math:`Px`:
+
+* split, :math:`x = [\beta; \alpha; \alpha^*]`: :math:`Px = [K\beta;\ 0;\ 0]`;
+* stacked, :math:`x = [\alpha; \alpha^*]`: :math:`Px = [-K\beta;\ K\beta]`.
+
+So the stated QP's residuals (:meth:`svrqp.problems.QuadraticProgram.kkt_residuals`, the same
+code every backend's answer goes through) and objective are evaluated on a copy of the QP whose
+kernel block is empty and whose ``P`` answers :math:`Px` with the product above: :math:`K\beta`
+comes from the kernel columns of the support vectors only (:math:`O(n\,n_{SV})` kernel entries
+instead of the :math:`O(n^2)` of building P). The point and multipliers are those of
+:func:`svrqp.estimators.dual_qp_point`.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from svrqp.exceptions import ProblemError
+from svrqp.formulations import epsilon_svr
+from svrqp.problems import QuadraticProgram
+
+
+class KnownProduct:
+    """A stand-in for a matrix whose product with one vector is already known (``M @ vector``).
+
+    Any other operand raises :class:`ProblemError`, so a stale product can never be used.
+    """
+
+    def __init__(self, vector: NDArray[np.float64], product: NDArray[np.float64]) -> None:
+        self.vector, self.product = vector, product
+        self.shape = (product.size, vector.size)
+
+    def __matmul__(self, other: Any) -> NDArray[np.float64]:
+        if other is not self.vector and not np.array_equal(other, self.vector):
+            raise ProblemError("KnownProduct only knows its product with the vector it was built for")
+        return self.product
+
+
+def kernel_free_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
+    """The QP of ``formulation`` with an empty kernel block: q, A, b and the box as stated, P all zero."""
+    if formulation not in ("split", "stacked"):
+        raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
+    n = y.size
+    empty = sp.csc_matrix((n, n)) if formulation == "split" else np.zeros((n, n))
+    return epsilon_svr.build(formulation, y, C, epsilon, K=empty)
+
+
+def certificates(formulation: str, y: NDArray[np.float64], C: float, epsilon: float, beta: NDArray[np.float64],
+                 b: float, Kbeta: NDArray[np.float64]) -> tuple[dict[str, float], float, tuple]:
+    """``(residuals, objective, (x, y_eq, z_box))`` of the stated dual QP at :math:`(\\beta, b)`.
+
+    ``residuals`` is what :meth:`QuadraticProgram.kkt_residuals` returns for the full QP.
+    """
+    from svrqp.estimators import dual_qp_point  # the estimators sit above this module
+
+    x, y_eq, z_box = dual_qp_point(formulation, KnownProduct(beta, Kbeta), y, beta, b, epsilon)
+    Px = np.concatenate([Kbeta, np.zeros(2 * y.size)]) if formulation == "split" else np.concatenate([-Kbeta, Kbeta])
+    view = copy.copy(kernel_free_qp(formulation, y, C, epsilon))
+    view.P = KnownProduct(x, Px)
+    return view.kkt_residuals(x, y_eq, None, z_box), view.objective(x), (x, y_eq, z_box)
