@@ -5,10 +5,16 @@ Target (issue 6): svrqp's fastest exact path at most 1.0× libsvm's time at n = 
 predictions within 1e-4·std(y) of ``SVR(tol=1e-8)``. Results go to
 ``benchmarks/results/epsilon_svr_vs_libsvm.{csv,md}`` and ``..._time_vs_n.png``.
 
+The dataset panel (``--panel``, module :mod:`epsilon_svr_panel` next to this script) times the
+default ``EpsilonSVR()`` (``solver="auto"``) and ``solver="dual_ipm"`` against libsvm on
+friedman1, a sinc-like set, the smooth thermal generator with noisy sensors, ``miao2013`` and
+``yang_turning``, at small and large C; results go to ``..._panel.{csv,md}``.
+
 Usage::
 
     .venv/bin/python benchmarks/epsilon_svr_vs_libsvm.py --sizes 500,1000,2000 --force
     .venv/bin/python benchmarks/epsilon_svr_vs_libsvm.py --sizes 4000,8000 --stem epsilon_svr_vs_libsvm_large
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/epsilon_svr_vs_libsvm.py --panel --force
 """
 
 from __future__ import annotations
@@ -51,7 +57,14 @@ def main() -> None:
     parser.add_argument("--time-limit", type=float, default=300.0, help="seconds per run")
     parser.add_argument("--stem", default="epsilon_svr_vs_libsvm", help="output file name stem")
     parser.add_argument("--force", action="store_true", help="overwrite existing results")
+    parser.add_argument("--panel", action="store_true", help="run the dataset panel (default solver vs libsvm)")
+    parser.add_argument("--panel-sizes", default="1000,2000,4000,8000", help="comma-separated n of the panel")
     args = parser.parse_args()
+    if args.panel:
+        from epsilon_svr_panel import run_panel
+
+        print(run_panel(tuple(int(n) for n in args.panel_sizes.split(",")), RESULTS, force=args.force))
+        return
     config = BenchConfig(
         datasets=tuple(args.datasets.split(",")), sizes=tuple(int(n) for n in args.sizes.split(",")), d=10,
         kernel="rbf", C=10.0, epsilon=0.1, gamma="scale", formulations=("split", "dense", "auto"),

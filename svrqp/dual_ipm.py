@@ -274,6 +274,7 @@ class CrossoverResult:
     steps: int
     exact: bool
     free: int
+    Kbeta: NDArray[np.float64] | None = None  # K beta from the final (fresh) bounded term, when exact
 
 
 def _states(beta: NDArray[np.float64], C: float, threshold: float) -> NDArray[np.int8]:
@@ -429,7 +430,7 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
         if np.array_equal(new_states, states):
             if fresh or not _balanced(beta, C):
                 exact = _balanced(beta, C) and _free_equalities_hold(rho, states, epsilon, slack)
-                return CrossoverResult(beta, b, step, exact, int(free.size))
+                return CrossoverResult(beta, b, step, exact, int(free.size), K_free @ target + bounded_term)
             fresh = True  # confirm once with the bounded term recomputed from scratch
             continue
         changes = int(np.count_nonzero(new_states != states))
@@ -463,7 +464,7 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
         if not (entering_positive.any() or entering_negative.any()):
             if fresh or not _balanced(current, C):
                 exact = _balanced(current, C) and _free_equalities_hold(rho, states, epsilon, slack)
-                return CrossoverResult(current, b, step, exact, int(free.size))
+                return CrossoverResult(current, b, step, exact, int(free.size), K_free @ current[free] + bounded_term)
             fresh = True  # confirm once with the bounded term recomputed from scratch
             continue
         states[entering_positive] = 1
