@@ -164,3 +164,11 @@ def test_c_flags_nan_and_training_rows(gcc, tmp_path):
     P = np.vstack([X.to_numpy(), [[np.nan, 30.0]]])
     c = c_guarded(gcc, build_document(model, X, y), P, tmp_path)
     assert c[:-1, 3].sum() == 0 and c[-1, 3] == 1
+
+
+def test_csv_table_names_the_interval(tmp_path):
+    model, X, y = guarded_svr("normalized")
+    document = build_document(model, X, y)
+    (path,) = write(document, tmp_path / "table.csv")
+    comments = [line for line in path.read_text(encoding="utf-8").splitlines() if line.startswith("#")]
+    assert any(f"prediction +- {document['interval']['quantile']!r} * sigma(x)" in line for line in comments)
