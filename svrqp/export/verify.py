@@ -142,18 +142,23 @@ _DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = 
                                                                                   _check_guard)
 
 
-def verify(path: str | Path) -> VerifyReport:
-    """Verify the model file at ``path``: size and schema, content hash, probe predictions."""
+def _verified(path: Path) -> tuple[VerifyReport, dict[str, Any] | None]:
+    """The report of every check and the parsed document (None when it could not be parsed)."""
     report = VerifyReport(str(path))
     try:
-        document = _parse(Path(path))
+        document = _parse(path)
     except ProblemError as err:
         report.checks.append(Check("schema", False, str(err)))
-        return report
+        return report, None
     report.checks.append(Check("schema", True, f"valid {document['schema']} ({document['kind']})"))
     for check in _DOCUMENT_CHECKS:
         report.checks.append(check(document, report))
-    return report
+    return report, document
+
+
+def verify(path: str | Path) -> VerifyReport:
+    """Verify the model file at ``path``: size and schema, content hash, probe predictions, guard."""
+    return _verified(Path(path))[0]
 
 
 def read_document(path: str | Path) -> dict[str, Any]:
@@ -170,7 +175,7 @@ def read_document(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"model file not found: {path}")
-    report = verify(path)
+    report, document = _verified(path)
     if not report.ok:
         raise ProblemError(f"{path} fails verification: {report.failures()}")
-    return _parse(path)
+    return document
