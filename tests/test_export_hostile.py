@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -178,3 +179,11 @@ def test_verify_command_reports_hostile_text_with_exit_1(tmp_path, capsys):
         main(["verify", str(path)])
     assert exit_.value.code == 1
     assert "FAIL schema" in capsys.readouterr().out
+
+
+def test_verify_reports_a_path_that_is_not_a_regular_file(tmp_path):
+    fifo = tmp_path / "model.json"
+    os.mkfifo(fifo)
+    for path in (fifo, tmp_path, tmp_path / "missing.json"):
+        report = verify(path)
+        assert not report.ok and "not a regular file" in report.checks[0].detail

@@ -76,6 +76,8 @@ class VerifyReport:
 def _parse(path: Path) -> dict[str, Any]:
     """Read, parse and schema-check ``path``; every problem is a ProblemError naming the file."""
     try:
+        if not path.is_file():  # a directory, a FIFO or a device would block or fail the read
+            raise ProblemError("not a regular file")
         size = path.stat().st_size
         if size > canonical.MAX_BYTES:
             raise ProblemError(f"file has {size} bytes, more than the {canonical.MAX_BYTES} a model file may have")
