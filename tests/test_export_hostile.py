@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -17,6 +18,7 @@ import subprocess
 import pytest
 
 from export_cases import svr_scaled
+from svrqp.cli import main
 from svrqp.exceptions import ProblemError
 from svrqp.export import build_document, canonical, content_sha256, read_document, verify, write
 from svrqp.export.c_source import c_source
@@ -168,3 +170,20 @@ def test_export_does_not_follow_a_dangling_symlink(document, tmp_path):
         with pytest.raises(ProblemError, match="symbolic link"):
             write(document, link, overwrite=overwrite)
     assert not elsewhere.exists()
+
+
+def test_verify_command_reports_hostile_text_with_exit_1(tmp_path, capsys):
+    path = tmp_path / "hostile.json"
+    path.write_text("[" * 100_000, encoding="utf-8")
+    with pytest.raises(SystemExit) as exit_:
+        main(["verify", str(path)])
+    assert exit_.value.code == 1
+    assert "FAIL schema" in capsys.readouterr().out
+
+
+def test_verify_reports_a_path_that_is_not_a_regular_file(tmp_path):
+    fifo = tmp_path / "model.json"
+    os.mkfifo(fifo)
+    for path in (fifo, tmp_path, tmp_path / "missing.json"):
+        report = verify(path)
+        assert not report.ok and "not a regular file" in report.checks[0].detail

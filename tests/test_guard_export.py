@@ -16,11 +16,13 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from export_cases import thermal_raw
 from svrqp import EpsilonSVR, ExtrapolationWarning, Guarded
+from svrqp.exceptions import ProblemError
 from svrqp.export import build_document, content_sha256, read_document, verify, write
 from svrqp.export.guarded import predict_guarded
 from svrqp.linear_models import LinearLS
@@ -164,3 +166,17 @@ def test_c_flags_nan_and_training_rows(gcc, tmp_path):
     P = np.vstack([X.to_numpy(), [[np.nan, 30.0]]])
     c = c_guarded(gcc, build_document(model, X, y), P, tmp_path)
     assert c[:-1, 3].sum() == 0 and c[-1, 3] == 1
+
+
+def test_csv_table_names_the_interval(tmp_path):
+    model, X, y = guarded_svr("normalized")
+    document = build_document(model, X, y)
+    (path,) = write(document, tmp_path / "table.csv")
+    comments = [line for line in path.read_text(encoding="utf-8").splitlines() if line.startswith("#")]
+    assert any(f"prediction +- {document['interval']['quantile']!r} * sigma(x)" in line for line in comments)
+
+
+def test_a_guarded_foreign_regressor_is_refused_by_name():
+    X, y = thermal_raw()
+    with pytest.raises(ProblemError, match="cannot export a LinearRegression"):
+        build_document(Guarded(LinearRegression()).fit(X, y), X, y)

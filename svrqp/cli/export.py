@@ -17,6 +17,7 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.cli._guard import (
     COVERAGE_HELP,
     GROUP_HELP,
@@ -26,7 +27,6 @@ from svrqp.cli._guard import (
     group_labels,
     guarded_or_plain,
 )
-from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.exceptions import ProblemError
 from svrqp.export import FORMATS, build_document, read_document, write
 

@@ -3,6 +3,8 @@
 The rows selected by ``--train`` are fitted; the residual metrics of the papers (RMS, standard
 deviation, max |dev|, mean |dev|, peak-to-peak) are printed for them and for the other rows. For
 ``rls`` the other rows are also run through S3's on-line loop (predict, compensate, update).
+With ``--coverage`` the model is wrapped in :class:`svrqp.Guarded` (calibration folds by
+``--group``) and the interval's coverage and the share of rows outside the domain are printed too.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from rich.table import Table
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.cli._guard import (
     COVERAGE_HELP,
     GROUP_HELP,
@@ -28,7 +31,6 @@ from svrqp.cli._guard import (
     guarded_or_plain,
     interval_table,
 )
-from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
 from svrqp.compensate import online_compensation, residual_metrics
 from svrqp.exceptions import ProblemError
 from svrqp.export.guarded import sections

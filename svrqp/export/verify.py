@@ -76,6 +76,8 @@ class VerifyReport:
 def _parse(path: Path) -> dict[str, Any]:
     """Read, parse and schema-check ``path``; every problem is a ProblemError naming the file."""
     try:
+        if not path.is_file():  # a directory, a FIFO or a device would block or fail the read
+            raise ProblemError("not a regular file")
         size = path.stat().st_size
         if size > canonical.MAX_BYTES:
             raise ProblemError(f"file has {size} bytes, more than the {canonical.MAX_BYTES} a model file may have")
@@ -142,18 +144,23 @@ _DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = 
                                                                                   _check_guard)
 
 
-def verify(path: str | Path) -> VerifyReport:
-    """Verify the model file at ``path``: size and schema, content hash, probe predictions."""
+def _verified(path: Path) -> tuple[VerifyReport, dict[str, Any] | None]:
+    """The report of every check and the parsed document (None when it could not be parsed)."""
     report = VerifyReport(str(path))
     try:
-        document = _parse(Path(path))
+        document = _parse(path)
     except ProblemError as err:
         report.checks.append(Check("schema", False, str(err)))
-        return report
+        return report, None
     report.checks.append(Check("schema", True, f"valid {document['schema']} ({document['kind']})"))
     for check in _DOCUMENT_CHECKS:
         report.checks.append(check(document, report))
-    return report
+    return report, document
+
+
+def verify(path: str | Path) -> VerifyReport:
+    """Verify the model file at ``path``: size and schema, content hash, probe predictions, guard."""
+    return _verified(Path(path))[0]
 
 
 def read_document(path: str | Path) -> dict[str, Any]:
@@ -170,7 +177,7 @@ def read_document(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"model file not found: {path}")
-    report = verify(path)
+    report, document = _verified(path)
     if not report.ok:
         raise ProblemError(f"{path} fails verification: {report.failures()}")
-    return _parse(path)
+    return document

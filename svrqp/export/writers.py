@@ -68,6 +68,11 @@ def _comments(document: dict[str, Any]) -> list[str]:
     if scaling is not None:
         lines.append(f"scaling: u = (x - mean) / scale, mean = {scaling['mean']!r}, scale = {scaling['scale']!r}; "
                      "the input columns below are u")
+    if "interval" in document:
+        interval = document["interval"]
+        lines.append(f"interval: {interval['coverage']!r} conformal ({interval['method']}), prediction +- "
+                     f"{interval['quantile']!r}{' * sigma(x)' if interval['difficulty'] else ''}; training domain "
+                     f"and difficulty model in the JSON document")
     lines.append(f"content_sha256 of the JSON document: {document['content_sha256']}")
     return [f"# {comment_text(line)}\n" for line in lines]
 
