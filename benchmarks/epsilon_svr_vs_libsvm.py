@@ -58,7 +58,7 @@ def main() -> None:
     parser.add_argument("--stem", default="epsilon_svr_vs_libsvm", help="output file name stem")
     parser.add_argument("--force", action="store_true", help="overwrite existing results")
     parser.add_argument("--panel", action="store_true", help="run the dataset panel (default solver vs libsvm)")
-    parser.add_argument("--panel-sizes", default="1000,2000,4000,8000", help="comma-separated n of the panel")
+    parser.add_argument("--panel-sizes", default="1000,2000,4000", help="comma-separated n of the panel")
     args = parser.parse_args()
     if args.panel:
         from epsilon_svr_panel import run_panel

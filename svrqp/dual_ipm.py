@@ -343,17 +343,20 @@ class _KernelAccess:
         self.free_columns, self._products, self.n = columns, products, n
         self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
         self.bounded_term = np.zeros(n)
+        self._from_scratch = True  # bounded_term is one product over every bounded column
 
     def update_bounded(self, fixed: NDArray[np.float64], *, fresh: bool = False) -> NDArray[np.float64]:
         """:math:`K \\cdot` ``fixed`` (``fixed`` is ±C on the bounded set, 0 elsewhere), updated by the change only.
 
         ``fresh`` recomputes it from all bounded columns, so the final KKT check carries no
-        accumulated rounding.
+        accumulated rounding; a term that is still the single product it was first computed as
+        is already fresh and is kept.
         """
-        if fresh:
+        if fresh and not self._from_scratch:
             self._fixed, self.bounded_term = np.zeros(self.n), np.zeros(self.n)
         changed = np.flatnonzero(fixed != self._fixed)
         if changed.size:
+            self._from_scratch = not self._fixed.any()
             self.bounded_term = self.bounded_term + self._products(changed, fixed[changed] - self._fixed[changed])
             self._fixed = fixed.copy()
         return self.bounded_term
