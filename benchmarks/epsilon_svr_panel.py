@@ -96,23 +96,37 @@ def _objective(X, y, support, coef, gamma):
     return float(0.5 * beta @ Kbeta - y @ beta + EPSILON * np.abs(beta).sum())
 
 
-def _timed(fit):
-    start = time.perf_counter()
-    model = fit()
-    return model, time.perf_counter() - start
+#: Cells whose libsvm fit takes less than this are timed as the median of ``SHORT_REPEATS`` fits
+#: per method: single runs of a few milliseconds on a shared machine swing by 2×.
+SHORT_S, SHORT_REPEATS = 1.0, 5
+
+
+def _timed(fit, repeats: int = 1):
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        model = fit()
+        times.append(time.perf_counter() - start)
+    return model, float(np.median(times))
 
 
 def run_cell(dataset, X, y, gamma, C) -> dict:
     """One dataset at one C: libsvm, the default EpsilonSVR() and dual_ipm, with their exactness."""
     gamma = 1.0 / (X.shape[1] * X.var()) if gamma is None else gamma
-    ref, libsvm_s = _timed(lambda: SVR(C=C, epsilon=EPSILON, gamma=gamma, tol=1e-8, cache_size=CACHE_MB).fit(X, y))
+    libsvm = lambda: SVR(C=C, epsilon=EPSILON, gamma=gamma, tol=1e-8, cache_size=CACHE_MB).fit(X, y)  # noqa: E731
+    ref, libsvm_s = _timed(libsvm)
+    repeats = SHORT_REPEATS if libsvm_s < SHORT_S else 1
+    if repeats > 1:
+        ref, libsvm_s = _timed(libsvm, repeats)
     f_ref = _objective(X, y, ref.support_, ref.dual_coef_[0], gamma)
-    row = {"dataset": dataset, "n": y.size, "d": X.shape[1], "C": C, "gamma": gamma, "libsvm_s": libsvm_s,
+    row = {"dataset": dataset, "n": y.size, "d": X.shape[1], "C": C, "gamma": gamma, "repeats": repeats,
+           "libsvm_s": libsvm_s,
            "n_SV": ref.support_.size,
            "n_free": int(np.sum(np.abs(ref.dual_coef_[0]) < C * (1 - 1e-6)))}
     predictions = {}
     for label, solver in (("auto", "auto"), ("dual_ipm", "dual_ipm"))[:2 if y.size <= DUAL_IPM_MAX_N else 1]:
-        model, seconds = _timed(lambda: EpsilonSVR(C=C, epsilon=EPSILON, gamma=gamma, solver=solver).fit(X, y))
+        model, seconds = _timed(lambda: EpsilonSVR(C=C, epsilon=EPSILON, gamma=gamma, solver=solver).fit(X, y),
+                                repeats)
         predictions[label] = model.predict(X)
         f = _objective(X, y, model.support_, model.dual_coef_[0], gamma)
         row[f"{label}_s"] = seconds
@@ -151,9 +165,9 @@ def report(table: pd.DataFrame, total_s: float) -> str:
     """The Markdown page: machine, targets met or not, and the full table."""
     machine, versions = machine_info(), package_versions()
     target = table[(table["n"] >= 2000)]
-    met = target[(target["auto_ratio"] <= 1.0) & target["auto_exact"]]
+    slow = target[target["auto_ratio"] > 1.0]
     far = table[table["auto_prediction_err_std"] > PREDICTION_TOL]
-    missed = target.drop(met.index)
+    objective_ok = table["auto_objective_rel"] <= OBJECTIVE_TOL
     lines = [
         "# epsilon-SVR dataset panel: the default EpsilonSVR() against libsvm",
         "",
@@ -163,29 +177,29 @@ def report(table: pd.DataFrame, total_s: float) -> str:
         "",
         machine_sentence(machine, versions),
         "",
-        "One run per cell (ratios of one run each, not medians), 1 BLAS thread; the machine is "
+        f"One run per cell, or the median of {SHORT_REPEATS} where libsvm takes under {SHORT_S:g} s (column "
+        "`repeats`); all methods of a cell in the same process, one after the other; 1 BLAS thread; the machine is "
         f"shared with other work and loaded while this ran. Total panel time {total_s:.0f} s.",
         "",
         "## Targets",
         "",
-        f"- default ≤ 1.0× libsvm at n ≥ 2000 with the same exactness: met in {len(met)} of {len(target)} cells"
-        + (f"; missed: {', '.join(f'{r.dataset} n={r.n} C={r.C:g} ({r.auto_ratio:.2f}×)' for r in missed.itertuples())}"
-           if len(missed) else ""),
-        f"- stretch 0.5×: met in {int(((target['auto_ratio'] <= 0.5) & target['auto_exact']).sum())} of {len(target)}",
-        f"- every cell exact (objective ≤ {OBJECTIVE_TOL:g} relative above libsvm's, predictions within "
-        f"{PREDICTION_TOL:g}·std): auto {int(table['auto_exact'].sum())} of {len(table)}, "
-        f"dual_ipm {int(table['dual_ipm_exact'].eq(True).sum())} of {int(table['dual_ipm_exact'].notna().sum())} (n ≤ "
-        f"{DUAL_IPM_MAX_N})",
-        f"- where the default's predictions are more than {PREDICTION_TOL:g}·std from libsvm's "
-        f"({len(far)} cells), its dual objective is below libsvm's in {int((far['auto_objective_rel'] < 0).sum())} "
-        f"(by {far['auto_objective_rel'].abs().min():.1e} to {far['auto_objective_rel'].abs().max():.1e} relative): "
-        "there libsvm's SVR(tol=1e-8) is the less exact answer, not svrqp's. Where dual_ipm ran too, the two "
-        "exact paths' predictions differ by at most "
-        f"{table['auto_vs_dual_ipm_err_std'].max():.1e}·std." if len(far) else "",
+        f"- default ≤ 1.0× libsvm's time at n ≥ 2000: met in {len(target) - len(slow)} of {len(target)} cells"
+        + (f"; missed: {', '.join(f'{r.dataset} n={r.n} C={r.C:g} ({r.auto_ratio:.2f}×)' for r in slow.itertuples())}"
+           if len(slow) else ""),
+        f"- stretch 0.5×: met in {int((target['auto_ratio'] <= 0.5).sum())} of {len(target)}",
+        f"- dual objective at most {OBJECTIVE_TOL:g} relative above libsvm's: default {int(objective_ok.sum())} of "
+        f"{len(table)} cells, dual_ipm {int((table['dual_ipm_objective_rel'] <= OBJECTIVE_TOL).sum())} of "
+        f"{int(table['dual_ipm_objective_rel'].notna().sum())} (n ≤ {DUAL_IPM_MAX_N})",
+        f"- predictions within {PREDICTION_TOL:g}·std of libsvm's: default {len(table) - len(far)} of {len(table)}"
+        + (f". In the other {len(far)} cells the default's dual objective is below libsvm's in "
+           f"{int((far['auto_objective_rel'] < 0).sum())} (by {far['auto_objective_rel'].abs().min():.1e} to "
+           f"{far['auto_objective_rel'].abs().max():.1e} relative): there libsvm's SVR(tol=1e-8) is the less exact "
+           "answer. Where dual_ipm ran too, the two exact paths' predictions differ by at most "
+           f"{table['auto_vs_dual_ipm_err_std'].max():.1e}·std." if len(far) else ""),
         "",
         "## Results",
         "",
-        markdown_table(table[["dataset", "n", "C", "n_SV", "n_free", "libsvm_s", "auto_path", "auto_s", "auto_ratio",
+        markdown_table(table[["dataset", "n", "C", "repeats", "n_SV", "n_free", "libsvm_s", "auto_path", "auto_s", "auto_ratio",
                               "auto_objective_rel", "auto_prediction_err_std", "dual_ipm_s", "dual_ipm_ratio",
                               "dual_ipm_objective_rel", "auto_vs_dual_ipm_err_std"]]),
         "",
