@@ -27,8 +27,8 @@ from svrqp import __version__, dual_ipm
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
-from svrqp.kernels import gram
 from svrqp.formulations.epsilon_svr import dual_qp_point  # noqa: F401  (re-exported)
+from svrqp.kernels import gram
 from svrqp.problems import check_psd
 from svrqp.solve import (
     BACKENDS,
@@ -37,6 +37,7 @@ from svrqp.solve import (
     solve_linear_system,
     solve_qp,
 )
+from svrqp.table_checks import check_magnitude, check_numeric_array
 
 #: ``EpsilonSVR(solver=DUAL_IPM)``: svrqp's own interior point with exact crossover (:mod:`svrqp.dual_ipm`).
 DUAL_IPM = "dual_ipm"
@@ -99,7 +100,11 @@ class _KernelModel(RegressorMixin, BaseEstimator):
     """Shared kernel handling: input validation, ``gamma`` resolution, Gram matrices, predict."""
 
     def _validated_training_data(self, X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
+        check_numeric_array(X, "X")
+        check_numeric_array(y, "y")
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        check_magnitude(X, "X")
+        check_magnitude(y, "y")
         if X.shape[0] < 2:
             raise ProblemError(f"n_samples = {X.shape[0]}: at least 2 samples are needed to fit, got 1 sample")
         if self.kernel == "precomputed" and X.shape[0] != X.shape[1]:
@@ -126,7 +131,9 @@ class _KernelModel(RegressorMixin, BaseEstimator):
 
     def _decision(self, X: ArrayLike) -> NDArray[np.float64]:
         check_is_fitted(self)
+        check_numeric_array(X, "X")
         X = validate_data(self, X, reset=False, dtype=np.float64)
+        check_magnitude(X, "X")
         if self.kernel == "precomputed":
             K = X[:, self.support_]
         else:

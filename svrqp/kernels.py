@@ -100,9 +100,10 @@ def centred(kernel: str, X: NDArray[np.float64],
     size of its offset (epoch seconds, 1.7e9, leave nothing of a spread of 1). Other kernels are
     not translation invariant and are returned unchanged.
     """
-    if kernel != "rbf":
+    reference = X if Y is None or Y.shape[0] == 0 else Y
+    if kernel != "rbf" or reference.shape[0] == 0:
         return X, Y
-    centre = (X if Y is None else Y).mean(axis=0)
+    centre = reference.mean(axis=0)
     return X - centre, (None if Y is None else Y - centre)
 
 

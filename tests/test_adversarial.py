@@ -19,6 +19,7 @@ from svrqp import LSSVR, EpsilonSVR, datasets
 from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations import epsilon_svr
 from svrqp.kernels import gram
+from svrqp.linear_models import LinearLS, RecursiveLS
 from svrqp.solve import available_backends
 from svrqp.tuning import grid_search
 
@@ -180,3 +181,46 @@ def test_certificate_sees_a_dropped_support_vector():
         b = epsilon_svr.intercept_from_kkt(K, y, coefficients, 1e7, 0.05)
         certificate = epsilon_svr.model_certificate(y, coefficients, K @ coefficients, b, 1e7, 0.05, 1.0)
         assert bool(max(certificate.values()) <= 1e-6) is passes
+
+
+ESTIMATORS = [
+    pytest.param(lambda: EpsilonSVR(), id="EpsilonSVR"),
+    pytest.param(lambda: EpsilonSVR(solver="dual_ipm"), id="EpsilonSVR-dual_ipm"),
+    pytest.param(lambda: LSSVR(), id="LSSVR"),
+    pytest.param(lambda: LinearLS(), id="LinearLS"),
+    pytest.param(lambda: RecursiveLS(), id="RecursiveLS"),
+]
+
+
+@pytest.mark.parametrize("make", ESTIMATORS)
+@pytest.mark.parametrize("case, message", [
+    ("numeric text y", "y holds text"),
+    ("numeric text y as objects", "y holds text"),
+    ("y * 1e300", "y has values up to 1e\\+300"),
+    ("X * 1e300", "X has values up to"),
+    ("text X", "X holds text"),
+])
+def test_unusable_inputs_are_library_errors(make, case, message):
+    """``EpsilonSVR().fit(X, ["1.0"] * 30)`` was a TypeError, ``RecursiveLS().fit(X, y * 1e300)`` an
+    OverflowError and ``RecursiveLS().fit(X * 1e300, y)`` numpy's LinAlgError."""
+    X, y = sine_problem()
+    y = y / np.abs(y).max()
+    arguments = {
+        "numeric text y": (X, np.array(["1.0"] * 30)),
+        "numeric text y as objects": (X, np.array(["1.0"] * 30, dtype=object)),
+        "y * 1e300": (X, y * 1e300),
+        "X * 1e300": (X * 1e300, y),
+        "text X": (np.array([["a", "b"]] * 30), y),
+    }[case]
+    with pytest.raises(SvrqpError, match=message):
+        make().fit(*arguments)
+
+
+@pytest.mark.parametrize("make", ESTIMATORS)
+def test_prediction_inputs_are_checked_like_training_inputs(make):
+    X, y = sine_problem()
+    model = make().fit(X, y)
+    with pytest.raises(SvrqpError, match="X holds text"):
+        model.predict(np.array([["1.0", "2.0"]]))
+    with pytest.raises(SvrqpError, match="X has values up to"):
+        model.predict(X * 1e200)
