@@ -24,7 +24,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp import __version__, dual_ipm
-from svrqp.exceptions import ProblemError, SolverError
+from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
 from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.formulations.epsilon_svr import dual_qp_point  # noqa: F401  (re-exported)
@@ -102,7 +102,9 @@ class _KernelModel(RegressorMixin, BaseEstimator):
     def _validated_training_data(self, X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
         check_numeric_array(X, "X")
         check_numeric_array(y, "y")
-        X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        with input_errors_as_problem_errors():
+            X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        y = y.astype(np.float64, copy=False)  # boolean or integer targets
         check_magnitude(X, "X")
         check_magnitude(y, "y")
         if X.shape[0] < 2:
@@ -132,7 +134,8 @@ class _KernelModel(RegressorMixin, BaseEstimator):
     def _decision(self, X: ArrayLike) -> NDArray[np.float64]:
         check_is_fitted(self)
         check_numeric_array(X, "X")
-        X = validate_data(self, X, reset=False, dtype=np.float64)
+        with input_errors_as_problem_errors():
+            X = validate_data(self, X, reset=False, dtype=np.float64)
         check_magnitude(X, "X")
         if self.kernel == "precomputed":
             K = X[:, self.support_]

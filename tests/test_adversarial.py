@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from benchmark_modules import load_benchmark
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from sklearn.kernel_ridge import KernelRidge
 from sklearn.model_selection import KFold
 from sklearn.svm import SVR
@@ -224,3 +227,107 @@ def test_prediction_inputs_are_checked_like_training_inputs(make):
         model.predict(np.array([["1.0", "2.0"]]))
     with pytest.raises(SvrqpError, match="X has values up to"):
         model.predict(X * 1e200)
+
+
+# --------------------------------------------------------------------------------------------
+# Property tests: seeded hypothesis strategies over the cases of benchmarks/adversarial.py (the
+# longer run there writes benchmarks/results/adversarial.md). Every drawn case must end in a
+# right answer (against scikit-learn, numpy or pandas) or in SvrqpError.
+
+adversarial = load_benchmark("adversarial")
+ACCEPTED = {adversarial.RIGHT, adversarial.DOCUMENTED}
+seeds = st.integers(min_value=0, max_value=2**31 - 1)
+
+
+@st.composite
+def svr_parameters(draw) -> dict:
+    kernel = draw(st.sampled_from(["rbf", "rbf", "linear", "poly"]))
+    solver = draw(st.sampled_from(SOLVERS))
+    primal_possible = kernel == "linear" and solver != "dual_ipm"
+    x_scale = 10 ** draw(st.floats(-6, 6)) if kernel == "rbf" else 1.0
+    offset = x_scale * 10 ** draw(st.floats(0, 7)) if kernel == "rbf" and draw(st.booleans()) else 0.0
+    return {
+        "seed": draw(seeds), "n": draw(st.integers(15, 40)), "d": draw(st.integers(1, 3)), "kernel": kernel,
+        "solver": solver,
+        "formulation": draw(st.sampled_from(["split", "stacked", "primal"] if primal_possible else ["split", "stacked"])),
+        "C_base": 10 ** draw(st.floats(-3, 4)), "epsilon_fraction": draw(st.floats(0.0, 0.3)),
+        "gamma_base": 10 ** draw(st.floats(-1, 0.7)), "degree": draw(st.integers(2, 3)),
+        "y_scale": 10 ** draw(st.floats(-8, 8)), "x_scale": x_scale, "x_offset": offset,
+    }
+
+
+@st.composite
+def lssvr_parameters(draw) -> dict:
+    x_scale = 10 ** draw(st.floats(-6, 6))
+    return {
+        "seed": draw(seeds), "n": draw(st.integers(15, 40)), "d": draw(st.integers(1, 3)),
+        "solver": draw(st.sampled_from(["cholesky", "lu"])), "fit_intercept": draw(st.booleans()),
+        "C": 10 ** draw(st.floats(-2, 3)), "gamma_base": 10 ** draw(st.floats(-1, 0.7)),
+        "y_scale": 10 ** draw(st.floats(-8, 8)), "x_scale": x_scale,
+        "x_offset": x_scale * 10 ** draw(st.floats(0, 7)) if draw(st.booleans()) else 0.0,
+    }
+
+
+@st.composite
+def linear_parameters(draw) -> dict:
+    x_scale = 10 ** draw(st.floats(-6, 6))
+    return {
+        "seed": draw(seeds), "n": draw(st.integers(8, 60)), "d": draw(st.integers(1, 4)),
+        "model": draw(st.sampled_from(["LinearLS", "RecursiveLS"])), "y_scale": 10 ** draw(st.floats(-8, 8)),
+        "y_offset": draw(st.sampled_from([0.0, 1.0, 1e6])), "x_scale": x_scale,
+        "x_offset": x_scale * 10 ** draw(st.floats(0, 5)) if draw(st.booleans()) else 0.0,
+    }
+
+
+hostile_parameters = st.fixed_dictionaries({
+    "seed": seeds, "estimator": st.sampled_from(list(adversarial.ESTIMATORS)),
+    "corruption": st.sampled_from(adversarial.CORRUPTIONS)})
+
+
+@st.composite
+def query_parameters(draw) -> dict:
+    values = st.fixed_dictionaries({"v": st.floats(-5, 35).map(lambda v: round(v, 1)),
+                                    "w": st.floats(0, 40).map(lambda v: round(v, 1)),
+                                    "k": st.integers(0, 7), "b": st.sampled_from(["x1", "x2", "x3"])})
+    atoms = draw(st.lists(st.tuples(st.integers(0, len(adversarial._ATOMS) - 1), st.booleans(), values),
+                          min_size=1, max_size=4))
+    hostile = draw(st.none() | st.tuples(st.integers(0, len(adversarial._HOSTILE) - 1), st.integers(0, 4)))
+    spelling = draw(st.sampled_from([("and", "or"), ("&", "|")]))
+    joins = draw(st.lists(st.sampled_from(spelling), min_size=len(atoms) + (hostile is not None) - 1,
+                          max_size=len(atoms) + (hostile is not None) - 1))
+    return adversarial.build_query(atoms, joins, hostile)
+
+
+def property_settings(examples: int):
+    return settings(max_examples=examples, derandomize=True, deadline=None, database=None,
+                    suppress_health_check=[HealthCheck.too_slow])
+
+
+@property_settings(150)
+@given(svr_parameters())
+def test_epsilon_svr_in_any_units_and_backend(parameters):
+    assert adversarial.check_svr(parameters) in ACCEPTED, parameters
+
+
+@property_settings(50)
+@given(lssvr_parameters())
+def test_ls_svr_in_any_units(parameters):
+    assert adversarial.check_lssvr(parameters) in ACCEPTED, parameters
+
+
+@property_settings(50)
+@given(linear_parameters())
+def test_linear_models_in_any_units(parameters):
+    assert adversarial.check_linear(parameters) in ACCEPTED, parameters
+
+
+@property_settings(60)
+@given(hostile_parameters)
+def test_hostile_inputs(parameters):
+    assert adversarial.check_hostile(parameters) in ACCEPTED, parameters
+
+
+@property_settings(100)
+@given(query_parameters())
+def test_hostile_and_allowed_queries(parameters):
+    assert adversarial.check_query(parameters) in ACCEPTED, parameters
