@@ -10,7 +10,8 @@ code every backend's answer goes through) and objective are evaluated on a copy 
 kernel block is empty and whose ``P`` answers :math:`Px` with the product above: :math:`K\beta`
 comes from the kernel columns of the support vectors only (:math:`O(n\,n_{SV})` kernel entries
 instead of the :math:`O(n^2)` of building P). The point and multipliers are those of
-:func:`svrqp.estimators.dual_qp_point`.
+:func:`svrqp.formulations.epsilon_svr.dual_qp_point`, and the returned model's own certificate
+in the units of the data (:func:`svrqp.formulations.epsilon_svr.model_certificate`) is added.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations import epsilon_svr
+from svrqp.kernel_columns import KernelColumns
 from svrqp.problems import QuadraticProgram
 
 
@@ -52,16 +54,26 @@ def kernel_free_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: 
     return epsilon_svr.build(formulation, y, C, epsilon, K=empty)
 
 
+def kernel_scale(X: NDArray[np.float64], kernel_parameters: dict[str, Any]) -> float:
+    """:math:`\\max_i K_{ii}` without forming K (``X`` is the Gram matrix for ``"precomputed"``)."""
+    if kernel_parameters["kernel"] == "precomputed":
+        return float(np.max(np.diagonal(X), initial=0.0))
+    return float(np.max(KernelColumns(X, **kernel_parameters).diagonal(), initial=0.0))
+
+
 def certificates(formulation: str, y: NDArray[np.float64], C: float, epsilon: float, beta: NDArray[np.float64],
-                 b: float, Kbeta: NDArray[np.float64]) -> tuple[dict[str, float], float, tuple]:
-    """``(residuals, objective, (x, y_eq, z_box))`` of the stated dual QP at :math:`(\\beta, b)`.
+                 b: float, Kbeta: NDArray[np.float64], scale: float
+                 ) -> tuple[dict[str, float], float, tuple, QuadraticProgram]:
+    """``(residuals, objective, (x, y_eq, z_box), qp)`` of the stated dual QP at :math:`(\\beta, b)`.
 
-    ``residuals`` is what :meth:`QuadraticProgram.kkt_residuals` returns for the full QP.
+    ``residuals`` is what :meth:`QuadraticProgram.kkt_residuals` returns for the full QP, with
+    :func:`~svrqp.formulations.epsilon_svr.model_certificate` (``scale`` is :math:`\\max_i K_{ii}`,
+    :func:`kernel_scale`) added; ``qp`` is the kernel-free copy they were evaluated on.
     """
-    from svrqp.estimators import dual_qp_point  # the estimators sit above this module
-
-    x, y_eq, z_box = dual_qp_point(formulation, KnownProduct(beta, Kbeta), y, beta, b, epsilon)
+    x, y_eq, z_box = epsilon_svr.dual_qp_point(formulation, KnownProduct(beta, Kbeta), y, beta, b, epsilon)
     Px = np.concatenate([Kbeta, np.zeros(2 * y.size)]) if formulation == "split" else np.concatenate([-Kbeta, Kbeta])
     view = copy.copy(kernel_free_qp(formulation, y, C, epsilon))
     view.P = KnownProduct(x, Px)
-    return view.kkt_residuals(x, y_eq, None, z_box), view.objective(x), (x, y_eq, z_box)
+    residuals = view.kkt_residuals(x, y_eq, None, z_box)
+    residuals.update(epsilon_svr.model_certificate(y, beta, Kbeta, b, C, epsilon, scale))
+    return residuals, view.objective(x), (x, y_eq, z_box), view

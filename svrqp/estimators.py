@@ -25,12 +25,13 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp import __version__, dual_ipm
-from svrqp.exceptions import ProblemError, SolverError
+from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
 from svrqp.export.mixin import ExportMixin
 from svrqp.fitted_state import CompactFitMixin
 from svrqp.formulations import epsilon_svr, ls_svr
+from svrqp.formulations.epsilon_svr import dual_qp_point  # noqa: F401  (re-exported)
 from svrqp.kernels import gram
-from svrqp.problems import QuadraticProgram, check_psd
+from svrqp.problems import check_psd
 from svrqp.solver_choice import AUTO, SMO_CROSSOVER, solve_auto, solve_path
 from svrqp.solve import (
     BACKENDS,
@@ -39,6 +40,7 @@ from svrqp.solve import (
     solve_linear_system,
     solve_qp,
 )
+from svrqp.table_checks import check_magnitude, check_numeric_array
 
 #: ``EpsilonSVR(solver=DUAL_IPM)``: svrqp's own interior point with exact crossover (:mod:`svrqp.dual_ipm`).
 DUAL_IPM = "dual_ipm"
@@ -57,33 +59,6 @@ _KERNEL_CONSTRAINTS = {
 }
 
 
-def dual_qp_point(formulation: str, K: NDArray[np.float64], y: NDArray[np.float64], beta: NDArray[np.float64],
-                  b: float, epsilon: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    r"""The primal point and multipliers ``(x, y_eq, z_box)`` of a dual QP at the ε-SVR solution ``(β, b)``.
-
-    With :math:`\alpha = \max(-\beta, 0)`, :math:`\alpha^* = \max(\beta, 0)` and the residual
-    :math:`r = y - K\beta - b`, the stationarity rows of the QPs of
-    :mod:`svrqp.formulations.epsilon_svr` (qpsolvers' signs) hold with
-
-    * split, :math:`x = [\beta; \alpha; \alpha^*]`: equality multipliers :math:`[r;\ b]`, box
-      multipliers :math:`[0;\ -\varepsilon - r;\ r - \varepsilon]`;
-    * stacked, :math:`x = [\alpha; \alpha^*]`: equality multiplier :math:`b`, box multipliers
-      :math:`[-\varepsilon - r;\ r - \varepsilon]`.
-
-    The box multipliers have the signs the bounds need exactly when :math:`(\beta, b)` satisfies
-    the ε-SVR KKT conditions, so the QP's residuals certify the solution independently of how
-    it was found.
-    """
-    r = y - K @ beta - b
-    alpha, alpha_star = np.maximum(-beta, 0.0), np.maximum(beta, 0.0)
-    box = np.concatenate([-epsilon - r, r - epsilon])
-    if formulation == "split":
-        return np.concatenate([beta, alpha, alpha_star]), np.append(r, b), np.concatenate([np.zeros_like(beta), box])
-    if formulation == "stacked":
-        return np.concatenate([alpha, alpha_star]), np.array([b]), box
-    raise ProblemError(f"formulation must be one of {DUAL_FORMULATIONS}, got {formulation!r}")
-
-
 def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                    formulation: str = "split", tol: float = 1e-8, check_tol: float | None = None,
                    X: NDArray[np.float64] | None = None,
@@ -97,8 +72,9 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
 
     Returns the same :class:`~svrqp.formulations.epsilon_svr.DualFit` as
     :func:`~svrqp.formulations.epsilon_svr.solve_dual` (``polished`` says whether the crossover
-    reached the exact optimum). Raises :class:`SolverError` when a relative certificate of the QP
-    exceeds ``check_tol`` (default ``100·tol``).
+    reached the exact optimum), certified the same way on the returned coefficients
+    (:func:`~svrqp.formulations.epsilon_svr.certified_dual_fit`). Raises :class:`SolverError`
+    when a relative certificate exceeds ``check_tol`` (default ``100·tol``).
     """
     if formulation not in DUAL_FORMULATIONS:
         raise ProblemError(f"solver={DUAL_IPM!r} solves a kernel dual: formulation must be one of "
@@ -112,34 +88,30 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
         fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
     else:
         fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, tol=tol, K=K, **(kernel_parameters or {}))
-    x, y_eq, z_box = dual_qp_point(formulation, K, y, fit.beta, fit.intercept, epsilon)
-    solution = Solution(
-        x=x, y=y_eq, z=None, z_box=z_box, objective=problem.objective(x), status="optimal",
-        residuals=problem.kkt_residuals(x, y_eq, None, z_box), backend=DUAL_IPM,
-        backend_version=f"svrqp {__version__}",
+    record = Solution(
+        x=fit.beta, y=None, z=None, z_box=None, objective=float("nan"), status="optimal", residuals={},
+        backend=DUAL_IPM, backend_version=f"svrqp {__version__}",
         settings={"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
                   "ipm_converged": fit.ipm.converged, "crossover_steps": fit.crossover.steps,
                   "crossover_exact": fit.crossover.exact,
                   "low_rank_path": fit.low_rank},
         build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations,
     )
-    _require_certificates(solution, problem, check_tol)
-    return epsilon_svr.DualFit(fit.beta, fit.intercept, problem, solution, fit.crossover.exact)
-
-
-def _require_certificates(solution: Solution, problem: QuadraticProgram, check_tol: float) -> None:
-    worst = max(("primal_rel", "dual_rel", "gap_rel"), key=solution.residuals.__getitem__)
-    if not solution.residuals[worst] <= check_tol:  # also catches NaN
-        raise SolverError(f"{solution.backend!r} did not solve {problem.name!r}: its {worst[:-4]} certificate "
-                          f"is {solution.residuals[worst]:.2e} (relative) > {check_tol:.1e}",
-                          solution.backend, "inaccurate")
+    return epsilon_svr.certified_dual_fit(problem, formulation, K, y, fit.beta, epsilon, check_tol, DUAL_IPM,
+                                          record, fit.crossover.exact)
 
 
 class _KernelModel(RegressorMixin, BaseEstimator):
     """Shared kernel handling: input validation, ``gamma`` resolution, Gram matrices, predict."""
 
     def _validated_training_data(self, X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
-        X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        check_numeric_array(X, "X")
+        check_numeric_array(y, "y")
+        with input_errors_as_problem_errors():
+            X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        y = y.astype(np.float64, copy=False)  # boolean or integer targets
+        check_magnitude(X, "X")
+        check_magnitude(y, "y")
         if X.shape[0] < 2:
             raise ProblemError(f"n_samples = {X.shape[0]}: at least 2 samples are needed to fit, got 1 sample")
         if self.kernel == "precomputed" and X.shape[0] != X.shape[1]:
@@ -166,7 +138,10 @@ class _KernelModel(RegressorMixin, BaseEstimator):
 
     def _decision(self, X: ArrayLike) -> NDArray[np.float64]:
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False, dtype=np.float64)
+        check_numeric_array(X, "X")
+        with input_errors_as_problem_errors():
+            X = validate_data(self, X, reset=False, dtype=np.float64)
+        check_magnitude(X, "X")
         if self.kernel == "precomputed":
             K = X[:, self.support_]
         else:
@@ -206,7 +181,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
     coef0 : float, default=0.0
     solver : str, default="auto"
         ``"auto"`` (:mod:`svrqp.solver_choice`: the fastest exact path for the problem, certified
-        on the QP of ``formulation``; the choice is kept as ``solver_used_``),
+        on the QP of ``formulation``; the choice is kept as ``solver_``),
         ``"smo_crossover"`` (:mod:`svrqp.warm_start`: a loose SMO run, then the exact active-set
         crossover), ``"dual_ipm"`` (:func:`svrqp.dual_ipm.solve_exact`, an interior point on the
         reduced n×n system with the same crossover) or any backend of
@@ -220,7 +195,13 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         Requested solver accuracy.
     check_tol : float or None, default=None
         Largest relative primal residual, dual residual and duality gap accepted from the
-        backend (``None``: 100·tol); a solution above it raises :class:`SolverError`.
+        backend (``None``: 100·tol); a solution above it raises :class:`SolverError`. The same
+        bound applies to the returned model's own certificate in the units of the data
+        (:func:`svrqp.formulations.epsilon_svr.model_certificate`).
+    fallback : bool, default=True
+        When the chosen QP backend fails or misses a certificate, solve again with
+        ``"dual_ipm"`` (an exact path) and say so in ``solver_`` and ``fallback_reason_``;
+        ``False`` raises the backend's :class:`SolverError` instead.
 
     Attributes
     ----------
@@ -239,8 +220,12 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
     solution_ : Solution
         The certificate-checked solution (after unpickling: the point, multipliers and
         certificates rebuilt at the returned coefficients).
-    solver_used_ : str
-        The path or backend that produced the coefficients (``solution_.backend``).
+    solver_ : str
+        The solver whose answer the model is: ``solver``, the path ``"auto"`` chose (a key of
+        :data:`svrqp.solver_choice.PATHS`, or Clarabel on the primal), or ``"dual_ipm"`` after a
+        fallback.
+    fallback_reason_ : str or None
+        Why ``solver`` was not used (its error message), or ``None``.
     polished_ : bool
         Whether the active-set polish of :func:`svrqp.formulations.epsilon_svr.polish` replaced
         the solver's dual coefficients (dual formulations only); with ``solver="dual_ipm"``,
@@ -255,10 +240,11 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         "formulation": [StrOptions(set(epsilon_svr.FORMULATIONS))],
         "tol": [Interval(Real, 0.0, None, closed="neither")],
         "check_tol": [Interval(Real, 0.0, None, closed="neither"), None],
+        "fallback": ["boolean"],
     }
 
     def __init__(self, C=1.0, epsilon=0.1, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
-                 solver="auto", formulation="split", tol=1e-8, check_tol=None):
+                 solver="auto", formulation="split", tol=1e-8, check_tol=None, fallback=True):
         self.C = C
         self.epsilon = epsilon
         self.kernel = kernel
@@ -269,6 +255,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.formulation = formulation
         self.tol = tol
         self.check_tol = check_tol
+        self.fallback = fallback
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
@@ -283,44 +270,77 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
-        kernel_parameters = {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
-        self.problem_ = None  # built by the paths that need it, otherwise rebuilt on demand
-        if self.solver in (AUTO, SMO_CROSSOVER) and self.formulation != "primal":
-            data = self._training_gram(X) if self.kernel == "precomputed" else X
-            beta, b, self.solution_ = (solve_auto if self.solver == AUTO else partial(solve_path, SMO_CROSSOVER))(
-                data, y, self.C, self.epsilon, kernel_parameters=kernel_parameters, formulation=self.formulation,
-                tol=self.tol, check_tol=self.check_tol)
-            self.polished_ = self.solution_.settings["crossover_exact"]
-        elif self.solver == DUAL_IPM:
-            low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
-            beta, b, self.problem_, self.solution_, self.polished_ = solve_dual_ipm(
-                self._training_gram(X), y, self.C, self.epsilon, formulation=self.formulation, tol=self.tol,
-                check_tol=self.check_tol, X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)
-        elif self.formulation == "primal":
-            if self.solver == SMO_CROSSOVER:
-                raise ProblemError(f"solver={SMO_CROSSOVER!r} solves a kernel dual: formulation must be one of "
-                                   f"{DUAL_FORMULATIONS}, got 'primal'")
-            self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
-            backend = PRIMAL_AUTO_BACKEND if self.solver == AUTO else self.solver
-            self.solution_ = solve_qp(self.problem_, backend, tol=self.tol, check_tol=self.check_tol)
-            beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
-            d = X.shape[1]
-            self.coef_ = self.solution_.x[:d].copy()
-            b = float(self.solution_.x[d])
-        else:
-            beta, b, self.problem_, self.solution_, self.polished_ = epsilon_svr.solve_dual(
-                self._training_gram(X), y, self.C, self.epsilon, formulation=self.formulation,
-                backend=self.solver, tol=self.tol, check_tol=self.check_tol)
-        if not (np.all(np.isfinite(beta)) and np.isfinite(b)):
-            raise SolverError(f"backend {self.solver!r} returned non-finite coefficients", self.solver, "failed")
-        support = epsilon_svr.support_mask(beta, self.C)
+        self.solver_, self.fallback_reason_ = self.solver, None
+        try:
+            beta, b = self._solve(X, y, self.solver, self.formulation)
+        except SolverError as err:
+            if not self.fallback or self.solver == DUAL_IPM or (self.solver == AUTO and self.formulation != "primal"):
+                raise  # "auto" on a dual has tried dual_ipm already
+            # A fit asked for with sound parameters must not fail because one backend did: another
+            # exact path, reported in solver_ and fallback_reason_.
+            formulation = self.formulation if self.formulation in DUAL_FORMULATIONS else "split"
+            try:
+                beta, b = self._solve(X, y, DUAL_IPM, formulation)
+            except SolverError as second:
+                raise SolverError(f"{err}; the fallback {DUAL_IPM!r} failed too: {second}",
+                                  self.solver, err.status) from second
+            self.solver_, self.fallback_reason_ = DUAL_IPM, str(err)
+            if self.formulation == "primal":
+                self.coef_ = beta @ X
+        if self.solver == AUTO:
+            self.solver_ = self.solution_.backend  # the path it chose
+        support = beta != 0.0  # the certified coefficients are exactly zero off the support
         self.support_ = np.flatnonzero(support)
         self.support_vectors_ = X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
         self.dual_coef_ = beta[support][None, :]
         self.intercept_ = np.array([b])
-        self.solver_used_ = self.solution_.backend
         self._keep_fit_data(X, y, self.formulation)
         return self
+
+    def _solve(self, X: NDArray[np.float64], y: NDArray[np.float64], solver: str,
+               formulation: str) -> tuple[NDArray[np.float64], float]:
+        """Certified (β, b) from one solver; sets ``problem_``, ``solution_`` and ``polished_``."""
+        kernel_parameters = {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
+        if solver in (AUTO, SMO_CROSSOVER) and formulation != "primal":
+            run = solve_auto if solver == AUTO else partial(solve_path, SMO_CROSSOVER)
+            beta, b, self.solution_ = run(self._training_gram(X) if self.kernel == "precomputed" else X, y, self.C,
+                                          self.epsilon, kernel_parameters=kernel_parameters, formulation=formulation,
+                                          tol=self.tol, check_tol=self.check_tol)
+            self.problem_ = None  # never formed: rebuilt on demand (svrqp.fitted_state)
+            self.polished_ = self.solution_.settings["crossover_exact"]
+            return beta, b
+        if solver == DUAL_IPM:
+            low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
+            fit = solve_dual_ipm(
+                self._training_gram(X), y, self.C, self.epsilon, formulation=formulation, tol=self.tol,
+                check_tol=self.check_tol, X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)
+        elif formulation == "primal":
+            if solver == SMO_CROSSOVER:
+                raise ProblemError(f"solver={SMO_CROSSOVER!r} solves a kernel dual: formulation must be one of "
+                                   f"{DUAL_FORMULATIONS}, got 'primal'")
+            return self._solve_primal(X, y, PRIMAL_AUTO_BACKEND if solver == AUTO else solver)
+        else:
+            fit = epsilon_svr.solve_dual(self._training_gram(X), y, self.C, self.epsilon, formulation=formulation,
+                                         backend=solver, tol=self.tol, check_tol=self.check_tol)
+        _, _, self.problem_, self.solution_, self.polished_ = fit
+        return fit.beta, fit.b
+
+    def _solve_primal(self, X: NDArray[np.float64], y: NDArray[np.float64],
+                      solver: str) -> tuple[NDArray[np.float64], float]:
+        """The linear primal: β from the multipliers, rounded and certified like the duals'."""
+        self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
+        self.solution_ = solve_qp(self.problem_, solver, tol=self.tol, check_tol=self.check_tol)
+        C = float(self.C)
+        beta = epsilon_svr.returned_coefficients(
+            epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z), C)
+        self.coef_ = self.solution_.x[:X.shape[1]].copy()
+        K_beta = X @ (X.T @ beta)
+        b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, self.epsilon)
+        certificate = epsilon_svr.model_certificate(y, beta, K_beta, b, C, self.epsilon,
+                                                    float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0)))
+        self.solution_.residuals.update(certificate)
+        epsilon_svr.require_model_certificate(certificate, self.solution_.settings["check_tol"], solver)
+        return beta, b
 
 
 class LSSVR(ExportMixin, _KernelModel):

@@ -8,6 +8,9 @@ the library's errors without catching programming mistakes. Input errors are als
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 
 
@@ -17,6 +20,10 @@ class SvrqpError(Exception):
 
 class ProblemError(SvrqpError, ValueError):
     """A problem, dataset or parameter is invalid (shape, finiteness, sign, PSD, ...)."""
+
+
+class InputTypeError(ProblemError, TypeError):
+    """An input holds values of a type that cannot be numbers (also ``TypeError``, Python's convention)."""
 
 
 class SolverError(SvrqpError, RuntimeError):
@@ -43,3 +50,18 @@ class ExtrapolationWarning(UserWarning):
     the training range of an input or further from the training data than a calibrated
     Mahalanobis distance; ``Guarded.check_domain(X)`` says which inputs and by how much.
     """
+
+
+@contextmanager
+def input_errors_as_problem_errors() -> Iterator[None]:
+    """Re-raise a ``ValueError`` or ``TypeError`` of input validation (scikit-learn's, numpy's) as
+    :class:`ProblemError` or :class:`InputTypeError` with the same message, so bad input always
+    ends in the library's error."""
+    try:
+        yield
+    except SvrqpError:
+        raise
+    except TypeError as err:
+        raise InputTypeError(str(err)) from err
+    except ValueError as err:
+        raise ProblemError(str(err)) from err

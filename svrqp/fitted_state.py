@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.dual_certificate import certificates
+from svrqp.dual_certificate import certificates, kernel_scale
 from svrqp.formulations import epsilon_svr
 from svrqp.kernels import gram
 from svrqp.problems import QuadraticProgram
@@ -73,9 +73,9 @@ class CompactFitMixin:
         beta = np.zeros(y.size)
         beta[self.support_] = self.dual_coef_[0]
         Kbeta = self._kernel(X, X[self.support_]) @ self.dual_coef_[0]
-        residuals, objective, (x, y_eq, z_box) = certificates(record["formulation"], y, record["C"],
-                                                              record["epsilon"], beta, float(self.intercept_[0]),
-                                                              Kbeta)
+        residuals, objective, (x, y_eq, z_box), _ = certificates(  # X is the Gram matrix when precomputed
+            record["formulation"], y, record["C"], record["epsilon"], beta, float(self.intercept_[0]), Kbeta,
+            kernel_scale(X, record["kernel"]))
         return dataclasses.replace(self._solution_record, x=x, y=y_eq, z=None, z_box=z_box, residuals=residuals,
                                    objective=objective)
 

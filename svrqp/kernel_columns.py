@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError
 from svrqp.kernels import (
+    centred,
     check_kernel_parameters,
     finish_in_place,
     left_factor,
@@ -35,8 +36,9 @@ class KernelColumns:
             raise ProblemError(f"X must be 2-D, got shape {self.X.shape}")
         check_kernel_parameters(kernel, gamma, degree)
         self.parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
+        self._points = centred(kernel, self.X)[0]  # as in gram(): RBF values from centred inputs
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            self._left = left_factor(self.X, kernel, gamma, coef0)  # shared by every column block
+            self._left = left_factor(self._points, kernel, gamma, coef0)  # shared by every column block
         # The cache: column j of K is _store[:, _slot[j]]. One Fortran array (capacity doubled as it
         # fills) so that serving many cached columns is one gather, not a stack of small arrays.
         self._slot: dict[int, int] = {}
@@ -69,7 +71,7 @@ class KernelColumns:
         if missing:
             kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
             with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-                block = self._left @ right_factor(self.X[missing], kernel, gamma).T
+                block = self._left @ right_factor(self._points[missing], kernel, gamma).T
             finish_in_place(block, kernel, self.parameters["degree"])
             used = len(self._slot)
             if used + len(missing) > self._store.shape[1]:

@@ -90,6 +90,23 @@ def check_kernel_parameters(kernel: str, gamma: float, degree: int) -> None:
         raise ProblemError(f"degree must be a positive integer, got {degree!r}")
 
 
+def centred(kernel: str, X: NDArray[np.float64],
+            Y: NDArray[np.float64] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    r"""RBF inputs shifted by one common centre, the mean of ``Y`` (of ``X`` when ``Y`` is ``None``).
+
+    The RBF kernel depends on :math:`x - y` only, so the shift changes no kernel value, but the
+    expansion :math:`\lVert x\rVert^2 + \lVert y\rVert^2 - 2x\cdot y` is then computed on
+    numbers of the size of the spread of the data instead of cancelling between numbers of the
+    size of its offset (epoch seconds, 1.7e9, leave nothing of a spread of 1). Other kernels are
+    not translation invariant and are returned unchanged.
+    """
+    reference = X if Y is None or Y.shape[0] == 0 else Y
+    if kernel != "rbf" or reference.shape[0] == 0:
+        return X, Y
+    centre = reference.mean(axis=0)
+    return X - centre, (None if Y is None else Y - centre)
+
+
 def left_factor(X: NDArray[np.float64], kernel: str, gamma: float, coef0: float) -> NDArray[np.float64]:
     r"""Left factor :math:`A(X)` of the kernel's inner matrix :math:`A(X) B(Y)^\top` (see :func:`right_factor`).
 
@@ -152,8 +169,8 @@ def gram(
 ) -> NDArray[np.float64]:
     """Gram matrix :math:`K_{ij} = k(x_i, y_j)`, built in place block by block.
 
-    Each row block is one matrix product of the factors of :func:`left_factor` and
-    :func:`right_factor` written into K, then :func:`finish_in_place` while it is in cache: the
+    RBF inputs are first shifted to a common centre (:func:`centred`). Each row block is one
+    matrix product of the factors of :func:`left_factor` and :func:`right_factor` written into K, then :func:`finish_in_place` while it is in cache: the
     only n×m array is K itself. Without ``Y`` only the lower triangle is computed and mirrored,
     so K is exactly symmetric (and the RBF diagonal exactly 1, the zero self-distance).
 
@@ -176,6 +193,8 @@ def gram(
     if X.ndim != 2 or Y.ndim != 2 or X.shape[1] != Y.shape[1]:
         raise ProblemError(f"X and Y must be 2-D with the same columns, got {X.shape} and {Y.shape}")
     check_kernel_parameters(kernel, gamma, degree)
+    X, centred_Y = centred(kernel, X, None if symmetric else Y)
+    Y = X if symmetric else centred_Y
     n, m = X.shape[0], Y.shape[0]
     K = np.empty((n, m))
     rows = max(8, BLOCK_ENTRIES // max(m, 1))

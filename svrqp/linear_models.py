@@ -22,9 +22,10 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from svrqp.exceptions import ProblemError
+from svrqp.exceptions import ProblemError, input_errors_as_problem_errors
 from svrqp.formulations import least_squares, recursive_ls
 from svrqp.export.mixin import ExportMixin
+from svrqp.table_checks import check_magnitude, check_numeric_array
 
 #: Unit suffixes of the naming convention (``T7_C``) and how they are written.
 _UNIT_SUFFIXES = {
@@ -133,19 +134,28 @@ def _target_name(y: ArrayLike) -> str:
 
 def _finite_training_data(estimator: BaseEstimator, X: ArrayLike, y: ArrayLike, reset: bool
                           ) -> tuple[NDArray, NDArray]:
-    # NaN must raise the library's ProblemError, so it is looked for before sklearn does.
+    # NaN and text must raise the library's ProblemError, so they are looked for before sklearn does.
+    check_numeric_array(X, "X")
+    check_numeric_array(y, "y")
     y_values = np.asarray(y)
     if y_values.dtype.kind == "f":
         least_squares.check_finite_matrix(y_values.reshape(-1), "y", 1)
-    X, y = validate_data(estimator, X, y, reset=reset, y_numeric=True, dtype=np.float64,
-                         ensure_all_finite=False)
+    with input_errors_as_problem_errors():
+        X, y = validate_data(estimator, X, y, reset=reset, y_numeric=True, dtype=np.float64,
+                             ensure_all_finite=False)
+    y = y.astype(np.float64, copy=False)  # boolean or integer targets
+    check_magnitude(X, "X")
+    check_magnitude(y, "y")
     return (least_squares.check_finite_matrix(X, "X", 2),
             least_squares.check_finite_matrix(y, "y", 1))
 
 
 def _finite_inputs(estimator: BaseEstimator, X: ArrayLike) -> NDArray:
     check_is_fitted(estimator)
-    X = validate_data(estimator, X, reset=False, dtype=np.float64, ensure_all_finite=False)
+    check_numeric_array(X, "X")
+    with input_errors_as_problem_errors():
+        X = validate_data(estimator, X, reset=False, dtype=np.float64, ensure_all_finite=False)
+    check_magnitude(X, "X")
     return least_squares.check_finite_matrix(X, "X", 2)
 
 

@@ -1,10 +1,47 @@
-"""Checks on the columns of a user's table, shared by the commands and the gap diagnosis."""
+"""Checks on the columns of a user's table, shared by the commands and the gap diagnosis, and on
+the arrays handed to the estimators (numbers, not text; magnitudes float64 can square)."""
 
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
+
+#: Largest magnitude accepted in X or y: squares and products of two such numbers stay finite in
+#: float64 (whose largest value is 1.8e308), which every fit needs (variances, Gram matrices,
+#: normal equations, residual sums of squares).
+MAX_MAGNITUDE = 1e150
+
+
+def check_numeric_array(values: Any, name: str) -> None:
+    """Raise :class:`ProblemError` when ``values`` holds text (numeric text such as ``"1.0"``
+    included) instead of numbers: a unit or a decimal comma must not be guessed.
+
+    Parameters
+    ----------
+    values : array-like
+        What the caller passed as X or y.
+    name : str
+        Its name in the message (``"X"``, ``"y"``).
+    """
+    array = np.asarray(values)
+    text = array.dtype.kind in "USa" or (
+        array.dtype == object and any(isinstance(value, str | bytes) for value in array.ravel()))
+    if text:
+        raise ProblemError(f"{name} holds text, not numbers (dtype {array.dtype}): convert it to numbers first")
+
+
+def check_magnitude(values: np.ndarray, name: str) -> None:
+    """Raise :class:`ProblemError` when a finite value of ``values`` exceeds :data:`MAX_MAGNITUDE`
+    in magnitude (non-finite values are left to the finiteness checks, which name them)."""
+    finite = np.abs(values[np.isfinite(values)])
+    if finite.size and float(finite.max()) > MAX_MAGNITUDE:
+        raise ProblemError(f"{name} has values up to {float(finite.max()):.3g} in magnitude; at most "
+                           f"{MAX_MAGNITUDE:.0e} is supported (its squares must stay finite in float64): "
+                           "express it in a larger unit")
 
 
 def check_present(table: pd.DataFrame, names: list[str], option: str) -> None:

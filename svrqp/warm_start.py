@@ -70,7 +70,7 @@ PRODUCT_BLOCK_ENTRIES = 2**18
 
 def kernel_products(X: NDArray[np.float64], parameters: dict, idx: NDArray[np.intp],
                     v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """:math:`K_{:, idx}\, v` in row blocks, the columns not kept.
+    r""":math:`K_{:, idx}\, v` in row blocks, the columns not kept.
 
     The crossover's bounded term needs the columns of every coefficient at :math:`\pm C` only
     in this product (and once more for the final check): recomputing them is cheaper than

@@ -64,3 +64,18 @@ def test_a_single_column_file_reads(tmp_path):
     path = tmp_path / "one.csv"
     path.write_text("error_um\n1.5\n2.5\n")
     assert read_table(path)["error_um"].tolist() == [1.5, 2.5]
+
+
+@pytest.mark.parametrize("header", ["T1_C,T1_C,error_um", "\ufeffT1_C,error_um,T1_C", '"T1_C",T2_C,"T1_C"'])
+def test_a_repeated_column_name_is_refused(tmp_path, header):
+    """pandas reads a second ``T1_C`` as ``T1_C.1``: a model would silently use the wrong sensor."""
+    path = tmp_path / "twice.csv"
+    path.write_text(header + "\n1.0,2.0,3.0\n4.0,5.0,6.0\n", encoding="utf-8")
+    with pytest.raises(ProblemError, match=re.escape("column name(s) ['T1_C'] appear more than once")):
+        read_table(path)
+
+
+def test_names_that_differ_only_by_pandas_suffix_are_kept(tmp_path):
+    path = tmp_path / "distinct.csv"
+    path.write_text("T1_C,T1_C.1,error_um\n1.0,2.0,3.0\n", encoding="utf-8")
+    assert list(read_table(path).columns) == ["T1_C", "T1_C.1", "error_um"]

@@ -36,7 +36,7 @@ def test_fitted_attributes_and_latex():
     assert model.dual_coef_.shape == (1, model.support_.size)
     assert model.support_vectors_.shape == (model.support_.size, 1)
     assert model.intercept_.shape == (1,)
-    assert model.solution_.backend == model.solver_used_ == "smo_crossover"  # solver="auto" chose it
+    assert model.solution_.backend == model.solver_ == "smo_crossover"  # solver="auto" chose it
     assert r"\alpha^*" in model.problem_.to_latex()
 
 
@@ -53,7 +53,7 @@ def test_works_inside_grid_search():
     (X_OK, Y_OK[:-1], "inconsistent numbers of samples"),
     (np.array([[1.0]]), np.ones(1), "1 sample"),
     (np.empty((0, 1)), np.empty(0), "0 sample"),
-    (np.array([["a"], ["b"]], dtype=object), np.ones(2), "could not convert"),
+    (np.array([["a"], ["b"]], dtype=object), np.ones(2), "X holds text"),
 ])
 def test_bad_data_is_a_value_error(Model, X, y, word):
     with pytest.raises(ValueError, match=word):

@@ -63,7 +63,7 @@ def test_kernel_model_records_every_convention_and_coefficient():
     assert document["scaling"]["mean"] == case.model[0].mean_.tolist()
     assert document["model"]["epsilon"] == 0.2 and document["model"]["C"] == 100.0
     assert document["inputs"][0]["unit"] == "°C" and document["target"]["unit"] == "μm"
-    assert document["solver"]["backend"] == svr.solver_used_ == "smo_crossover"  # the default solver="auto"
+    assert document["solver"]["backend"] == svr.solver_ == "smo_crossover"  # the default solver="auto"
     assert document["solver"]["duality_gap"] == svr.solution_.duality_gap
 
 

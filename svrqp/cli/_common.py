@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 from typing import Any
 
@@ -29,14 +30,17 @@ def read_table(path: str | Path) -> pd.DataFrame:
         raise FileNotFoundError(f"input file not found: {path}")
     if path.suffix.lower() in {".parquet", ".pq"}:
         try:
-            return pd.read_parquet(path)
+            table = pd.read_parquet(path)
         except ImportError as err:
             raise BackendNotAvailableError(
                 f"reading {path.name} needs a Parquet engine: pip install 'svrqp[parquet]' (pyarrow)") from err
+        _refuse_repeated_names(path, [str(name) for name in table.columns])
+        return table
     try:
         table = pd.read_csv(path)
     except pd.errors.EmptyDataError as err:
         raise ProblemError(f"{path.name}: the file is empty (no header row)") from err
+    _refuse_repeated_names(path, _csv_header(path))
     header = str(table.columns[0])
     separator = next((sep for sep in (";", "\t", "|") if sep in header), None)
     if table.shape[1] == 1 and separator is not None:
@@ -44,6 +48,19 @@ def read_table(path: str | Path) -> pd.DataFrame:
         raise ProblemError(f"{path.name} reads as one column {header!r}: it seems separated by {separator!r}; "
                            "save it comma-separated, with '.' as the decimal mark")
     return table
+
+
+def _csv_header(path: Path) -> list[str]:
+    """The column names of a CSV file as written (pandas renames a repeated ``T1_C`` to ``T1_C.1``)."""
+    with path.open(newline="", encoding="utf-8-sig", errors="replace") as handle:
+        return next(csv.reader(handle), [])
+
+
+def _refuse_repeated_names(path: Path, names: list[str]) -> None:
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise ProblemError(f"{path.name}: column name(s) {repeated} appear more than once in the header; "
+                           "give every column its own name")
 
 
 def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: bool = False) -> list[str]:

@@ -36,6 +36,7 @@ from svrqp.exceptions import ProblemError
 from svrqp.export.guarded import sections
 from svrqp.guard import Guarded
 from svrqp.linear_models import PolynomialLS, split_unit
+from svrqp.query import QueryError, select_rows
 
 
 def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:
@@ -43,11 +44,9 @@ def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:
     if query is None:
         return pd.Series(True, index=table.index)
     try:
-        mask = table.eval(query)
-    except Exception as err:  # pandas raises many kinds for a malformed query
-        raise ProblemError(f"--train: cannot evaluate query {query!r}: {err}") from err
-    if not (isinstance(mask, pd.Series) and mask.dtype == bool):
-        raise ProblemError(f"--train: query {query!r} must give True/False per row")
+        mask = select_rows(table, query)  # a filter language, never pandas' eval
+    except QueryError as err:
+        raise QueryError(f"--train: {err}") from None
     if not mask.any():
         raise ProblemError(f"--train: query {query!r} selects no rows")
     return mask
@@ -112,8 +111,9 @@ def register(app: typer.Typer) -> None:
         features: str = typer.Option(..., "--features", help="Comma-separated input columns (e.g. T7_C,T9_C)."),
         model: str = typer.Option("mlr", "--model", help=f"One of {', '.join(MODELS)}: multiple linear "
                                   "regression, ε-SVR, LS-SVR, polynomial (one input), recursive LS."),
-        train: str = typer.Option(None, "--train", help="pandas query selecting the rows to fit (e.g. "
-                                  "\"batch == 'x1'\"); the other rows are assessed. Default: all rows."),
+        train: str = typer.Option(None, "--train", help="Filter selecting the rows to fit (e.g. \"batch == 'x1'\"; "
+                                  "comparisons joined by and/or/not, see svrqp.query); the other rows are "
+                                  "assessed. Default: all rows."),
         C: float = typer.Option(1.0, "--C", help="svr/lssvr: the regularisation weight C."),
         epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target units."),
         gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma in exp(-γ‖x−x'‖²) "

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
+from svrqp.query import select_rows
 from svrqp.table_checks import check_numeric, check_present
 
 MIN_GROUP_ROWS = 3
@@ -107,15 +108,10 @@ class GapData:
 
 
 def _train_mask(df: pd.DataFrame, train: str | np.ndarray | pd.Series) -> np.ndarray:
-    """Boolean mask of the train rows from a pandas query (or a boolean mask)."""
+    """Boolean mask of the train rows from a filter (:mod:`svrqp.query`) or a boolean mask."""
     if isinstance(train, str):
-        # Positions, not index labels: a concatenated table may repeat its labels.
-        by_position = df.reset_index(drop=True)
-        try:
-            selected = by_position.query(train)
-        except Exception as err:  # pandas raises many types for a bad expression
-            raise ProblemError(f"train: cannot evaluate query {train!r}: {err}") from err
-        return by_position.index.isin(selected.index)
+        # A filter language, never pandas' eval (svrqp.query); positions, not index labels.
+        return select_rows(df.reset_index(drop=True), train).to_numpy()
     mask = np.asarray(train)
     if mask.dtype != bool or mask.shape != (len(df),):
         raise ProblemError("train: give a pandas query string or a boolean mask with one entry per row")
