@@ -136,7 +136,7 @@ def run_cell(dataset, X, y, gamma, C) -> dict:
         row[f"{label}_exact"] = bool(row[f"{label}_objective_rel"] <= OBJECTIVE_TOL
                                      and row[f"{label}_prediction_err_std"] <= PREDICTION_TOL)
         if label == "auto":
-            row["auto_path"] = model.solver_used_
+            row["auto_path"] = model.solver_
     if "dual_ipm" in predictions:  # two independent exact paths: an interior point, and SMO + crossover
         row["auto_vs_dual_ipm_err_std"] = float(np.max(np.abs(predictions["auto"] - predictions["dual_ipm"])) / y.std())
     return row
