@@ -164,12 +164,12 @@ def test_failed_backend_falls_back_to_the_exact_path_and_says_so(monkeypatch):
         raise SolverError("backend 'clarabel' stalled", "clarabel", "max_iter")
 
     monkeypatch.setattr(epsilon_svr, "solve_dual", failing)
-    model = EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0).fit(X, y)
+    model = EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="clarabel").fit(X, y)
     assert model.solver_ == "dual_ipm" and "stalled" in model.fallback_reason_
     reference = SVR(C=10.0, epsilon=0.05, gamma=1.0, tol=1e-8).fit(X, y)
     np.testing.assert_allclose(model.predict(X), reference.predict(X), rtol=0, atol=1e-5 * y.std())
     with pytest.raises(SolverError, match="stalled"):
-        EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, fallback=False).fit(X, y)
+        EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="clarabel", fallback=False).fit(X, y)
 
 
 def test_certificate_sees_a_dropped_support_vector():
