@@ -12,6 +12,7 @@ optimality conditions (:func:`dual_qp_point`) and its residuals are checked like
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from importlib.metadata import version
 from numbers import Integral, Real
@@ -34,6 +35,7 @@ from svrqp.solve import (
     BACKENDS,
     DEFAULT_CHECK_FACTOR,
     Solution,
+    require_certificates,
     solve_linear_system,
     solve_qp,
 )
@@ -301,12 +303,33 @@ class EpsilonSVR(ExportMixin, _KernelModel):
 
     def _solve_primal(self, X: NDArray[np.float64], y: NDArray[np.float64],
                       solver: str) -> tuple[NDArray[np.float64], float]:
-        """The linear primal: β from the multipliers, rounded and certified like the duals'."""
-        self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
-        self.solution_ = solve_qp(self.problem_, solver, tol=self.tol, check_tol=self.check_tol)
+        """The linear primal: β from the multipliers, rounded and certified like the duals'.
+
+        The backend solves the primal for the targets of :class:`~svrqp.formulations.epsilon_svr.DualScaling`
+        (:math:`\tilde y = (y - m)/a`, :math:`\tilde\varepsilon = \varepsilon/a`, :math:`\tilde C = C/a`);
+        the primal variables and multipliers scale by a (b is shifted by m) back onto ``problem_``,
+        where the certificates are checked.
+        """
         C = float(self.C)
-        beta = epsilon_svr.returned_coefficients(
-            epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z), C)
+        self.problem_ = epsilon_svr.build("primal", y, C, self.epsilon, X=X)
+        m, a, _ = scaling = epsilon_svr.DualScaling.of(y, C)
+        record = solve_qp(epsilon_svr.build("primal", (y - m) / a, C / a, self.epsilon / a, X=X), solver,
+                          tol=self.tol, check_tol=self.check_tol)
+        x, z = a * record.x, a * record.z
+        x[X.shape[1]] += m
+        z_box = None if record.z_box is None else a * record.z_box
+        self.solution_ = dataclasses.replace(
+            record, x=x, z=z, z_box=z_box, objective=self.problem_.objective(x),
+            residuals=self.problem_.kkt_residuals(x, record.y, z, z_box),
+            settings={**record.settings, "scaling": scaling._asdict()})
+        require_certificates(self.solution_, self.problem_, record.settings["check_tol"])
+        beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
+        # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
+        # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
+        exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(self.epsilon), beta,
+                                   products=lambda idx, v: X @ (X[idx].T @ v))
+        self.polished_ = exact.exact
+        beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C)
         self.coef_ = self.solution_.x[:X.shape[1]].copy()
         K_beta = X @ (X.T @ beta)
         b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, self.epsilon)
