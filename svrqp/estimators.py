@@ -45,6 +45,8 @@ from svrqp.table_checks import check_magnitude, check_numeric_array
 DUAL_IPM = "dual_ipm"
 #: Every value ``EpsilonSVR.solver`` accepts: the dual interior point and the QP backends.
 SOLVERS: tuple[str, ...] = (DUAL_IPM, *BACKENDS)
+#: Where a failed ``dual_ipm`` fit falls back to (a failed QP backend falls back to ``dual_ipm``).
+FALLBACK_SOLVER = "clarabel"
 #: The QP statements a ``dual_ipm`` solution is certified on (the primal has no kernel matrix).
 DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 
@@ -192,9 +194,9 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         bound applies to the returned model's own certificate in the units of the data
         (:func:`svrqp.formulations.epsilon_svr.model_certificate`).
     fallback : bool, default=True
-        When the chosen QP backend fails or misses a certificate, solve again with
-        ``"dual_ipm"`` (an exact path) and say so in ``solver_`` and ``fallback_reason_``;
-        ``False`` raises the backend's :class:`SolverError` instead.
+        When the chosen solver fails or misses a certificate, solve again with the other exact
+        path (``"dual_ipm"`` for a QP backend, Clarabel for ``"dual_ipm"``) and say so in
+        ``solver_`` and ``fallback_reason_``; ``False`` raises the solver's :class:`SolverError`.
 
     Attributes
     ----------
@@ -212,7 +214,7 @@ class EpsilonSVR(ExportMixin, _KernelModel):
     solution_ : Solution
         The certificate-checked solution.
     solver_ : str
-        The solver whose answer the model is: ``solver``, or ``"dual_ipm"`` after a fallback.
+        The solver whose answer the model is: ``solver``, or the other exact path after a fallback.
     fallback_reason_ : str or None
         Why ``solver`` was not used (its error message), or ``None``.
     polished_ : bool
@@ -263,17 +265,18 @@ class EpsilonSVR(ExportMixin, _KernelModel):
         try:
             beta, b = self._solve(X, y, self.solver, self.formulation)
         except SolverError as err:
-            if not self.fallback or self.solver == DUAL_IPM:
+            if not self.fallback:
                 raise
-            # A fit asked for with sound parameters must not fail because one backend did: another
-            # exact path, reported in solver_ and fallback_reason_.
+            # A fit asked for with sound parameters must not fail because one solver did: the
+            # other exact path, reported in solver_ and fallback_reason_.
+            other = FALLBACK_SOLVER if self.solver == DUAL_IPM else DUAL_IPM
             formulation = self.formulation if self.formulation in DUAL_FORMULATIONS else "split"
             try:
-                beta, b = self._solve(X, y, DUAL_IPM, formulation)
+                beta, b = self._solve(X, y, other, formulation)
             except SolverError as second:
-                raise SolverError(f"{err}; the fallback {DUAL_IPM!r} failed too: {second}",
+                raise SolverError(f"{err}; the fallback {other!r} failed too: {second}",
                                   self.solver, err.status) from second
-            self.solver_, self.fallback_reason_ = DUAL_IPM, str(err)
+            self.solver_, self.fallback_reason_ = other, str(err)
             if self.formulation == "primal":
                 self.coef_ = beta @ X
         support = beta != 0.0  # the certified coefficients are exactly zero off the support
