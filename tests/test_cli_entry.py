@@ -87,3 +87,16 @@ def test_both_register_spellings_are_read():
         "x": "Do x."}
     assert cli._declared_in('def g():\n    """Do g.\n\n    More."""\n\ndef register(app):\n    app.command("g")(g)\n') == {
         "g": "Do g.\n\nMore."}
+
+
+def test_tune_ga_without_pygad_names_the_extra(tmp_path, monkeypatch, capsys):
+    table = tmp_path / "line.csv"
+    table.write_text("x_mm,error_um\n" + "".join(f"{i},{0.5 * i}\n" for i in range(12)))
+    monkeypatch.setitem(sys.modules, "pygad", None)  # what an environment without the extra sees
+    with pytest.raises(SystemExit) as exit_info:
+        main(["tune", str(table), "--target", "error_um", "--features", "x_mm", "--method", "ga",
+              "--backend", "sequential"])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err
+    assert "pygad" in error and "pip install 'svrqp[dist]'" in error
+    assert "Traceback" not in error
