@@ -82,6 +82,7 @@ def test_a_mistyped_command_suggests_every_declared_one(capsys):
 
 
 def test_both_register_spellings_are_read():
+    assert cli._declared_in("x = 1\n") == {}
     assert cli._declared_in("def register(app):\n    pass\n") == {}
     assert cli._declared_in('def register(app):\n    @app.command("x")\n    def f():\n        """Do x."""\n') == {
         "x": "Do x."}

@@ -42,8 +42,10 @@ def _declared_in(source: str) -> dict[str, str]:
     """
     tree = ast.parse(source)
     top_level = {node.name: node for node in tree.body if isinstance(node, ast.FunctionDef)}
-    declared = {}
-    for node in ast.walk(top_level["register"]) if "register" in top_level else ():
+    declared: dict[str, str] = {}
+    if "register" not in top_level:
+        return declared
+    for node in ast.walk(top_level["register"]):
         if isinstance(node, ast.FunctionDef):
             for decorator in node.decorator_list:
                 if name := _command_name(decorator):
