@@ -145,7 +145,7 @@ _USER_ERRORS = (SvrqpError, ValueError, KeyError, FileNotFoundError, FileExistsE
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``svrqp`` console script."""
     try:
-        code = app(args=argv, standalone_mode=False)
+        code = app(args=argv, prog_name="svrqp", standalone_mode=False)
     except _USER_ERRORS as err:
         if _state["debug"]:
             raise
