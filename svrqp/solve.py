@@ -290,7 +290,10 @@ def _swallow_highs_banner() -> None:
     can turn logging off: build that object with the stdout file descriptor sent to /dev/null."""
     import highspy
 
-    saved = os.dup(1)
+    try:
+        saved = os.dup(1)
+    except OSError:  # no stdout descriptor: nothing to keep clean
+        return
     try:
         with open(os.devnull, "w") as null:
             os.dup2(null.fileno(), 1)
