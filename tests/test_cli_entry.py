@@ -42,9 +42,10 @@ def test_help_imports_no_command_module():
         assert any(line.split()[:2] == ["│", name] for line in output), name
 
 
-def test_bench_help_does_not_load_the_report_plots():
-    output, packages, commands = _run_cli("bench", "--help")
-    assert "svrqp.cli.bench" in commands and any("--output-dir" in line for line in output)
+@pytest.mark.parametrize(("command", "option"), [("bench", "--output-dir"), ("tune", "--plot")])
+def test_command_help_does_not_load_the_plots(command, option):
+    output, packages, commands = _run_cli(command, "--help")
+    assert f"svrqp.cli.{command}" in commands and any(option in line for line in output)
     assert "matplotlib" not in packages
 
 
