@@ -34,6 +34,10 @@ notebooks: export OPENBLAS_NUM_THREADS = 1
 notebooks: $(STAMP)
 	$(PY) notebooks/build.py
 
+# The documentation site into site/ (open site/index.html); --strict turns a broken link into an error.
+docs: $(STAMP)
+	$(VENV)/bin/mkdocs build --strict --site-dir site
+
 bench: $(STAMP)
 	$(PY) benchmarks/epsilon_svr_vs_libsvm.py
 

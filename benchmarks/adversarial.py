@@ -126,7 +126,7 @@ def check_svr(p: dict[str, Any]) -> str:
     kernel = {"kernel": p["kernel"], "gamma": p["gamma_base"], "degree": p["degree"], "coef0": 1.0}
     reference = SVR(C=p["C_base"], epsilon=epsilon_base, tol=1e-8, **kernel).fit(X_ref, y)
     expected = a * reference.predict(np.vstack([X_ref, new_ref]))
-    ours = dict(kernel, gamma=p["gamma_base"] / p["x_scale"] ** 2)
+    given_kernel = dict(kernel, gamma=p["gamma_base"] / p["x_scale"] ** 2)
     K = pairwise_kernels(X_ref, metric=p["kernel"], filter_params=True, **kernel)
 
     def optimal(support: np.ndarray, coefficients: np.ndarray, b: float) -> bool:
@@ -136,22 +136,35 @@ def check_svr(p: dict[str, Any]) -> str:
 
     def run() -> bool:
         model = EpsilonSVR(C=a * p["C_base"], epsilon=a * epsilon_base, solver=p["solver"],
-                           formulation=p["formulation"], **ours).fit(X_given, a * y)
+                           formulation=p["formulation"], **given_kernel).fit(X_given, a * y)
         if _close(model.predict(np.vstack([X_given, new_given])), expected, a * float(np.std(y))):
             return True
-        # Apart from scikit-learn: right only where libsvm's answer misses the optimality
-        # conditions and ours meets them (checked here with numpy, in base units).
+        # Apart from scikit-learn (libsvm stops early on degenerate problems, and where no support
+        # vector is free the bias is any point of an interval): right only where ours meets the
+        # optimality conditions, checked here with numpy in base units, at a dual objective no
+        # higher than libsvm's.
         SECOND_OPINIONS[p["kernel"]] += 1
-        return (not optimal(reference.support_, reference.dual_coef_[0], float(reference.intercept_[0]))
-                and optimal(model.support_, model.dual_coef_[0] / a, float(model.intercept_[0]) / a))
+        ours_beta = np.zeros(y.size)
+        ours_beta[model.support_] = model.dual_coef_[0] / a
+        theirs_beta = np.zeros(y.size)
+        theirs_beta[reference.support_] = reference.dual_coef_[0]
+        objective, libsvm_objective = (dual_objective(K, y, beta, epsilon_base) for beta in (ours_beta, theirs_beta))
+        return (optimal(model.support_, model.dual_coef_[0] / a, float(model.intercept_[0]) / a)
+                and objective <= libsvm_objective + 1e-9 * abs(libsvm_objective))
 
     return classify(run)
 
 
 #: Relative slack of :func:`kkt_violation`, in units of std(y).
 KKT_TOL = 1e-6
-#: How many ε-SVR answers differed from scikit-learn's and were judged by :func:`kkt_violation`.
+#: How many ε-SVR answers differed from scikit-learn's and were judged by :func:`kkt_violation`
+#: (with the dual objective).
 SECOND_OPINIONS: Counter = Counter()
+
+
+def dual_objective(K: np.ndarray, y: np.ndarray, beta: np.ndarray, epsilon: float) -> float:
+    r"""The minimised ε-SVR dual objective :math:`\tfrac12\beta^\top K\beta - y^\top\beta + \varepsilon\lVert\beta\rVert_1`."""
+    return float(0.5 * beta @ K @ beta - y @ beta + epsilon * np.abs(beta).sum())
 
 
 def kkt_violation(K: np.ndarray, y: np.ndarray, beta: np.ndarray, b: float, C: float, epsilon: float) -> float:
@@ -508,8 +521,9 @@ def report(rows: list[dict[str, Any]], failures: list[str], errors: Counter, tot
     lines.append(f"| **all** | {totals['tried']} | {totals[DOCUMENTED]} | {totals[RIGHT]} | {totals[WRONG]} | "
                  f"{totals[CRASH]} | {table.seconds.sum():.0f} |")
     lines += ["", f"ε-SVR answers that differed from scikit-learn's by more than the contract and were judged by "
-              f"the optimality conditions instead (checked with numpy in base units, slack {KKT_TOL:g}·std(y); "
-              "right only where libsvm's own answer misses them and ours meets them): "
+              f"the optimality conditions instead (checked with numpy in base units, slack {KKT_TOL:g}·std(y), "
+              "and a dual objective no higher than libsvm's; libsvm stops early on degenerate problems, and "
+              "where no support vector is free every bias in an interval is optimal): "
               + (", ".join(f"{count} with the {kernel} kernel" for kernel, count in sorted(SECOND_OPINIONS.items()))
                  or "none") + ".", "", "## Failures", ""]
     lines += [f"- {failure}" for failure in failures] or ["None."]
@@ -517,7 +531,21 @@ def report(rows: list[dict[str, Any]], failures: list[str], errors: Counter, tot
     lines += [f"- {label}: {count}" for label, count in sorted(errors.items())] or ["None."]
     lines += ["", "## Families", ""]
     lines += [f"- `{family.__name__}`: {(family.__doc__ or '').strip().splitlines()[0]}" for family in FAMILIES]
+    lines += ["", "## Limitations", "", LIMITATIONS]
     return "\n".join(lines) + "\n"
+
+
+LIMITATIONS = (
+    "The references are exact only in units where their own tolerances hold, so the extreme units are "
+    "mapped back by the dual's homogeneity and the RBF kernel's translation invariance (inputs offset by "
+    "more than 1e7 spreads lose digits in float64 itself and are not drawn). libsvm at tol = 1e-8 is not an "
+    "exact optimum on degenerate problems (linear and polynomial kernels of low rank, large C, a bias that "
+    "is not unique when no support vector is free): those ε-SVR answers are right only through the "
+    "independent optimality check above, and the count is reported. A documented error in the ε-SVR family "
+    "is a fit where the chosen solver and its fallback both missed the certificate; the library then "
+    "raises `SolverError` rather than return the model. One run on a shared 2-core machine: the seconds "
+    "say where the time goes, not how fast svrqp is."
+)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -2,12 +2,17 @@
 
 Every model is an explicit mathematical object (a quadratic program or a linear system)
 that is handed to a real solver and certificate-checked before it is returned.
+
+The estimators are imported on first use (``svrqp.EpsilonSVR``), so ``import svrqp`` and the
+``svrqp`` command stay quick; ``from svrqp import EpsilonSVR`` works as usual.
 """
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
+import importlib
+from typing import TYPE_CHECKING, Any
 
+from svrqp._version import __version__
 from svrqp.exceptions import (
     BackendNotAvailableError,
     ExtrapolationWarning,
@@ -17,25 +22,45 @@ from svrqp.exceptions import (
     SvrqpError,
 )
 
-try:
-    __version__ = version("svrqp")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0.0.0"
+if TYPE_CHECKING:
+    from svrqp.estimators import LSSVR, EpsilonSVR
+    from svrqp.guard import Guarded
+    from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
+
+#: Public name -> module that defines it, imported when the name is first asked for.
+_LAZY = {
+    "EpsilonSVR": "svrqp.estimators",
+    "LSSVR": "svrqp.estimators",
+    "LinearLS": "svrqp.linear_models",
+    "PolynomialLS": "svrqp.linear_models",
+    "RecursiveLS": "svrqp.linear_models",
+    "Guarded": "svrqp.guard",
+}
 
 __all__ = [
     "BackendNotAvailableError",
+    "EpsilonSVR",
     "ExtrapolationWarning",
+    "Guarded",
+    "LSSVR",
+    "LinearLS",
+    "PolynomialLS",
     "ProblemError",
+    "RecursiveLS",
     "SingularSystemError",
     "SolverError",
     "SvrqpError",
     "__version__",
 ]
 
-from svrqp.estimators import LSSVR, EpsilonSVR  # noqa: E402  (after __version__ on purpose)
 
-__all__ += ["EpsilonSVR", "LSSVR"]
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module 'svrqp' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_LAZY[name]), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
 
-from svrqp.guard import Guarded  # noqa: E402
 
-__all__ += ["Guarded"]
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

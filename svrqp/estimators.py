@@ -12,6 +12,7 @@ optimality conditions (:func:`dual_qp_point`) and its residuals are checked like
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from functools import partial
 from importlib.metadata import version
@@ -37,6 +38,7 @@ from svrqp.solve import (
     BACKENDS,
     DEFAULT_CHECK_FACTOR,
     Solution,
+    require_certificates,
     solve_linear_system,
     solve_qp,
 )
@@ -48,6 +50,8 @@ DUAL_IPM = "dual_ipm"
 SOLVERS: tuple[str, ...] = (AUTO, SMO_CROSSOVER, DUAL_IPM, *BACKENDS)
 #: ``solver="auto"`` on the linear primal QP (a sparse QP with no kernel matrix: a stock backend).
 PRIMAL_AUTO_BACKEND = "clarabel"
+#: Where a failed ``dual_ipm`` fit falls back to (a failed QP backend falls back to ``dual_ipm``).
+FALLBACK_SOLVER = "clarabel"
 #: The QP statements a ``dual_ipm`` solution is certified on (the primal has no kernel matrix).
 DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 
@@ -199,9 +203,9 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         bound applies to the returned model's own certificate in the units of the data
         (:func:`svrqp.formulations.epsilon_svr.model_certificate`).
     fallback : bool, default=True
-        When the chosen QP backend fails or misses a certificate, solve again with
-        ``"dual_ipm"`` (an exact path) and say so in ``solver_`` and ``fallback_reason_``;
-        ``False`` raises the backend's :class:`SolverError` instead.
+        When the chosen solver fails or misses a certificate, solve again with the other exact
+        path (``"dual_ipm"`` for a QP backend, Clarabel for ``"dual_ipm"``) and say so in
+        ``solver_`` and ``fallback_reason_``; ``False`` raises the solver's :class:`SolverError`.
 
     Attributes
     ----------
@@ -222,8 +226,8 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         certificates rebuilt at the returned coefficients).
     solver_ : str
         The solver whose answer the model is: ``solver``, the path ``"auto"`` chose (a key of
-        :data:`svrqp.solver_choice.PATHS`, or Clarabel on the primal), or ``"dual_ipm"`` after a
-        fallback.
+        :data:`svrqp.solver_choice.PATHS`, or Clarabel on the primal), or the other exact path
+        after a fallback.
     fallback_reason_ : str or None
         Why ``solver`` was not used (its error message), or ``None``.
     polished_ : bool
@@ -274,20 +278,23 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         try:
             beta, b = self._solve(X, y, self.solver, self.formulation)
         except SolverError as err:
-            if not self.fallback or self.solver == DUAL_IPM or (self.solver == AUTO and self.formulation != "primal"):
-                raise  # "auto" on a dual has tried dual_ipm already
-            # A fit asked for with sound parameters must not fail because one backend did: another
-            # exact path, reported in solver_ and fallback_reason_.
+            if not self.fallback:
+                raise
+            # A fit asked for with sound parameters must not fail because one solver did: the
+            # other exact path, reported in solver_ and fallback_reason_ ("auto" on a dual has tried
+            # dual_ipm already: its fallback is the rescaled QP backend).
+            dual_auto = self.solver == AUTO and self.formulation != "primal"
+            other = FALLBACK_SOLVER if self.solver == DUAL_IPM or dual_auto else DUAL_IPM
             formulation = self.formulation if self.formulation in DUAL_FORMULATIONS else "split"
             try:
-                beta, b = self._solve(X, y, DUAL_IPM, formulation)
+                beta, b = self._solve(X, y, other, formulation)
             except SolverError as second:
-                raise SolverError(f"{err}; the fallback {DUAL_IPM!r} failed too: {second}",
+                raise SolverError(f"{err}; the fallback {other!r} failed too: {second}",
                                   self.solver, err.status) from second
-            self.solver_, self.fallback_reason_ = DUAL_IPM, str(err)
+            self.solver_, self.fallback_reason_ = other, str(err)
             if self.formulation == "primal":
                 self.coef_ = beta @ X
-        if self.solver == AUTO:
+        if self.solver == AUTO and self.fallback_reason_ is None:
             self.solver_ = self.solution_.backend  # the path it chose
         support = beta != 0.0  # the certified coefficients are exactly zero off the support
         self.support_ = np.flatnonzero(support)
@@ -327,12 +334,33 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
 
     def _solve_primal(self, X: NDArray[np.float64], y: NDArray[np.float64],
                       solver: str) -> tuple[NDArray[np.float64], float]:
-        """The linear primal: β from the multipliers, rounded and certified like the duals'."""
-        self.problem_ = epsilon_svr.build("primal", y, self.C, self.epsilon, X=X)
-        self.solution_ = solve_qp(self.problem_, solver, tol=self.tol, check_tol=self.check_tol)
+        """The linear primal: β from the multipliers, rounded and certified like the duals'.
+
+        The backend solves the primal for the targets of :class:`~svrqp.formulations.epsilon_svr.DualScaling`
+        (:math:`\tilde y = (y - m)/a`, :math:`\tilde\varepsilon = \varepsilon/a`, :math:`\tilde C = C/a`);
+        the primal variables and multipliers scale by a (b is shifted by m) back onto ``problem_``,
+        where the certificates are checked.
+        """
         C = float(self.C)
-        beta = epsilon_svr.returned_coefficients(
-            epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z), C)
+        self.problem_ = epsilon_svr.build("primal", y, C, self.epsilon, X=X)
+        m, a, _ = scaling = epsilon_svr.DualScaling.of(y, C)
+        record = solve_qp(epsilon_svr.build("primal", (y - m) / a, C / a, self.epsilon / a, X=X), solver,
+                          tol=self.tol, check_tol=self.check_tol)
+        x, z = a * record.x, a * record.z
+        x[X.shape[1]] += m
+        z_box = None if record.z_box is None else a * record.z_box
+        self.solution_ = dataclasses.replace(
+            record, x=x, z=z, z_box=z_box, objective=self.problem_.objective(x),
+            residuals=self.problem_.kkt_residuals(x, record.y, z, z_box),
+            settings={**record.settings, "scaling": scaling._asdict()})
+        require_certificates(self.solution_, self.problem_, record.settings["check_tol"])
+        beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
+        # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
+        # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
+        exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(self.epsilon), beta,
+                                   products=lambda idx, v: X @ (X[idx].T @ v))
+        self.polished_ = exact.exact
+        beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C)
         self.coef_ = self.solution_.x[:X.shape[1]].copy()
         K_beta = X @ (X.T @ beta)
         b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, self.epsilon)

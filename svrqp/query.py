@@ -210,9 +210,9 @@ def _negated(mask: Any) -> Any:
 
 def _mask(value: Any, query: str) -> Any:
     if isinstance(value, pd.Series):
-        if value.dtype != bool:
+        if not pd.api.types.is_bool_dtype(value.dtype):
             raise QueryError(f"query {query!r} must give True/False per row, got values of type {value.dtype}")
-        return value
+        return value.fillna(False).astype(bool)  # nullable booleans: a missing value counts as False
     if isinstance(value, bool | np.bool_):
         return bool(value)
     raise QueryError(f"query {query!r} must give True/False per row, got {value!r}")

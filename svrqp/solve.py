@@ -16,7 +16,9 @@ Sign conventions follow qpsolvers: ``y`` multiplies :math:`Ax - b`, ``z \\ge 0``
 
 from __future__ import annotations
 
+import functools
 import importlib
+import os
 import time
 import warnings
 from collections.abc import Callable, Mapping
@@ -282,9 +284,30 @@ def _convert(M: Any, sparse: bool) -> Any:
     return M.toarray() if sp.issparse(M) else M
 
 
+@functools.cache
+def _swallow_highs_banner() -> None:
+    """HiGHS prints its banner once per process, from its first solver object, before any option
+    can turn logging off: build that object with the stdout file descriptor sent to /dev/null."""
+    import highspy
+
+    try:
+        saved = os.dup(1)
+    except OSError:  # no stdout descriptor: nothing to keep clean
+        return
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict[str, Any], initvals):
     import qpsolvers
 
+    if backend.name == "highs":
+        _swallow_highs_banner()
     start = time.perf_counter()
     P = _convert(problem.P, backend.sparse)
     if backend.needs_positive_definite:

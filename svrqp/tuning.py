@@ -61,11 +61,11 @@ from sklearn.utils.validation import check_X_y
 
 from svrqp import dual_ipm
 from svrqp.estimators import DUAL_IPM, LSSVR, EpsilonSVR
-from svrqp.solver_choice import AUTO
-from svrqp.exceptions import ProblemError, SolverError
+from svrqp.exceptions import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
 from svrqp.solve import require_backend
+from svrqp.solver_choice import AUTO
 
 MODELS: tuple[str, ...] = ("svr", "lssvr")
 JOBLIB_BACKENDS: tuple[str, ...] = ("sequential", "loky", "threading", "dask")
@@ -496,8 +496,11 @@ def ga_search(
     SearchResult
         With ``convergence_mse`` (best CV MSE per generation) and every evaluated candidate.
     """
-    import pygad
-
+    try:
+        import pygad
+    except ImportError as err:  # an optional extra, named like a missing solver backend
+        raise BackendNotAvailableError("the genetic algorithm needs pygad; install it with: "
+                                       "pip install 'svrqp[dist]'") from err
     _check_model(model)
     X, y = _validated(X, y)
     names = ["C", "epsilon"] if model == "svr" else ["C"]

@@ -18,7 +18,7 @@ from sklearn.kernel_ridge import KernelRidge
 from sklearn.model_selection import KFold
 from sklearn.svm import SVR
 
-from svrqp import LSSVR, EpsilonSVR, datasets
+from svrqp import LSSVR, EpsilonSVR, datasets, estimators
 from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations import epsilon_svr
 from svrqp.kernels import gram
@@ -170,6 +170,20 @@ def test_failed_backend_falls_back_to_the_exact_path_and_says_so(monkeypatch):
     np.testing.assert_allclose(model.predict(X), reference.predict(X), rtol=0, atol=1e-5 * y.std())
     with pytest.raises(SolverError, match="stalled"):
         EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="clarabel", fallback=False).fit(X, y)
+
+
+def test_failed_dual_ipm_falls_back_to_clarabel_and_says_so(monkeypatch):
+    """dual_ipm's crossover can stop short on a rank-deficient (linear, polynomial) kernel."""
+    X, y = sine_problem()
+
+    def failing(*args, **kwargs):
+        raise SolverError("backend 'dual_ipm' missed the conditions", "dual_ipm", "inaccurate")
+
+    monkeypatch.setattr(estimators, "solve_dual_ipm", failing)
+    model = EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="dual_ipm").fit(X, y)
+    assert model.solver_ == "clarabel" and "missed the conditions" in model.fallback_reason_
+    reference = SVR(C=10.0, epsilon=0.05, gamma=1.0, tol=1e-8).fit(X, y)
+    np.testing.assert_allclose(model.predict(X), reference.predict(X), rtol=0, atol=1e-5 * y.std())
 
 
 def test_certificate_sees_a_dropped_support_vector():

@@ -43,6 +43,12 @@ def test_selects_the_rows_of_the_equivalent_pandas_mask(table, query, expected):
     pd.testing.assert_series_equal(select_rows(table, query), expected(table), check_names=False)
 
 
+def test_nullable_columns_select_no_row_where_a_value_is_missing():
+    table = pd.DataFrame({"run": pd.array([1, None, 3], dtype="Int64"), "ok": pd.array([True, None, False])})
+    assert select_rows(table, "run >= 1").tolist() == [True, False, True]
+    assert select_rows(table, "ok or run == 3").tolist() == [True, False, True]
+
+
 @pytest.mark.parametrize("query, forbidden", [
     (HOSTILE, "'@'"),
     ("t.__class__ == 1", "attribute"),

@@ -111,7 +111,22 @@ def test_auto_raises_when_no_path_certifies():
     case = SVR_CASES[0]()
     with pytest.raises(SolverError) as error:  # no path reaches a relative certificate of 1e-30
         EpsilonSVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma, check_tol=1e-30).fit(case.X, case.y)
-    assert "smo_crossover" in str(error.value) and "dual_ipm" in str(error.value)
+    assert all(path in str(error.value) for path in ("smo_crossover", "dual_ipm", "clarabel"))  # all tried
+    with pytest.raises(SolverError):
+        EpsilonSVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma, check_tol=1e-30, fallback=False).fit(
+            case.X, case.y)
+
+
+def test_auto_falls_back_to_the_rescaled_backend_when_both_paths_fail(monkeypatch):
+    def inexact(X, y, C, epsilon, kernel_parameters, tol):
+        return np.zeros(y.size), 0.0, np.zeros(y.size), {"crossover_exact": False}, {}
+
+    for path in solver_choice.AUTO_ORDER:
+        monkeypatch.setitem(solver_choice.PATHS, path, inexact)
+    case = SVR_CASES[0]()
+    model = EpsilonSVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma).fit(case.X, case.y)
+    assert model.solver_ == "clarabel" and "smo_crossover" in model.fallback_reason_
+    assert_matches_reference(model, reference(case), case, gram(case.X, gamma=case.gamma))
 
 
 @pytest.mark.parametrize("solver", ["clarabel", "dual_ipm", "osqp"])

@@ -8,7 +8,6 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from svrqp.bench import GENERATORS, PROFILES, BenchConfig, run_benchmark
-from svrqp.bench_report import output_paths, write_outputs
 from svrqp.exceptions import ProblemError
 from svrqp.solve import available_backends
 
@@ -62,6 +61,8 @@ def bench(
     force: bool = typer.Option(False, "--force", help="Overwrite existing result files."),
 ) -> None:
     """Run every backend x formulation on generated SVR problems; write a CSV, a Markdown report and a plot."""
+    from svrqp.bench_report import output_paths, write_outputs  # matplotlib: not needed for --help
+
     chosen_backends = tuple(available_backends()) if backends == "all" else _names(backends, "--backends")
     config = BenchConfig(
         datasets=_names(datasets, "--datasets"), sizes=_sizes(n), d=d, kernel=kernel, C=C, epsilon=epsilon,

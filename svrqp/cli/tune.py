@@ -6,6 +6,7 @@ import json
 import math
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -15,7 +16,9 @@ from sklearn.model_selection import KFold
 
 from svrqp.cli._common import SOLVER_HELP, read_table, split_columns
 from svrqp.exceptions import ProblemError
-from svrqp.tuning import SearchResult, ga_search, grid_search, plot_convergence, plot_grid_scores
+
+if TYPE_CHECKING:
+    from svrqp.tuning import SearchResult
 
 
 class Model(str, Enum):
@@ -121,6 +124,8 @@ def tune(
     force: bool = typer.Option(False, "--force", help="Overwrite existing --plot/--json files."),
 ) -> None:
     """Choose (C, ε, γ) by k-fold cross-validated MSE: a grid (S0, S2) or a genetic algorithm (S1)."""
+    from svrqp.tuning import ga_search, grid_search, plot_convergence, plot_grid_scores  # matplotlib: not for --help
+
     _writable(plot, force)
     _writable(json_path, force)
     table = read_table(data)
