@@ -35,6 +35,8 @@ from sklearn.linear_model import LinearRegression
 from sklearn.metrics.pairwise import pairwise_kernels, rbf_kernel
 from sklearn.svm import SVR
 
+import adversarial_documents  # the tampered-file family, beside this script
+
 from svrqp import LSSVR, EpsilonSVR
 from svrqp.exceptions import SvrqpError
 from svrqp.linear_models import LinearLS, RecursiveLS
@@ -470,9 +472,14 @@ def query_cases(rng: np.random.Generator, n: int) -> list[Case]:
             for p in (draw_query(rng) for _ in range(n))]
 
 
+def tampered_document_cases(rng: np.random.Generator, n: int) -> list[Any]:
+    """Exported model files changed in twelve ways (``benchmarks/adversarial_documents.py``)."""
+    return adversarial_documents.cases(rng, n)
+
+
 #: The families of the run, each ``cases(rng, n) -> list of zero-argument callables``.
 FAMILIES: list[Callable[[np.random.Generator, int], list[Any]]] = [
-    svr_cases, lssvr_cases, linear_cases, hostile_input_cases, query_cases,
+    svr_cases, lssvr_cases, linear_cases, hostile_input_cases, query_cases, tampered_document_cases,
 ]
 
 #: Share of the cases each family gets (the rest of the families share equally).
