@@ -37,6 +37,7 @@ Run: ``python benchmarks/fl_thermal_case_study.py [DATA_CSV]`` — writes
 from __future__ import annotations
 
 import argparse
+import sys
 import itertools
 import time
 from collections import Counter
@@ -55,15 +56,20 @@ from svrqp.gap import GapReport, diagnose
 from svrqp.gap.report import markdown_table
 from svrqp.linear_models import LinearLS
 
-REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from gap_fl_data import (  # noqa: E402  benchmarks/ is not a package: imported from its folder
+    ASSESS_CYCLES,
+    CHANNELS,
+    DEFAULT_DATA,
+    REPO,
+    TEMPERATURES,
+    TRAIN_CYCLES,
+    load_fl,
+)
+
 RESULTS = REPO / "benchmarks" / "results"
 STEM = "fl_thermal_case_study"
 
-TRAIN_CYCLES = ("1250", "2500", "3750")
-ASSESS_CYCLES = ("5000", "mixed")
-CHANNELS = [f"ch{i}_um" for i in range(1, 6)]
-TEMPERATURES = [f"t{i}_C" for i in range(1, 17)]
 MIAO_FEATURES = ["T7_C", "T9_C"]
 MIAO_CANDIDATES = ["T1_C", "T2_C", "T3_C", "T4_C", "T5_C", "T6_C", "T8_C"]
 TOP_CAUSES = 5
@@ -71,31 +77,6 @@ CLOSE_SHRINK = 0.02  # two shrinks closer than this are reported as agreeing / a
 
 
 # -- data -------------------------------------------------------------------------------
-
-def cycle_labels(table: pd.DataFrame) -> pd.Series:
-    """Cycle of each row: a run and the stop after it share the run's speed; the mixed-speed tail is ``mixed``.
-
-    The mixed-speed run is the sequence of runs that follow one another without a stop
-    (500 → 1500 → 2500 → 4500 rpm) and the short stop that ends the record.
-    """
-    phases = table.groupby("segment")["phase"].first()
-    labels, current = {}, "1250"  # the half-minute idle before the first run joins the first cycle
-    for segment, phase in phases.items():
-        kind, _, speed = phase.partition("_")
-        back_to_back = phases.get(segment - 1, "").startswith("run") or phases.get(segment + 1, "").startswith("run")
-        if kind == "run":
-            current = "mixed" if (back_to_back or current == "mixed") else speed
-        labels[segment] = current
-    return table["segment"].map(labels)
-
-
-def load_fl(path: Path, every: int) -> pd.DataFrame:
-    """FL_THERMAL with a ``cycle`` column, the train and assessment cycles only, every ``every``-th row."""
-    table = datasets.load_fl_thermal(path)
-    table["cycle"] = cycle_labels(table)
-    table = table.iloc[::every]
-    return table[table["cycle"].isin(TRAIN_CYCLES + ASSESS_CYCLES)].reset_index(drop=True)
-
 
 # -- model choice on the train cycles -------------------------------------------------------
 

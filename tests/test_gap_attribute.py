@@ -64,9 +64,14 @@ def test_air_lag_verdict_is_significant_and_shrinks_the_error(air_lag_report):
 
 
 def test_a_modelled_feature_can_carry_an_unmodelled_rate():
+    """The rate acts on the train run as much as on the real ones: the real rows fit no worse than the
+    train rows, so the one-sided gate finds no gap and names no cause; the rate of the modelled
+    feature is still listed first as improving the model on held-out runs everywhere."""
     report = diagnose(spindle_rate_problem(), candidates=[*CANDIDATES, "spindle_C"], **ARGS)
-    assert report.verdict.column == "spindle_C"
-    assert report.verdict.transform in {"rate", "lag"}  # a short lag is a smoothed rate
+    assert not report.gap_detected and report.verdict.column is None
+    top = report.causes[0]
+    assert top.column == "spindle_C" and top.transform in {"rate", "lag"}  # a short lag is a smoothed rate
+    assert top.significant and "spindle_C" in report.verdict.reason and "everywhere" in report.verdict.reason
     levels = [c for c in report.causes if c.column == "spindle_C"]
     assert all(c.transform != "level" for c in levels)  # its level is already modelled
 
@@ -81,11 +86,13 @@ def test_identical_decoy_cannot_be_told_apart():
     df = air_lag_problem()
     df["air_copy_C"] = df["air_C"] + np.random.default_rng(0).normal(scale=0.002, size=len(df))
     report = diagnose(df, candidates=["air_C", "air_copy_C", "nut_C"], **ARGS)
-    assert report.verdict.column is None
-    assert set(report.verdict.ambiguous_with) == {"air_C", "air_copy_C"}
-    assert "cannot be told apart" in (report.causes[0].note or "")
+    # Either transfers as well as the other (the acceptance rule of DESIGN §4): the best-transferring
+    # one is named, and the other is said to do about as well.
+    named, other = report.verdict.column, ({"air_C", "air_copy_C"} - {report.verdict.column}).pop()
+    assert named in {"air_C", "air_copy_C"} and report.verdict.ambiguous_with == [other]
+    assert "cannot be told apart" in (next(c for c in report.causes if c.column == other).note or "")
     assert {c.column for c in report.causes if c.ambiguous} == {"air_C", "air_copy_C"}
-    assert "cannot be told apart" in report.summary
+    assert f"{other} does about as well" in report.summary and "cannot be told apart" in report.verdict.reason
 
 
 def test_a_copy_that_decorrelates_is_not_ambiguous():
@@ -96,26 +103,23 @@ def test_a_copy_that_decorrelates_is_not_ambiguous():
     assert report.verdict.column == "air_C"
     assert report.verdict.ambiguous_with == []
     copy = next(c for c in report.causes if c.column == "air_copy_C")
-    assert not copy.ambiguous and copy.p_paired < 0.05
-    assert "cannot be told apart" not in report.summary
+    assert not copy.ambiguous and copy.note == "explained by air_C on held-out runs"
+    assert "about as well" not in report.summary
 
 
 def test_a_reading_is_named_before_a_filtered_copy_of_it():
     """The air's own reading against a shell that follows it through a 10 min lag: the shell's
-    lead-lag filter fits almost as well, and the conditional tests separated neither in 14 of 16
-    such problems (verdict withheld). The paired loss test or, on equal fits, parsimony decides."""
-    notes = []
+    lead-lag filter transfers almost as well; the reading itself transfers best, and when the
+    conditional transfer tests separate neither, the tie is reported."""
     for seed in range(6):
         report = diagnose(air_and_shell_problem(seed), candidates=["air_C", "shell_C", "nut_C"], **ARGS)
         assert report.verdict.column == "air_C"
         assert report.verdict.transform == "level"
         shell = next(c for c in report.causes if c.column == "shell_C")
-        notes.append(shell.note or "")
-        if shell.ambiguous:  # equal fits: the tie is still reported
+        assert shell.shrink <= report.verdict.shrink
+        if shell.ambiguous:  # equal transfer: the tie is still reported
             assert report.verdict.ambiguous_with == ["shell_C"]
-            assert "fewer parameters than shell_C" in report.verdict.reason or "conditional tests" in report.verdict.reason
-    assert any("needs more parameters than air_C" in n for n in notes)
-    assert any("fits the real rows worse than air_C" in n for n in notes)
+            assert "cannot be told apart from shell_C" in report.verdict.reason
 
 
 def test_a_rival_note_never_contradicts_its_tie_mark():
