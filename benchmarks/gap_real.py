@@ -51,6 +51,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from svrqp.bench_report import markdown_table
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import ASSESS_CYCLES, CHANNELS, DEFAULT_DATA, REPO, TEMPERATURES, TRAIN_CYCLES, load_fl  # noqa: E402
 
@@ -246,7 +248,7 @@ def write(results: pd.DataFrame, out: Path) -> None:
         f"- false verdicts (a verdict where no candidate transfers): {int(pairs['false verdict'].sum())}",
         f"- withheld-sensor experiment: {int(withheld['withheld rule'].sum())} of {len(withheld)} pass the rule "
         "(names the withheld sensor or a candidate whose independent refit transfers at least as well)", "",
-        results.drop(columns=["seconds"]).to_markdown(index=False, floatfmt=".3f"), "",
+        markdown_table(results.drop(columns=["seconds"])), "",
         f"Engine time per model: median {results['seconds'].median():.1f} s (through the command line, one thread).",
     ]
     (out / "gap_real.md").write_text("\n".join(lines) + "\n", encoding="utf-8")

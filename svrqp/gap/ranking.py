@@ -17,10 +17,11 @@ Significance by surrogates that respect what varies where
     a level per run (:func:`svrqp.gap.between.is_run_level`) has its run levels permuted across
     the runs. Each surrogate is transformed again (a lag filtered again) and refitted exactly
     as the observed one, :math:`\tau` chosen inside each fit. The Monte-Carlo p-value is
-    sequential (Besag & Clifford 1991; at most :data:`MAX_SURROGATES` draws, stopping after
-    :data:`STOP_EXCEEDANCES` exceedances). The :data:`MAX_TESTED` best causes above the effect
-    floor are tested; Benjamini–Hochberg runs over every column (an untested one counts with
-    :math:`p = 1`), level :data:`svrqp.gap.attribute.ALPHA`.
+    sequential (Besag & Clifford 1991; at most :data:`MAX_SURROGATES` draws in
+    :data:`SURROGATE_STAGES`, stopping after :data:`STOP_EXCEEDANCES` exceedances or once
+    rejected). The :data:`MAX_TESTED` best causes above the effect floor are tested;
+    Benjamini–Hochberg runs over every column (an untested one counts with :math:`p = 1`),
+    level :data:`svrqp.gap.attribute.ALPHA`.
 
 Effect floor
     A cause is significant only if its transfer gain is at least
@@ -55,8 +56,12 @@ TRANSFORMS = ("level", "rate", "lag")
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
 
-MAX_SURROGATES = 199
-"""Most surrogates of one transfer test (smallest p-value 1/200)."""
+SURROGATE_STAGES = (19, 80, 200, 300, 400)
+"""Surrogates drawn per stage of a transfer test (cumulative 19, 99, 299, 599, 999)."""
+
+MAX_SURROGATES = sum(SURROGATE_STAGES)
+"""Most surrogates of one transfer test (smallest p-value 1/1000, below Benjamini–Hochberg's
+first threshold for the tens of columns of a diagnosis)."""
 
 STOP_EXCEEDANCES = 10
 """A sequential test stops after this many surrogates reach the observed gain."""
@@ -262,24 +267,45 @@ class TransferRanker:
             out.append(xs)
         return out
 
+    def draw(self, effect: Effect, observed: float, count: int, given: np.ndarray | None = None,
+             reference: float | None = None) -> list[bool]:
+        """Whether each of ``count`` surrogates reaches the observed gain (stopping at the
+        :data:`STOP_EXCEEDANCES`-th that does)."""
+        hits = []
+        for xs in self.surrogate(effect, count):
+            hits.append(self.gain(self.fit(effect, xs, given), reference) >= observed - 1e-12)
+            if sum(hits) >= STOP_EXCEEDANCES:
+                break
+        return hits
+
     def p_value(self, effect: Effect, observed: float, most: int, given: np.ndarray | None = None,
                 reference: float | None = None) -> float:
-        """Sequential Monte-Carlo p-value of a transfer gain (module docstring)."""
-        hits = drawn = 0
-        for batch in (min(19, most), most - min(19, most)):
-            for xs in self.surrogate(effect, batch):
-                drawn += 1
-                hits += self.gain(self.fit(effect, xs, given), reference) >= observed - 1e-12
-                if hits >= STOP_EXCEEDANCES:
-                    return hits / drawn
-            if hits >= STOP_EXCEEDANCES // 2 or batch == 0:
-                break  # clearly null after the first batch
-        return (1 + hits) / (1 + drawn)
+        """Sequential Monte-Carlo p-value of one transfer gain, at most ``most`` surrogates."""
+        hits = self.draw(effect, observed, min(SURROGATE_STAGES[0], most), given, reference)
+        if sum(hits) < STOP_EXCEEDANCES // 2:  # not clearly null after the first stage
+            hits += self.draw(effect, observed, most - len(hits), given, reference)
+        return _besag_clifford(hits)
 
     def test(self, ranked: list[Ranked]) -> None:
-        """Surrogate p-values of the best causes above the floor, then Benjamini–Hochberg over all."""
-        for row in [r for r in ranked if r.gain >= MIN_GAIN][:MAX_TESTED]:
-            row.p_raw, row.tested = self.p_value(row.effect, row.gain, MAX_SURROGATES), True
+        """Surrogate p-values of the best causes above the floor, then Benjamini–Hochberg over all.
+
+        Surrogates are drawn in :data:`SURROGATE_STAGES`; a test stops when it reaches
+        :data:`STOP_EXCEEDANCES` exceedances, when Benjamini–Hochberg over every column already
+        rejects it (a p-value after a fixed number of draws stays valid), or at the last stage.
+        """
+        tested = [r for r in ranked if r.gain >= MIN_GAIN][:MAX_TESTED]
+        hits: dict[int, list[bool]] = {id(r): [] for r in tested}
+        for stage in SURROGATE_STAGES:
+            open_rows = [r for r in tested if sum(hits[id(r)]) < STOP_EXCEEDANCES and not r.significant]
+            if not open_rows:
+                break
+            for row in open_rows:
+                hits[id(row)] += self.draw(row.effect, row.gain, stage)
+                row.p_raw, row.tested = _besag_clifford(hits[id(row)]), True
+            self._adjust(ranked)
+
+    def _adjust(self, ranked: list[Ranked]) -> None:
+        """Benjamini–Hochberg over every column (an untested one counts with p = 1)."""
         if ranked:
             q = false_discovery_control([r.p_raw for r in ranked], method="bh")
             for row, qi in zip(ranked, q):
@@ -324,6 +350,13 @@ class TransferRanker:
         top.ambiguous = bool(result.ambiguous_with)
         result.top = top
         return result
+
+
+def _besag_clifford(hits: list[bool]) -> float:
+    """``h/S_h`` once :data:`STOP_EXCEEDANCES` surrogates reached the statistic, else ``(1 + hits)/(1 + drawn)``."""
+    if sum(hits) >= STOP_EXCEEDANCES:
+        return STOP_EXCEEDANCES / (int(np.flatnonzero(hits)[STOP_EXCEEDANCES - 1]) + 1)
+    return (1 + sum(hits)) / (1 + len(hits))
 
 
 def _fixed(row: Ranked) -> Effect:
