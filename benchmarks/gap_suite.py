@@ -105,6 +105,7 @@ from svrqp.machine.thermal import Ambient
 RESULTS = Path(__file__).resolve().parent / "results"
 AR_PHI = 0.8
 SUMMER_DAYS = (170.0, 230.0)
+WINTER_DAYS = (0.0, 40.0)
 TRUTH_SHARE_MIN, DECOY_SHARE_MAX = 0.1, 0.1
 
 SENSORS = tuple(f"{s.name}_C" for s in ThermalConfig().sensors)
@@ -160,6 +161,7 @@ class Scenario:
     model: str = "mlr"
     null_noise_um: float = 0.3  # noise std of null scenarios (no effect to scale it by)
     positions: int = 0  # measured positions per pass (axis family)
+    continuous: bool = False  # one record without runs: the clock runs on and no --group is given
 
 
 @dataclass(frozen=True)
@@ -212,10 +214,15 @@ def _programme(rng: np.random.Generator, minutes: float) -> tuple[CycleSegment, 
 def _thermal_configs(s: Scenario, rng: np.random.Generator) -> list[ThermalConfig]:
     configs = []
     for run in range(s.runs):
-        day = rng.uniform(*SUMMER_DAYS) if run < _n_train(s) else rng.uniform(0, 365)
+        train = run < _n_train(s)
+        day = rng.uniform(*SUMMER_DAYS) if train else rng.uniform(0, 365)
+        amplitude = rng.uniform(0.5, 3.5)
+        if s.kind == "extrapolation":  # a still summer air for the train runs, winter for the real ones
+            day = rng.uniform(*SUMMER_DAYS) if train else rng.uniform(*WINTER_DAYS)
+            amplitude = 0.05 if train else rng.uniform(0.5, 3.5)
         config = ThermalConfig(
             cycle=_programme(rng, s.run_min),
-            ambient=Ambient(day_of_year=day, daily_amplitude_C=rng.uniform(0.5, 3.5), start_hour=rng.uniform(6, 14)),
+            ambient=Ambient(day_of_year=day, daily_amplitude_C=amplitude, start_hour=rng.uniform(6, 14)),
             zero_at_start=False, measurement_noise=0.0,
             sensor_lag=0.0 if s.family == "thermal/features" else 1.0,
         )
@@ -358,7 +365,13 @@ def axis_case(s: Scenario) -> Case:
 def case_for(s: Scenario) -> Case:
     """The simulated data of a scenario."""
     family = s.family.split("/")[0]
-    return {"gantry": gantry_case, "axis": axis_case, "thermal": thermal_case}[family](s)
+    case = {"gantry": gantry_case, "axis": axis_case, "thermal": thermal_case}[family](s)
+    if s.continuous:  # the runs follow one another on one clock
+        order = ORDER[family]
+        table = case.table.sort_values(["run", order], kind="stable").reset_index(drop=True)
+        table[order] = table[order] + table["run"] * (table[order].max() + 1.0)
+        case = dataclasses.replace(case, table=table)
+    return case
 
 
 # ------------------------------------------------------------------------ scenarios
@@ -429,7 +442,31 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
     for effect in AXIS_UNMEASURED:
         for i in range(4):
             out.append(Scenario(f"au-{effect}-{i}", "axis/prediction", "unmeasured", effect, **design(i) | passes(i)))
+    out += transfer_scenarios(design)
     return out[::10] if quick else out
+
+
+def transfer_scenarios(design) -> list[Scenario]:
+    """Scenarios added with the transfer definition of shrink (DESIGN §4), after the others (their seeds unchanged).
+
+    ``tx-extrapolation-*``: every node sensor is a model input and nothing is withheld, but the train
+    runs are a still summer day and the real runs winter days: the ambient input's coefficient was never
+    learned, and the right answer is no candidate, with extrapolation named. ``tc-*``: withheld node
+    sensors and nulls recorded as one continuous record without runs (no ``--group``).
+    """
+    out: list[Scenario] = []  # design(i)["seed"] continues the grid's seeds; each scenario adds its index
+    for i in range(8):
+        out.append(Scenario(f"tx-extrapolation-{i}", "thermal/features", "extrapolation", None, n_decoys=4,
+                            **design(i) | {"runs": (4, 5, 6)[i % 3], "seed": design(i)["seed"] + len(out)}))
+    for sensor in DECOYS_FEATURES:
+        for i in range(3):
+            out.append(Scenario(f"tc-{sensor}-{i}", "thermal/features", "withheld", sensor, n_decoys=3 + i % 3,
+                                continuous=True, **design(i) | {"seed": design(i)["seed"] + len(out)}))
+    for i in range(6):
+        out.append(Scenario(f"tc-null-{i}", "thermal/features", "null", None, n_decoys=4, continuous=True,
+                            **design(i) | {"null_noise_um": (0.1, 0.3, 1.0)[i % 3],
+                                           "seed": design(i)["seed"] + len(out)}))
+    return out
 
 
 # ----------------------------------------------------------------------- evaluation
@@ -438,7 +475,8 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
 def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
     """Run the diagnosis the way a user would on this scenario."""
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
-              "order": ORDER[s.family.split("/")[0]], "group": "run", "surrogates": surrogates}
+              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run",
+              "surrogates": surrogates}
     if s.family.endswith("prediction"):
         return diagnose(case.table, prediction="prediction_um", **common)
     return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
@@ -459,12 +497,14 @@ def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
         "top3": bool(set(causes[:3]) & set(case.truth)) if case.truth else None,
         "named": verdict is not None, "ambiguous": bool(report.verdict.ambiguous_with),
         "runtime_s": runtime, "shrink": report.verdict.shrink, "iou": None, "iou_ceiling": None, "oracle_shrink": None,
+        "continuous": s.continuous, "extrapolation_said": "used outside its data" in report.summary,
+        "gap_detected": report.gap_detected,
     }
     if s.kind == "withheld":
         real = ~case.table.eval(train_query(s)).to_numpy()
         clean_residual = (case.table["error_um"] - case.table["noise_true_um"]).to_numpy() - _prediction(report, case)
         row["iou"], row["iou_ceiling"] = _iou(report, case.table, real, clean_residual[real])
-        row["oracle_shrink"] = _oracle_shrink(s, case)
+        row["oracle_shrink"] = None if s.continuous else _oracle_shrink(s, case)
     return row
 
 
@@ -549,11 +589,17 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
         "localisation IoU (withheld, mean)": (withheld.iou.mean(), ""),
         "best single-interval IoU, for reference": (withheld.iou_ceiling.mean(), ""),
         "mean |shrink − oracle| (correct verdicts)": ((correct.shrink - correct.oracle_shrink).abs().mean(), "≤ 0.15"),
+        "top-1 accuracy (withheld, continuous records)": (withheld[withheld.continuous].top1.astype(bool).mean(), ""),
+        "false attribution (null, continuous records)": (rows[(rows.kind == "null") & rows.continuous].named.mean(),
+                                                         "≤ 0.05"),
+        "named (pure extrapolation)": (rows[rows.kind == "extrapolation"].named.mean(), "0"),
+        "extrapolation said (pure extrapolation)": (rows[rows.kind == "extrapolation"].extrapolation_said.mean(), ""),
         "runtime per scenario, median s": (rows.runtime_s.median(), ""),
         "runtime per scenario, max s": (rows.runtime_s.max(), ""),
     }
     counts = (f"{len(withheld)} withheld, {int((rows.kind == 'null').sum())} null, "
-              f"{int((rows.kind == 'unmeasured').sum())} unmeasured scenarios")
+              f"{int((rows.kind == 'unmeasured').sum())} unmeasured, {int((rows.kind == 'extrapolation').sum())} "
+              "pure-extrapolation scenarios")
     machine = (f"svrqp {svrqp.__version__}, Python {platform.python_version()}, {platform.machine()}, "
                f"{os.cpu_count()} CPUs visible; generated by `benchmarks/gap_suite.py` (method and labels in its "
                "docstring).")
@@ -607,17 +653,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--grid", choices=tuple(GRIDS), default="development",
                         help="Scenario grid: development, holdout or fresh (only to check a change, never to tune).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
+    parser.add_argument("--only", default="", help="Comma-separated name prefixes: run only those scenarios "
+                                                      "(files suffixed _only).")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Folder for gap_suite.csv and gap_suite.md.")
     parser.add_argument("--surrogates", choices=("rotation", "continuous"), default="rotation",
                         help="Surrogate scheme of the tests; a non-default one writes files suffixed with its name.")
     args = parser.parse_args(argv)
     grid = scenarios(args.quick, args.grid)
+    if args.only:
+        grid = [s for s in scenarios(False, args.grid) if s.name.startswith(tuple(args.only.split(",")))]
     started = time.perf_counter()
     rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
     name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh"}[args.grid]
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
+    name += "_quick" if args.quick else ""
+    name += "_" + args.only.replace(",", "_").replace("-", "").strip("_") if args.only else ""
     table.to_csv(args.out / f"{name}.csv", index=False)
     title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid"}[args.grid]
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"

@@ -2,47 +2,28 @@
 
 1. **Honest residuals** — fit the baseline on the train rows or read the prediction
    (:mod:`svrqp.gap.baseline`); the real rows are the others.
-2. **Gate** — is the real-row error beyond the train rows' out-of-sample error, is it white
-   (:mod:`svrqp.gap.gate`)?
+2. **Gate** — one-sided: the real rows must fit worse than the train rows (both out of
+   sample) and beyond chance (:mod:`svrqp.gap.gate`). No gap, no culprit: candidates that
+   would improve the model everywhere may be listed in the reason, none is named.
 3. **Localise** — where along the order axis (pooled over the runs, and within single runs)
    and along candidate columns the squared error concentrates (:mod:`svrqp.gap.localise`).
-4. **Attribute** — which candidate × transform explains it beyond chance, controlling the
-   false-discovery rate and confounding (:mod:`svrqp.gap.attribute`); a candidate that
-   holds one value through each run is also tested between runs (:mod:`svrqp.gap.between`).
-5. **Quantify** — out-of-sample shrink with a block-bootstrap interval, the gate re-run on what
-   is left, and a refit of the model family with the effect as an input
-   (:mod:`svrqp.gap.quantify`); every significant cause is compared with the top one by a
-   paired block-bootstrap test of their out-of-sample losses (:mod:`svrqp.gap.compare`,
-   :func:`mark_ties`). A verdict names a cause only when its shrink interval also excludes
-   zero — significance says the candidate carries information, the interval that the real-row
-   error actually shrinks — and when the interval of its shrink *beyond the base alone*
-   (:func:`_base_fit`) excludes zero as well: the effect must beat the base it is added to.
-
-Causes that cannot be told apart
-    Two kinds of evidence answer "is it this column or that one?". The conditional tests of
-    :mod:`svrqp.gap.attribute` ask whether each carries information beyond the other, on the
-    rows where they decorrelate; the paired loss test asks whether either fits the real rows
-    better. When the conditional tests separate neither column, the paired test decides if it
-    can, then parsimony between two columns that each pass on their own (the one needing
-    fewer parameters, when it fits no worse; :mod:`svrqp.gap.attribute`); failing both, the
-    verdict is withheld (``column: null``) and ``ambiguous_with`` lists both. When the
-    conditional tests favour the top cause (or credit each with its own information), or
-    parsimony does, but the paired test finds their fits equal, the verdict **stays** on the
-    top cause — the decorrelated evidence is the sharper of the two, and it is not a guess —
-    while ``ambiguous_with``, the ``ambiguous`` flag and ``p_paired`` of each tied cause, the
-    verdict's reason and the one-sentence summary all say that the others explain the gap
-    about as well.
-6. **Report** — :class:`svrqp.gap.report.GapReport`; in features mode it also says whether
-   the model is used beyond its data: each input's range on the train and the real rows and
-   what recalibrating it alone does, beyond the offsets too (:mod:`svrqp.gap.inputs`).
-
-The discrepancy models of steps 4–5 use the base regressors "offsets + the model's features
-(raw and smoothed, + its prediction for a non-linear model)" in features mode, so an effect
-gets credit only for what a linear recalibration of the model itself cannot do, and the
-offsets alone in prediction mode (:func:`recalibration_inputs`, :func:`base_design`). Each
-cause's shrink is for that effect alone added to this base, against the model's raw residual;
-the report's ``base`` says what the base alone already does (out of sample), so that a reader
-can tell the effect's own part from that of the offsets and the recalibration.
+4. **Transfer** — the user's question is "if I add this effect and refit, how much smaller is
+   my error on a run I have not fitted?" Every candidate × transform is added to the model
+   family and refitted leave-one-unit-out over all rows (units: the ``--group`` groups, or
+   contiguous blocks of a record without runs), scored on the real rows
+   (:mod:`svrqp.gap.transfer`); the refit without any effect says what more data alone buys.
+   Causes are ranked by that transfer gain and tested against surrogates that respect what
+   varies where, with the false-discovery rate controlled and confounded pairs checked by
+   conditional tests (:mod:`svrqp.gap.ranking`). The verdict is the best-transferring
+   significant cause whose shrink beyond the refit has an interval above zero.
+5. **Within the real rows** — the earlier evidence, discrepancy models fitted on the real rows
+   themselves (:mod:`svrqp.gap.attribute`), stays under its own keys (``p_within``,
+   ``within_shrink``, ``shrink_beyond_base``, ``base``): it says what a per-run recalibration
+   would remove, which no new run gets, and never enters ``shrink`` or the summary.
+6. **Report** — :class:`svrqp.gap.report.GapReport`: a summary of at most two sentences with
+   the transfer shrink (leading with extrapolation when a model input is used outside its train
+   range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
+   model input and candidate against its train range (:mod:`svrqp.gap.inputs`).
 """
 
 from __future__ import annotations
@@ -516,7 +497,7 @@ def _summary(data: GapData, gap: GateResult, detected: bool, verdict: Verdict, e
     extrapolated = [u for u in inputs if u.role == "input" and u.extrapolated]
     refit_gain = transfer["rmse_before"] - (transfer["rmse_refit"] or transfer["rmse_before"])
     if extrapolated and refit_gain >= 0.5 * (gap.real_rmse - gap.train_rmse):
-        worst = max(extrapolated, key=lambda u: u.outside)
+        worst = _most_outside(extrapolated)
         second = (f"The model is used outside its data ({worst.column} on {worst.outside:.0%} of real rows); "
                   f"refitting with the new runs removes {transfer['shrink_refit']:.0%}")
         if verdict.column is not None:
@@ -532,6 +513,11 @@ def _summary(data: GapData, gap: GateResult, detected: bool, verdict: Verdict, e
     return f"{first}. No candidate improves a refit on {held} beyond chance" + (f" ({caveat[2:]})." if caveat else ".")
 
 
+def _most_outside(uses: list[InputUse]) -> InputUse:
+    """The input used furthest outside its data: most real rows outside, then the largest recalibration."""
+    return max(uses, key=lambda u: (u.outside, u.recalibration_shrink))
+
+
 def _short_effect(verdict: Verdict) -> str:
     """``lag of T1_C (τ 125)`` — the verdict's effect in few words."""
     text = f"{verdict.transform} of {verdict.column}"
@@ -545,7 +531,7 @@ def _extrapolation_text(data: GapData, inputs: list[InputUse], transfer: dict, u
     extrapolated = [u for u in inputs if u.role == "input" and u.extrapolated]
     if not extrapolated:
         return ""
-    worst = max(extrapolated, key=lambda u: u.recalibration_shrink)
+    worst = _most_outside(extrapolated)
     text = (f" The model is used beyond its data: {worst.column} lies outside its train range "
             f"({_quantity(worst.train_low, None)} … {_quantity(worst.train_high, unit_of(worst.column))}) on "
             f"{worst.outside:.0%} of the real rows; refitting leave-one-{_unit_word(units)}-out over all rows "

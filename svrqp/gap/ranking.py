@@ -48,7 +48,7 @@ from svrqp.gap.between import is_run_level, run_level_columns
 from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, TransferFit
-from svrqp.gap.transforms import group_slices, lag, rate
+from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
 
 TRANSFORMS = ("level", "rate", "lag")
 """Transforms refitted for every candidate (a model feature: ``rate`` and ``lag`` only)."""
@@ -71,6 +71,9 @@ MAX_TESTED = 5
 
 RIVAL_FRACTION = 0.5
 """A significant cause whose gain reaches this fraction of the top one's is a rival."""
+
+LAG_BATCH = 20
+"""Surrogates whose lags are filtered as one batch."""
 
 CONDITIONAL_SURROGATES = 99
 """Surrogates of a conditional test."""
@@ -182,9 +185,11 @@ class TransferRanker:
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
         return out
 
-    def columns(self, effect: Effect, x: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+    def columns(self, effect: Effect, x: np.ndarray | None = None,
+                ell: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
         """The effect's columns on every row (``x``: the candidate, or a surrogate of it), its
-        variants and the rows where it is known."""
+        variants and the rows where it is known (``ell``: its lag columns on the known rows, when
+        already filtered — :meth:`lags` filters a batch of surrogates at once)."""
         data = self.data
         x = data.C[:, data.candidates.index(effect.column)] if x is None else x
         known = np.isfinite(x)
@@ -199,7 +204,7 @@ class TransferRanker:
             own = rate(xk, t, groups)[:, None]
             variants = [np.array([0])]
         else:
-            ell = lag(xk, t, groups, effect.taus)
+            ell = lag(xk, t, groups, effect.taus) if ell is None else ell
             if effect.column in data.features:
                 own, variants = ell, [np.array([j]) for j in range(ell.shape[1])]
             else:
@@ -208,9 +213,20 @@ class TransferRanker:
         E[known] = own
         return E, variants, known
 
-    def fit(self, effect: Effect, x: np.ndarray | None = None, given: np.ndarray | None = None) -> TransferFit:
+    def lags(self, effect: Effect, xs: list[np.ndarray]) -> list[np.ndarray | None]:
+        """The lag columns of each series in ``xs`` on its known rows, filtered as one batch (None unless ``lag``)."""
+        if effect.transform != "lag" or not xs:
+            return [None] * len(xs)
+        known = np.isfinite(xs[0])
+        X = np.column_stack([x[known] for x in xs])
+        alpha = filter_coefficients(self.data.t[known], self.data.groups[known], effect.taus)
+        ell = lowpass_columns(X, alpha) - X[:, :, None]
+        return [ell[:, s, :] for s in range(len(xs))]
+
+    def fit(self, effect: Effect, x: np.ndarray | None = None, given: np.ndarray | None = None,
+            ell: np.ndarray | None = None) -> TransferFit:
         """Leave-one-unit-out errors with the effect (and the columns ``given``) added."""
-        E, variants, known = self.columns(effect, x)
+        E, variants, known = self.columns(effect, x, ell)
         if given is not None:
             k = given.shape[1]
             variants = [np.concatenate([np.arange(k), k + v]) for v in variants]
@@ -271,11 +287,14 @@ class TransferRanker:
              reference: float | None = None) -> list[bool]:
         """Whether each of ``count`` surrogates reaches the observed gain (stopping at the
         :data:`STOP_EXCEEDANCES`-th that does)."""
-        hits = []
-        for xs in self.surrogate(effect, count):
-            hits.append(self.gain(self.fit(effect, xs, given), reference) >= observed - 1e-12)
-            if sum(hits) >= STOP_EXCEEDANCES:
-                break
+        hits: list[bool] = []
+        surrogates = self.surrogate(effect, count)
+        for start in range(0, count, LAG_BATCH):
+            batch = surrogates[start:start + LAG_BATCH]
+            for xs, ell in zip(batch, self.lags(effect, batch)):
+                hits.append(self.gain(self.fit(effect, xs, given, ell), reference) >= observed - 1e-12)
+                if sum(hits) >= STOP_EXCEEDANCES:
+                    return hits
         return hits
 
     def p_value(self, effect: Effect, observed: float, most: int, given: np.ndarray | None = None,

@@ -233,17 +233,20 @@ class LinearTransfer:
         G_total = V.T @ V
         out = np.empty(int(self.is_real.sum()))
         chosen = np.zeros(self.units.n_units, dtype=int)
-        columns = [np.concatenate([np.arange(self.p), self.p + np.asarray(v, dtype=int)]) for v in variants]
+        # Every variant adds as many columns: their bordered systems are solved as one batch.
+        columns = np.array([np.concatenate([np.arange(self.p), self.p + np.asarray(v, dtype=int)]) for v in variants])
         y_col = V.shape[1] - 1
         for u, rows in enumerate(self._unit_rows):
             G = G_total - V[rows].T @ V[rows]
-            best, best_sse = None, np.inf
-            for j, c in enumerate(columns):
-                theta = _solve(G[np.ix_(c, c)], G[c, y_col])
-                sse = G[y_col, y_col] - theta @ G[c, y_col]
-                if sse < best_sse - 1e-12 * abs(G[y_col, y_col]):
-                    best, best_sse, chosen[u] = (c, theta), sse, j
-            c, theta = best
+            b = G[columns, y_col]
+            thetas = _solve_batch(G[columns[:, :, None], columns[:, None, :]], b)
+            sse = G[y_col, y_col] - np.einsum("vk,vk->v", thetas, b)
+            j = 0
+            for i in range(1, len(columns)):  # the first of near-equal fits
+                if sse[i] < sse[j] - 1e-12 * abs(G[y_col, y_col]):
+                    j = i
+            chosen[u] = j
+            c, theta = columns[j], thetas[j]
             real = self._real_of[u]
             design = np.column_stack([self.A[real], E[real]])[:, c]
             out[self._real_position[real]] = self.y[real] - design @ theta
@@ -267,6 +270,24 @@ class _Scaling:
 
     def apply(self, M: np.ndarray) -> np.ndarray:
         return (M - self.centre) / self.scale
+
+
+def _solve_batch(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`_solve` for a stack of systems ``G[i] θ_i = b[i]`` (shapes (v, k, k) and (v, k))."""
+    if G.shape[1] == 0:
+        return np.zeros(b.shape)
+    try:
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError:
+        return np.array([_solve(Gi, bi) for Gi, bi in zip(G, b)])
+    pivots = np.diagonal(L, axis1=1, axis2=2) ** 2
+    well = pivots.min(axis=1) > _RCOND * np.diagonal(G, axis1=1, axis2=2).max(axis=1)
+    out = np.empty(b.shape)
+    if well.any():
+        out[well] = np.linalg.solve(G[well], b[well][:, :, None])[:, :, 0]
+    for i in np.flatnonzero(~well):
+        out[i] = _solve(G[i], b[i])
+    return out
 
 
 def _solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
