@@ -215,14 +215,15 @@ def _thermal_configs(s: Scenario, rng: np.random.Generator) -> list[ThermalConfi
     configs = []
     for run in range(s.runs):
         train = run < _n_train(s)
-        day = rng.uniform(*SUMMER_DAYS) if train else rng.uniform(0, 365)
+        # Draws in this order (day, programme, amplitude, start), as before the extrapolation scenarios.
+        extrapolation = s.kind == "extrapolation"  # a still summer air for the train runs, winter for the real ones
+        day = rng.uniform(*SUMMER_DAYS) if train else rng.uniform(*(WINTER_DAYS if extrapolation else (0, 365)))
+        cycle = _programme(rng, s.run_min)
         amplitude = rng.uniform(0.5, 3.5)
-        if s.kind == "extrapolation":  # a still summer air for the train runs, winter for the real ones
-            day = rng.uniform(*SUMMER_DAYS) if train else rng.uniform(*WINTER_DAYS)
-            amplitude = 0.05 if train else rng.uniform(0.5, 3.5)
         config = ThermalConfig(
-            cycle=_programme(rng, s.run_min),
-            ambient=Ambient(day_of_year=day, daily_amplitude_C=amplitude, start_hour=rng.uniform(6, 14)),
+            cycle=cycle,
+            ambient=Ambient(day_of_year=day, daily_amplitude_C=0.05 if extrapolation and train else amplitude,
+                            start_hour=rng.uniform(6, 14)),
             zero_at_start=False, measurement_noise=0.0,
             sensor_lag=0.0 if s.family == "thermal/features" else 1.0,
         )

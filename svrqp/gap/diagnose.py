@@ -216,8 +216,8 @@ def diagnose(
         report_progress("computing candidate transforms", 0.2)
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, rng, surrogates, n_jobs)
         attribution = attribute(problem, build_banks(data, taus),
-                                lambda stage, done: report_progress(stage, 0.2 + 0.5 * done))
-        report_progress("refitting on held-out runs", 0.7)
+                                lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
+        report_progress("refitting on held-out runs", 0.6)
         within = _within_numbers(attribution, r, groups, base, rng)
         ranker = TransferRanker(data, family_of(data, baseline, units), taus, np.random.default_rng([seed, 19]))
         ranked = ranker.rank()
@@ -311,8 +311,7 @@ def _within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray,
     """
     out = {}
     for column in dict.fromkeys(e.test.column for e in attribution.evidence):
-        ev = attribution.chosen.get(column) or max((e for e in attribution.evidence if e.test.column == column),
-                                                   key=lambda e: (e.passes, e.test.gain))
+        ev = attribution.best(column)
         estimate = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
         beyond = 1.0 - estimate.rmse_after / base.rmse_after if base.rmse_after > 0 else None
         out[column] = (estimate.shrink, (estimate.ci_low, estimate.ci_high), ev.q_value, beyond)
@@ -404,8 +403,11 @@ def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.n
              units: Units) -> tuple[Verdict, GateResult | None]:
     """The cause the engine stands behind: the best-transferring significant one (:mod:`svrqp.gap.ranking`).
 
-    It must come with a gap (one-sided gate), pass the transfer test, and its shrink beyond
-    the refit must have an interval above zero over the held-out units.
+    It must come with a gap (one-sided gate), pass the transfer test, leave the real rows better
+    than the given model does (``shrink > 0``), and — with enough held-out units for a
+    bootstrap over them to mean anything (:data:`svrqp.gap.transfer.THIN_UNITS`) — its shrink
+    beyond the refit must have an interval above zero. With thin evidence the reason and the
+    summary say so instead.
     """
     thin = _thin_text(units)
     recalibration = (f" A per-run recalibration fitted on the real rows themselves ({base.description}) would "
@@ -426,7 +428,13 @@ def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.n
                   f"error).{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin), None
     cause = next(c for c in causes if c.column == top.effect.column)
-    if cause.shrink_beyond_refit_ci[0] <= 0.0:
+    if cause.shrink <= 0.0:
+        reason = (f"The {_effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}) and "
+                  f"adds {cause.shrink_beyond_refit:.0%} to a refit, but the refit with it still leaves the real-row "
+                  f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
+                  f"cause is named.{thin}{recalibration}")
+        return Verdict(column=None, reason=reason, thin=units.thin), None
+    if cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin:
         reason = (f"The {_effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}), "
                   f"but what it adds to a refit is not above zero on every resample of the held-out "
                   f"{_unit_word(units)}s: {cause.shrink_beyond_refit:.0%} (95 % CI "
