@@ -186,13 +186,13 @@ def score(kind: str, target: str, features: list[str], withheld: str | None, num
            "refit shrink": 1 - numbers["rmse_refit"] / numbers["rmse_before"], "any transfers": transfers,
            "verdict": "none" if named is None else f"{verdict['transform']} of {named}",
            "engine shrink": verdict.get("shrink"), "checker shrink": checker_shrink, "shrink error": error,
-           "top-3 hit": (named in top) if named is not None else (not transfers),
+           "top-3 hit": bool(named in top) if named is not None else not transfers,
            "false verdict": named is not None and not transfers, "seconds": seconds}
     if withheld is not None:
         best = by_column.set_index("column")["shrink"]
         row["withheld"] = withheld
-        row["withheld rule"] = (named == withheld or (named is not None and best[named] >= best[withheld] - AS_WELL)
-                                if named is not None else not transfers)
+        row["withheld rule"] = bool(named == withheld or best[named] >= best[withheld] - AS_WELL
+                                    if named is not None else not transfers)
     return row
 
 
