@@ -54,8 +54,10 @@ offsets of a few runs cannot be attributed, and a recalibration absorbs the rest
 
 Metrics
 -------
-top-1 — the verdict names a truth column; top-3 — a truth column is among the first three
-causes; false attribution — a verdict on a null/unmeasured scenario; decoy — a wrong column
+top-1 — the verdict names a truth column; top-1 by DESIGN §4's rule — it names a truth column or a
+candidate whose transfer shrink is at least a truth column's, counted on the withheld scenarios
+with a gap (the one-sided gate: where the real rows fit no worse than the train rows, naming no
+culprit is the answer); top-3 — a truth column is among the first three causes; false attribution — a verdict on a null/unmeasured scenario; decoy — a wrong column
 named on a withheld scenario; IoU — real rows inside the reported ``where`` regions of the
 order axis against the real rows where the noise-free residual's square exceeds its mean (with,
 for reference, the best IoU a single interval of the order axis could reach); shrink error —
@@ -499,7 +501,7 @@ def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
         "named": verdict is not None, "ambiguous": bool(report.verdict.ambiguous_with),
         "runtime_s": runtime, "shrink": report.verdict.shrink, "iou": None, "iou_ceiling": None, "oracle_shrink": None,
         "continuous": s.continuous, "extrapolation_said": "used outside its data" in report.summary,
-        "gap_detected": report.gap_detected,
+        "gap_detected": report.gap_detected, "top1_rule": _names_as_well(report, case.truth) if case.truth else None,
     }
     if s.kind == "withheld":
         real = ~case.table.eval(train_query(s)).to_numpy()
@@ -507,6 +509,17 @@ def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
         row["iou"], row["iou_ceiling"] = _iou(report, case.table, real, clean_residual[real])
         row["oracle_shrink"] = None if s.continuous else _oracle_shrink(s, case)
     return row
+
+
+def _names_as_well(report, truth: tuple[str, ...]) -> bool:
+    """DESIGN §4's acceptance: the verdict names a truth column, or a candidate whose transfer shrink (its
+    leave-one-run-out refit, checked against independent refits in tests/test_gap_transfer.py and
+    benchmarks/gap_real.py) is at least a truth column's."""
+    named = report.verdict.column
+    if named is None:
+        return False
+    shrink = {c.column: c.shrink for c in report.causes}
+    return named in truth or any(shrink[named] >= shrink[t] for t in truth if t in shrink)
 
 
 def _prediction(report, case: Case) -> np.ndarray:
@@ -580,8 +593,13 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
     nulls = rows[rows.kind != "withheld"]
     top1 = withheld.top1.astype(bool)
     correct = withheld[top1]
+    gap = withheld[withheld.gap_detected.astype(bool)]
     metric = {
-        "top-1 accuracy (withheld)": (top1.mean(), "≥ 0.90"),
+        "withheld with no gap (real rows no worse than train rows: no culprit is the answer)":
+            ((~withheld.gap_detected.astype(bool)).mean(), ""),
+        "top-1 accuracy, DESIGN §4 rule (withheld with a gap)": (gap.top1_rule.astype(bool).mean(), "≥ 0.90"),
+        "top-1 accuracy, truth named (withheld with a gap)": (gap.top1.astype(bool).mean(), ""),
+        "top-1 accuracy (withheld)": (top1.mean(), ""),
         "top-3 accuracy (withheld)": (withheld.top3.astype(bool).mean(), ""),
         "false attribution (null + unmeasured)": (nulls.named.mean(), "≤ 0.05"),
         "false attribution (null only)": (rows[rows.kind == "null"].named.mean(), "≤ 0.05"),
