@@ -27,7 +27,7 @@ Scores of the engine
     * top-3 hit: the verdict's column is among the checker's three best columns (a verdict
       withheld while some candidate transfers is a miss; withheld while none does, a hit);
     * shrink error: ``|verdict.shrink − checker's shrink for that column and transform|``;
-    * false verdict: a verdict where no candidate transfers.
+    * false verdict: a verdict where no candidate transfers or there is no gap.
     Withheld-sensor experiment: for each channel's best pair the better sensor alone is
     withheld and offered as a candidate; the engine passes when it names the withheld sensor or
     a candidate whose independent refit transfers at least as well (best shrink ≥ the
@@ -122,7 +122,7 @@ def loco_rmse(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, variants: li
 
 def checker(table: pd.DataFrame, target: str, features: list[str], candidates: list[str],
             banks: dict[str, dict[str, list[np.ndarray]]]) -> tuple[dict[str, float], pd.DataFrame]:
-    """The checker's numbers for one model: before, refit, and every candidate × transform."""
+    """The checker's numbers for one model: train CV, before, refit, and every candidate × transform."""
     y = table[target].to_numpy(float)
     train = table["cycle"].isin(TRAIN_CYCLES).to_numpy()
     base = np.column_stack([np.ones(y.size), table[features].to_numpy(float)])
@@ -135,7 +135,8 @@ def checker(table: pd.DataFrame, target: str, features: list[str], candidates: l
             after = loco_rmse(table, y, base, variants)
             rows.append({"column": column, "transform": transform, "rmse_after": after,
                          "shrink": 1 - after / before, "beyond_refit": 1 - after / refit})
-    return {"rmse_before": before, "rmse_refit": refit}, pd.DataFrame(rows)
+    train_cv = cv_rmse(table[train], target, features)
+    return {"rmse_train_cv": train_cv, "rmse_before": before, "rmse_refit": refit}, pd.DataFrame(rows)
 
 
 def cv_rmse(train: pd.DataFrame, target: str, features: list[str]) -> float:
@@ -172,6 +173,7 @@ def score(kind: str, target: str, features: list[str], withheld: str | None, num
     """One row of the results table."""
     by_column = table.sort_values("shrink", ascending=False).drop_duplicates("column").reset_index(drop=True)
     transfers = bool((by_column["beyond_refit"] >= TRANSFERS).any())
+    gap = numbers["rmse_before"] > numbers["rmse_train_cv"]  # one-sided: real rows worse than the train cycles
     verdict = report["verdict"]
     named = verdict["column"]
     top = list(by_column["column"][:TOP])
@@ -183,11 +185,12 @@ def score(kind: str, target: str, features: list[str], withheld: str | None, num
     row = {"experiment": kind, "target": target, "model": "+".join(features),
            "checker top 3": ", ".join(f"{c} {t} {s:.0%}" for c, t, s in
                                       by_column[["column", "transform", "shrink"]].head(TOP).itertuples(index=False)),
+           "train CV RMSE": numbers["rmse_train_cv"], "real RMSE": numbers["rmse_before"], "gap": gap,
            "refit shrink": 1 - numbers["rmse_refit"] / numbers["rmse_before"], "any transfers": transfers,
            "verdict": "none" if named is None else f"{verdict['transform']} of {named}",
            "engine shrink": verdict.get("shrink"), "checker shrink": checker_shrink, "shrink error": error,
-           "top-3 hit": bool(named in top) if named is not None else not transfers,
-           "false verdict": named is not None and not transfers, "seconds": seconds}
+           "top-3 hit": (bool(named in top) if named is not None else not transfers) if gap else named is None,
+           "false verdict": named is not None and not (transfers and gap), "seconds": seconds}
     if withheld is not None:
         best = by_column.set_index("column")["shrink"]
         row["withheld"] = withheld
@@ -245,7 +248,9 @@ def write(results: pd.DataFrame, out: Path) -> None:
         f"- top-3 hit rate: {hit:.2f} (target ≥ {HIT_TARGET}) — {'met' if hit >= HIT_TARGET else '**not met**'}",
         f"- largest shrink error of a named verdict: {worst:.3f} over {len(errors)} verdicts (target ≤ {SHRINK_TARGET}) — "
         + ("met" if len(errors) and worst <= SHRINK_TARGET else "**not met**" if len(errors) else "no verdict named"),
-        f"- false verdicts (a verdict where no candidate transfers): {int(pairs['false verdict'].sum())}",
+        f"- models without a gap (real rows no worse than the train cycles' leave-one-cycle-out RMSE): "
+        f"{int((~pairs['gap'].astype(bool)).sum())}",
+        f"- false verdicts (a verdict where no candidate transfers or there is no gap): {int(pairs['false verdict'].sum())}",
         f"- withheld-sensor experiment: {int(withheld['withheld rule'].sum())} of {len(withheld)} pass the rule "
         "(names the withheld sensor or a candidate whose independent refit transfers at least as well)", "",
         markdown_table(results.drop(columns=["seconds"])), "",
