@@ -88,8 +88,6 @@ class Verdict:
     evidence: str | None = None
     shrink: float | None = None
     shrink_ci: tuple[float, float] | None = None
-    shrink_beyond_base: float | None = None
-    shrink_beyond_base_ci: tuple[float, float] | None = None
     refit_shrink: float | None = None
     rmse_before: float | None = None
     rmse_after: float | None = None
@@ -103,12 +101,11 @@ class Verdict:
 
 @dataclass(frozen=True)
 class BaseFit:
-    """What the discrepancy base alone does, before any candidate is added.
+    """What the discrepancy base alone, fitted on the real rows themselves, removes: a per-run recalibration.
 
-    Every cause's shrink is for the base *plus* that effect, measured against the model's raw
-    residual; the base (per-group offsets and, in features mode, a recalibration of the model's
-    own inputs) already takes part of the error, and a cause's ``shrink_beyond_base`` is what it
-    adds, out of sample.
+    The base (per-group offsets and, in features mode, a recalibration of the model's own inputs)
+    is what the within-real-rows numbers of a cause (``within_shrink``, ``shrink_beyond_base``)
+    build on; no new run gets it, so it never enters a transfer shrink.
 
     Attributes
     ----------
