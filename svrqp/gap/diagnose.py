@@ -167,10 +167,10 @@ def diagnose(
         safer when the true cause may be missing from the candidates and some of them drift
         within a run, at some loss of power on slow, trend-like effects.
     n_jobs : int
-        Threads on which the significance tests run (``-1``: one per core). The result does
-        not depend on it. On two cores a record of 13,000 real rows and 32 candidates takes
-        about 0.7 of the time of one thread; a short one gains nothing
-        (``benchmarks/results/gap_scale.md``).
+        Threads on which the within-real-rows significance tests run (``-1``: one per core);
+        the transfer refits and their tests run on one. The result does not depend on it.
+        A record of 13,000 real rows and 32 candidates gains little from a second thread now
+        that most of its time is the transfer tests (``benchmarks/results/gap_scale.md``).
     progress : callable, optional
         Called as ``progress(stage, fraction_done)``.
 
