@@ -162,3 +162,26 @@ def axis_passes(effect: str = "none", runs: int = 7, noise_um: float = 0.3, seed
 
 AXIS_CANDIDATES = ["axis_C", "load_kg", "humidity_pct"]
 """Candidates of :func:`axis_passes` (the truth is ``axis_C`` for the scale effect)."""
+
+
+def extrapolation_problem(runs: int = 5, seed: int = 4) -> pd.DataFrame:
+    """A model used outside its data, nothing unmodelled among the candidates.
+
+    The error is a gentle curve of one input, :math:`e = 2x + 0.4x^2 + \\nu`; the train run holds
+    ``x_C`` within 20 … 22 °C, the real runs within 24 … 30 °C, where a line fitted on the train
+    run misses the curve. A refit on more data (the other real runs) takes most of that; the
+    candidates ``air_C`` and ``nut_C`` are unrelated random walks.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(RUN_MIN, dtype=float)
+    tables = []
+    for run in range(runs):
+        low, high = (20.0, 22.0) if run == 0 else (24.0 + run, 25.0 + run)
+        x = low + (high - low) * (0.5 + 0.5 * np.sin(2 * np.pi * (t / 180 + rng.random())))
+        error = 2.0 * x + 0.4 * (x - 20.0) ** 2 + _ar1(RUN_MIN, 0.3, 0.7, rng)
+        tables.append(pd.DataFrame({
+            "run": f"r{run}", "time_min": t, "x_C": x + 0.02 * rng.normal(size=RUN_MIN),
+            "air_C": 20 + 0.05 * rng.normal(size=RUN_MIN).cumsum(),
+            "nut_C": 25 + 0.05 * rng.normal(size=RUN_MIN).cumsum(), "error_um": error,
+        }))
+    return pd.concat(tables, ignore_index=True)

@@ -87,15 +87,18 @@ def test_refit_shrink_equals_an_independent_least_squares_refit():
 
 
 def test_a_candidate_recorded_on_the_real_rows_only_is_diagnosed_but_not_refitted():
-    """The same diagnosis as with the full record (candidates are read on the real rows), except
-    that the verdict's refit on the train rows cannot be made and is said not to be."""
-    args = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
-            "order": "time_min", "group": "run"}
+    """The same verdict as with the full record, except that the verdict's refit on the train rows cannot
+    be made and is said not to be. The transfer refits with the effect use the rows where it is recorded
+    (the real runs), so its shrink is that of a fit that never saw the train run."""
+    # Without coolant_C: recorded on every row and following the air, it transfers a little better than an
+    # air reading whose refits see the real runs only, which is not what this test is about.
+    args = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"],
+            "candidates": [c for c in CANDIDATES if c != "coolant_C"], "order": "time_min", "group": "run"}
     df = air_lag_problem()
     full = diagnose(df, **args)
     late = diagnose(df.assign(air_C=df["air_C"].where(df["run"] != "r0")), **args)
-    assert late.verdict.column == full.verdict.column == "air_C" and late.verdict.tau == full.verdict.tau
-    assert late.verdict.shrink == pytest.approx(full.verdict.shrink, abs=1e-12) and late.n_dropped == 0
+    assert late.verdict.column == full.verdict.column == "air_C" and late.n_dropped == 0
+    assert 0 < late.verdict.shrink <= 1 and late.verdict.shrink != full.verdict.shrink
     assert full.verdict.refit_shrink is not None and late.verdict.refit_shrink is None
     assert "cannot be refitted with it as an input, since air_C is not recorded on every train row" in late.verdict.reason
     late.to_dict()  # schema-valid with the refit left out

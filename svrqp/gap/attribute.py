@@ -57,7 +57,7 @@ Candidates constant within runs
     trend-like effects (benchmarks/results/gap_stress.md gives both sides).
 
 Multiple testing and effect floor
-    Benjamini–Hochberg over all candidate × transform tests of a round (:data:`ALPHA`).
+    Benjamini–Hochberg over all candidate × transform tests (:data:`ALPHA`).
     A test counts as evidence only if its adjusted p-value is below :data:`ALPHA` and the
     effect is large enough to matter:
 
@@ -69,45 +69,18 @@ Multiple testing and effect floor
       least :data:`MIN_AMPLITUDE` times the noise level (the smaller of the train reference
       RMSE and the RMSE left after the candidate).
 
-Confounding
-    Candidates are correlated on purpose (coolant follows ambient; speed drives every
-    temperature). The strongest candidate :math:`a` is checked against every rival :math:`b`
-    — another column with significant evidence, or with at least
-    :data:`RIVAL_GAIN_FRACTION` of :math:`a`'s gain — on the evidence where they decorrelate:
-    conditional tests with the other already in the base. ":math:`a|b`" below means that
-    :math:`a` carries information beyond :math:`b`: significant *and* a gain of at least
-    :data:`MIN_GAIN` over the base holding :math:`b` (with a misspecified model, leftover
-    structure makes tiny conditional gains significant; they are no evidence of a cause).
-
-    * :math:`a|b` significant, :math:`b|a` not — :math:`a` stands; :math:`b` is "explained by a";
-    * :math:`b|a` significant, :math:`a|b` not — :math:`b` replaces :math:`a` if :math:`b`
-      passed the first round itself, otherwise neither is named;
-    * both significant — both carry their own information; :math:`a` stays the leader (the
-      first champion is the column of largest gain; a rival that explained it away leads after it);
-    * neither — neither carries information the other lacks, so the two fits are compared
-      where they differ, by the paired block-bootstrap test of their out-of-sample losses
-      (:mod:`svrqp.gap.compare`, :class:`OutOfSampleLosses`):
-
-      - one fits the real rows significantly better — it counts as one-sided evidence for
-        it, as in the first two cases;
-      - the fits are equal within the test, both columns passed the first round on their
-        own, and one needs fewer parameters (``level`` and ``rate``: one column; ``lag``:
-        the reading, its filtered copy and a fitted :math:`\tau`) while fitting no worse on
-        average — the simpler explanation stands (parsimony: a withheld reading itself
-        rather than another reading of the same heat source pushed through a fitted
-        lead–lag filter); the tie is still reported (``ambiguous_with``);
-      - otherwise the data cannot tell them apart: both are reported as such and no
-        verdict is given (naming a decoy is worse than naming nothing).
-
-    ``lag`` contains ``level``; the verdict reports ``lag`` only if :math:`\ell_\tau` adds
-    significantly to the level. Further effects are accepted in rounds, each testing the
-    remaining candidates with the accepted ones in the base.
+What this evidence is for
+    These tests fit discrepancy models on the real rows themselves: they say whether a
+    candidate carries information about the real-row residual, and how much a per-run
+    recalibration with it would remove (the report's ``p_within`` and ``within_shrink``). The
+    verdict, the ranking and the checks of confounded candidates rest on transfer to held-out
+    runs instead (:mod:`svrqp.gap.ranking`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -125,7 +98,6 @@ from svrqp.gap.between import (
     run_level_columns,
 )
 from svrqp.gap.blocks import rotated_rows, shift_offsets
-from svrqp.gap.compare import PairedComparison, paired_loss_test
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transforms import (
@@ -163,22 +135,8 @@ MAX_SURROGATES = sum(SURROGATE_BATCHES)
 """Most surrogates of one test of a round (smallest attainable p-value 1/2000, well below
 Benjamini–Hochberg's first threshold ``ALPHA/m`` for the tens of tests of a diagnosis)."""
 
-PAIRWISE_SURROGATES = 499
-"""Most surrogates of a single conditional test (level :data:`ALPHA`, no multiplicity)."""
-
 STOP_EXCEEDANCES = 10
 """A sequential test stops after this many surrogates reach the observed gain."""
-
-RIVAL_GAIN_FRACTION = 0.5
-"""A column without significant evidence is still checked as a rival of the strongest one
-when its gain reaches this fraction of the strongest gain."""
-
-BY_INFORMATION, BY_FIT, BY_PARAMETERS = "information", "fit", "parameters"
-"""What settles a rival check (module docstring, "Confounding"): information one column carries
-beyond the other, a significantly better fit where they differ, or fewer parameters for the same fit."""
-
-MAX_EFFECTS = 3
-"""Most effects accepted in successive rounds."""
 
 _CHUNK_ELEMENTS = 6_000_000
 """Largest surrogate design array (rows × columns) scored at once, to bound memory."""
@@ -675,23 +633,12 @@ def _above_floor(test: TestOutcome, noise_rmse: float) -> bool:
     return test.robust and test.own_gain >= MIN_GAIN and test.explained_rms >= MIN_AMPLITUDE * noise
 
 
-def _parameters(test: TestOutcome) -> int:
-    """Parameters a test's effect adds to the base: its columns, and a fitted time constant."""
-    return test.bank.block(test.variant).shape[1] + (test.bank.taus is not None)
-
-
 class OutOfSampleLosses:
-    """Out-of-sample errors of the base plus each test's bank, and paired comparisons of them.
-
-    Each is computed once: the rival checks of :func:`attribute` and the causes table of
-    :func:`svrqp.gap.diagnose.diagnose` read the same errors and the same comparisons, so a
-    note never contradicts a tie mark.
-    """
+    """Out-of-sample errors of the base plus each test's bank, each computed once."""
 
     def __init__(self, problem: AttributionProblem):
         self.problem = problem
         self._errors: dict[int, np.ndarray] = {}
-        self._comparisons: dict[tuple[int, int], PairedComparison] = {}
 
     def errors(self, test: TestOutcome) -> np.ndarray:
         """Out-of-sample errors of ``r ~ B + bank`` on the real rows (the bank's own nested CV)."""
@@ -701,98 +648,30 @@ class OutOfSampleLosses:
             self._errors[key] = test.bank.out_of_sample_errors(p.r, p.B, p.folds, p.groups)
         return self._errors[key]
 
-    def compare(self, a: TestOutcome, b: TestOutcome) -> PairedComparison:
-        """Paired test of the two banks' losses (:func:`svrqp.gap.compare.paired_loss_test`)."""
-        key = (id(a.bank), id(b.bank))
-        if key not in self._comparisons:
-            self._comparisons[key] = paired_loss_test(self.errors(a), self.errors(b), self.problem.groups,
-                                                      self.problem.rng)
-        return self._comparisons[key]
-
 
 @dataclass
 class Attribution:
-    """Outcome of the attribution step.
+    """Outcome of the attribution step: the within-real-rows evidence of every candidate × transform.
 
     Attributes
     ----------
     evidence : list of Evidence
-        First-round tests of every candidate × transform.
-    accepted : list of Evidence
-        Effects accepted, in order (the first is the verdict unless ``ambiguous``).
-    ambiguous : list of str
-        Columns that cannot be told apart from the first effect (verdict withheld if any).
-    notes : dict
-        Column → sentence on its relation to the accepted effects.
-    losses : OutOfSampleLosses or None
-        The out-of-sample errors and paired comparisons the rival checks used.
-    chosen : dict
-        Column → the test that stood for it in the rival checks (its transform chosen by
-        :func:`_choose_transform`).
-    decided_by : dict
-        Column → what settled its rival check against the champion of the time, where one
-        side stood: :data:`BY_INFORMATION`, :data:`BY_FIT` or :data:`BY_PARAMETERS`.
+        Tests of every candidate × transform (Benjamini–Hochberg, effect floors).
+    losses : OutOfSampleLosses
+        Their out-of-sample errors on the real rows.
     """
 
     evidence: list[Evidence]
-    accepted: list[Evidence] = field(default_factory=list)
-    ambiguous: list[str] = field(default_factory=list)
-    notes: dict[str, str] = field(default_factory=dict)
-    losses: OutOfSampleLosses | None = None
-    chosen: dict[str, Evidence] = field(default_factory=dict)
-    decided_by: dict[str, str] = field(default_factory=dict)
+    losses: OutOfSampleLosses
 
-    @property
-    def verdict(self) -> Evidence | None:
-        """The single cause the engine stands behind, or None."""
-        if not self.accepted or self.ambiguous:
-            return None
-        return self.accepted[0]
-
-
-def _best_by_column(evidence: list[Evidence], passing_only: bool) -> dict[str, Evidence]:
-    best: dict[str, Evidence] = {}
-    for ev in evidence:
-        if passing_only and not ev.passes:
-            continue
-        if ev.test.column not in best or ev.test.gain > best[ev.test.column].test.gain:
-            best[ev.test.column] = ev
-    return best
-
-
-class _Conditional:
-    """Conditional surrogate tests of a bank given blocks already in the base."""
-
-    def __init__(self, problem: AttributionProblem):
-        self.problem = problem
-
-    def test(self, bank: Bank, given: list[np.ndarray]) -> TestOutcome:
-        return run_tests([self.problem.make_test(bank, given)], PAIRWISE_SURROGATES, lambda p: p < ALPHA,
-                         self.problem.n_jobs)[0]
-
-    def adds(self, bank: Bank, given: list[np.ndarray]) -> bool:
-        """Whether ``bank`` carries information beyond ``given``: significant and above the relative floor."""
-        outcome = self.test(bank, given)
-        return outcome.p_value < ALPHA and outcome.own_gain >= MIN_GAIN and outcome.robust
-
-
-def _choose_transform(column_evidence: list[Evidence], cond: _Conditional, given: list[np.ndarray]) -> Evidence:
-    """Best transform of one column (passing ones first); ``lag`` only if it adds to ``level``."""
-    pool = [e for e in column_evidence if e.passes] or column_evidence
-    ranked = sorted(pool, key=lambda e: -e.test.gain)
-    best = ranked[0]
-    level = next((e for e in ranked if e.test.transform == "level"), None)
-    if best.test.transform == "lag" and best.test.bank.partner is not None and level is not None:
-        lag_only = CandidateBank(best.test.column, "lag", best.test.bank.taus, best.test.bank.Z,
-                                 recipe=best.test.bank.recipe)
-        if not cond.adds(lag_only, [*given, level.test.bank.block(0)]):
-            return level
-    return best
+    def best(self, column: str) -> Evidence:
+        """A column's strongest test (passing ones first)."""
+        return max((e for e in self.evidence if e.test.column == column), key=lambda e: (e.passes, e.test.gain))
 
 
 def attribute(problem: AttributionProblem, banks: list[Bank],
               progress: Callable[[str, float], None] = lambda stage, done: None) -> Attribution:
-    """Test, rank and disambiguate candidate effects (see the module docstring).
+    """Test every candidate transform within the real rows (see the module docstring).
 
     Parameters
     ----------
@@ -801,135 +680,11 @@ def attribute(problem: AttributionProblem, banks: list[Bank],
     banks : list of CandidateBank or RunLevelBank
         Everything to test (:func:`build_banks`).
     progress : callable
-        Called as ``progress(stage, fraction_done)`` when each stage starts (a long record spends
-        minutes here); the fractions are rough shares of the time.
+        Called as ``progress(stage, fraction_done)`` when the tests start.
 
     Returns
     -------
     Attribution
     """
-    cond = _Conditional(problem)
-    progress(f"testing {len(banks)} candidate transforms", 0.0)
-    evidence = _test_round(problem, [], banks, 1)
-    result = Attribution(evidence, losses=OutOfSampleLosses(problem))
-    passing = _best_by_column(evidence, passing_only=True)
-    if not passing:
-        return result
-
-    def chosen(column: str) -> Evidence:
-        if column not in result.chosen:
-            result.chosen[column] = _choose_transform([e for e in evidence if e.test.column == column], cond, [])
-        return result.chosen[column]
-
-    best = _best_by_column(evidence, passing_only=False)
-    significant = {e.test.column for e in evidence if e.q_value < ALPHA}
-
-    def by_gain(columns) -> list[str]:
-        return sorted(columns, key=lambda c: -best[c].test.gain)
-
-    champion = chosen(by_gain(passing)[0])
-    # Rivals: every other column with significant evidence, or nearly as strong without it.
-    rivals = {c for c in best if c != champion.test.column
-              and (c in significant or best[c].test.gain >= RIVAL_GAIN_FRACTION * champion.test.gain > 0)}
-    pending = by_gain(rivals)
-    done: set[str] = set()
-    progress(f"checking {champion.test.column} against {len(pending)} rival(s)", 0.5)
-    for _ in range(len(best) ** 2):  # bound: each swap needs one-sided evidence
-        if not pending:
-            break
-        rival = chosen(pending.pop(0))
-        a, b = champion.test, rival.test
-        check = _rival_check(cond, result.losses, a, b, b.column in passing)
-        if check.b_beyond_a and not check.a_beyond_b and b.column in passing:
-            # The rival explains the champion away: it takes over and faces the others again.
-            result.notes[a.column] = check.loser_note(b.column)
-            result.decided_by[a.column] = check.basis
-            champion = rival
-            pending = by_gain((done | set(pending)) - {a.column, b.column})
-            done = {a.column}
-            result.ambiguous.clear()
-            continue
-        done.add(b.column)
-        if check.a_beyond_b and not check.b_beyond_a:
-            result.notes[b.column] = check.loser_note(a.column)
-            result.decided_by[b.column] = check.basis
-        elif check.a_beyond_b:
-            result.notes[b.column] = f"carries information beyond {a.column}"
-        elif check.b_beyond_a:
-            result.ambiguous.append(b.column)
-            result.notes[b.column] = f"{check.winner_note(a.column)} but is not significant on its own"
-        else:
-            result.ambiguous.append(b.column)
-            result.notes[b.column] = f"cannot be told apart from {a.column}"
-    if result.ambiguous:
-        result.notes[champion.test.column] = "cannot be told apart from " + ", ".join(result.ambiguous)
-    result.accepted.append(champion)
-    progress(f"testing further effects beyond {champion.test.column}", 0.75)
-    _further_effects(result, problem, banks, cond)
-    return result
-
-
-@dataclass(frozen=True)
-class _RivalCheck:
-    """Outcome of one rival check (module docstring, "Confounding")."""
-
-    a_beyond_b: bool
-    b_beyond_a: bool
-    basis: str = BY_INFORMATION
-    p_paired: float | None = None
-
-    def loser_note(self, winner: str) -> str:
-        """The losing column's note."""
-        if self.basis == BY_FIT:
-            return f"fits the real rows worse than {winner} (paired p = {self.p_paired:.2g})"
-        if self.basis == BY_PARAMETERS:
-            return f"needs more parameters than {winner} for the same fit"
-        return f"explained by {winner}"
-
-    def winner_note(self, loser: str) -> str:
-        """The note of a winning column that cannot take over (not significant on its own)."""
-        if self.basis == BY_FIT:
-            return f"fits the real rows better than {loser} (paired p = {self.p_paired:.2g})"
-        return f"explains {loser} away"
-
-
-def _rival_check(cond: _Conditional, losses: OutOfSampleLosses, a: TestOutcome, b: TestOutcome,
-                 b_passes: bool) -> _RivalCheck:
-    """Does champion ``a`` carry information beyond rival ``b``, and ``b`` beyond ``a``?
-
-    The conditional tests ask first. When they separate neither, the paired test of the two
-    out-of-sample losses asks which fits the real rows better where they differ; when it finds
-    the fits equal and ``b`` passed the first round on its own, the one with fewer parameters
-    stands if it fits no worse on average.
-    """
-    a_beyond_b = cond.adds(a.bank, [b.bank.block(b.variant)])
-    b_beyond_a = cond.adds(b.bank, [a.bank.block(a.variant)])
-    if a_beyond_b or b_beyond_a:
-        return _RivalCheck(a_beyond_b, b_beyond_a)
-    fit = losses.compare(a, b)
-    if not fit.tied:
-        return _RivalCheck(fit.mean_difference > 0, fit.mean_difference < 0, BY_FIT, fit.p_value)
-    k_a, k_b = _parameters(a), _parameters(b)
-    if b_passes and (k_a - k_b) * fit.mean_difference < 0:
-        # Equal fits: the simpler explanation stands (a reading itself before another reading of
-        # the same heat source pushed through a fitted lead-lag filter).
-        return _RivalCheck(k_a < k_b, k_b < k_a, BY_PARAMETERS)
-    return _RivalCheck(False, False)
-
-
-def _further_effects(result: Attribution, problem: AttributionProblem, banks: list[Bank],
-                     cond: _Conditional) -> None:
-    """Accept more effects in rounds, each conditional on those already accepted."""
-    while len(result.accepted) < MAX_EFFECTS:
-        taken = {e.test.column for e in result.accepted} | set(result.ambiguous)
-        given = [e.test.bank.block(e.test.variant) for e in result.accepted]
-        remaining = [b for b in banks if b.column not in taken]
-        evidence = _test_round(problem, given, remaining, len(result.accepted) + 1)
-        passing = _best_by_column(evidence, passing_only=True)
-        if not passing:
-            return
-        column = max(passing, key=lambda c: passing[c].test.gain)
-        nxt = _choose_transform([e for e in evidence if e.test.column == column], cond, given)
-        names = ", ".join(e.test.column for e in result.accepted)
-        result.notes[column] = f"in addition to {names}"
-        result.accepted.append(nxt)
+    progress(f"testing {len(banks)} candidate transforms within the real rows", 0.0)
+    return Attribution(_test_round(problem, [], banks, 1), OutOfSampleLosses(problem))

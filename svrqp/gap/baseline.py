@@ -20,9 +20,10 @@ collinear inputs (``rank_deficient="lstsq"``) so that a refit with an added effe
 is constant on the train rows still works.
 
 The *train reference* residual — the error to expect where nothing is missing — is measured
-out of sample: a model of the same kind is refitted with the train rows' groups (or blocks)
-held out in turn (:func:`svrqp.gap.blocks.blocked_folds`). In prediction mode it is simply
-target − prediction on the train rows.
+out of sample and on the footing of the real rows (which the model predicts for runs it never
+saw): a model of the same kind is refitted with each train group held out in turn, or with one
+train group, each of five contiguous blocks of it (:func:`train_folds`). In prediction mode it is
+simply target − prediction on the train rows.
 """
 
 from __future__ import annotations
@@ -37,12 +38,14 @@ from sklearn.preprocessing import StandardScaler
 
 from svrqp.estimators import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError
-from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.prepare import GapData
 from svrqp.linear_models import LinearLS
 
 MODEL_KINDS = ("mlr", "svr", "lssvr")
 """Model families a baseline can be fitted with."""
+
+TRAIN_BLOCKS = 5
+"""Contiguous blocks of a single train group for its cross-validated reference."""
 
 SVR_C = 10.0
 SVR_EPSILON = 0.05
@@ -126,11 +129,24 @@ def fit_predict(kind: str, X_train: np.ndarray, y_train: np.ndarray, X: np.ndarr
     return np.asarray(model.predict(X), dtype=float).ravel()
 
 
+def train_folds(groups: np.ndarray) -> list[np.ndarray]:
+    """Held-out sets of the train reference: on the footing of the real rows, which the model predicts
+    for runs it never saw — one whole group at a time when the train rows hold two or more, else
+    :data:`TRAIN_BLOCKS` contiguous blocks of the one group (never interleaved short blocks, which
+    would interpolate an autocorrelated record)."""
+    codes = np.unique(groups)
+    if codes.size >= 2:
+        return [np.flatnonzero(groups == g) for g in codes]
+    position = np.arange(groups.size)
+    block = np.minimum(position * TRAIN_BLOCKS // groups.size, TRAIN_BLOCKS - 1)
+    return [np.flatnonzero(block == b) for b in range(min(TRAIN_BLOCKS, groups.size))]
+
+
 def train_reference_residual(data: GapData, kind: str) -> np.ndarray:
-    """Blocked cross-validated residual of a ``kind`` model on the train rows."""
+    """Cross-validated residual of a ``kind`` model on the train rows (:func:`train_folds`)."""
     X, y, groups = data.X[data.is_train], data.y[data.is_train], data.groups[data.is_train]
     out = np.empty(len(y))
-    for test in blocked_folds(groups):
+    for test in train_folds(groups):
         fit_rows = np.setdiff1d(np.arange(len(y)), test, assume_unique=True)
         out[test] = y[test] - fit_predict(kind, X[fit_rows], y[fit_rows], X[test])
     return out

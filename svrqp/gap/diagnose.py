@@ -2,47 +2,28 @@
 
 1. **Honest residuals** — fit the baseline on the train rows or read the prediction
    (:mod:`svrqp.gap.baseline`); the real rows are the others.
-2. **Gate** — is the real-row error beyond the train rows' out-of-sample error, is it white
-   (:mod:`svrqp.gap.gate`)?
+2. **Gate** — one-sided: the real rows must fit worse than the train rows (both out of
+   sample) and beyond chance (:mod:`svrqp.gap.gate`). No gap, no culprit: candidates that
+   would improve the model everywhere may be listed in the reason, none is named.
 3. **Localise** — where along the order axis (pooled over the runs, and within single runs)
    and along candidate columns the squared error concentrates (:mod:`svrqp.gap.localise`).
-4. **Attribute** — which candidate × transform explains it beyond chance, controlling the
-   false-discovery rate and confounding (:mod:`svrqp.gap.attribute`); a candidate that
-   holds one value through each run is also tested between runs (:mod:`svrqp.gap.between`).
-5. **Quantify** — out-of-sample shrink with a block-bootstrap interval, the gate re-run on what
-   is left, and a refit of the model family with the effect as an input
-   (:mod:`svrqp.gap.quantify`); every significant cause is compared with the top one by a
-   paired block-bootstrap test of their out-of-sample losses (:mod:`svrqp.gap.compare`,
-   :func:`mark_ties`). A verdict names a cause only when its shrink interval also excludes
-   zero — significance says the candidate carries information, the interval that the real-row
-   error actually shrinks — and when the interval of its shrink *beyond the base alone*
-   (:func:`_base_fit`) excludes zero as well: the effect must beat the base it is added to.
-
-Causes that cannot be told apart
-    Two kinds of evidence answer "is it this column or that one?". The conditional tests of
-    :mod:`svrqp.gap.attribute` ask whether each carries information beyond the other, on the
-    rows where they decorrelate; the paired loss test asks whether either fits the real rows
-    better. When the conditional tests separate neither column, the paired test decides if it
-    can, then parsimony between two columns that each pass on their own (the one needing
-    fewer parameters, when it fits no worse; :mod:`svrqp.gap.attribute`); failing both, the
-    verdict is withheld (``column: null``) and ``ambiguous_with`` lists both. When the
-    conditional tests favour the top cause (or credit each with its own information), or
-    parsimony does, but the paired test finds their fits equal, the verdict **stays** on the
-    top cause — the decorrelated evidence is the sharper of the two, and it is not a guess —
-    while ``ambiguous_with``, the ``ambiguous`` flag and ``p_paired`` of each tied cause, the
-    verdict's reason and the one-sentence summary all say that the others explain the gap
-    about as well.
-6. **Report** — :class:`svrqp.gap.report.GapReport`; in features mode it also says whether
-   the model is used beyond its data: each input's range on the train and the real rows and
-   what recalibrating it alone does, beyond the offsets too (:mod:`svrqp.gap.inputs`).
-
-The discrepancy models of steps 4–5 use the base regressors "offsets + the model's features
-(raw and smoothed, + its prediction for a non-linear model)" in features mode, so an effect
-gets credit only for what a linear recalibration of the model itself cannot do, and the
-offsets alone in prediction mode (:func:`recalibration_inputs`, :func:`base_design`). Each
-cause's shrink is for that effect alone added to this base, against the model's raw residual;
-the report's ``base`` says what the base alone already does (out of sample), so that a reader
-can tell the effect's own part from that of the offsets and the recalibration.
+4. **Transfer** — the user's question is "if I add this effect and refit, how much smaller is
+   my error on a run I have not fitted?" Every candidate × transform is added to the model
+   family and refitted leave-one-unit-out over all rows (units: the ``--group`` groups, or
+   contiguous blocks of a record without runs), scored on the real rows
+   (:mod:`svrqp.gap.transfer`); the refit without any effect says what more data alone buys.
+   Causes are ranked by that transfer gain and tested against surrogates that respect what
+   varies where, with the false-discovery rate controlled and confounded pairs checked by
+   conditional tests (:mod:`svrqp.gap.ranking`). The verdict is the best-transferring
+   significant cause whose shrink beyond the refit has an interval above zero.
+5. **Within the real rows** — the earlier evidence, discrepancy models fitted on the real rows
+   themselves (:mod:`svrqp.gap.attribute`), stays under its own keys (``p_within``,
+   ``within_shrink``, ``shrink_beyond_base``, ``base``): it says what a per-run recalibration
+   would remove, which no new run gets, and never enters ``shrink`` or the summary.
+6. **Report** — :class:`svrqp.gap.report.GapReport`: a summary of at most two sentences with
+   the transfer shrink (leading with extrapolation when a model input is used outside its train
+   range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
+   model input and candidate against its train range (:mod:`svrqp.gap.inputs`).
 """
 
 from __future__ import annotations
@@ -59,7 +40,6 @@ from svrqp.gap import attribute as attr
 from svrqp.gap.attribute import (
     Attribution,
     AttributionProblem,
-    Evidence,
     attribute,
     build_banks,
     constant_on_real_rows,
@@ -69,15 +49,17 @@ from svrqp.gap.attribute import (
 from svrqp.gap.baseline import Baseline, fit_baseline
 from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
-from svrqp.gap.compare import PairedComparison
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.figures import Series, unit_of
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.inputs import InputUse, input_use
-from svrqp.gap.localise import Region, localise
+from svrqp.gap.localise import localise
 from svrqp.gap.prepare import GapData, prepare
-from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
+from svrqp.gap.quantify import estimate_shrink, refit_shrink
+from svrqp.gap.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
+from svrqp.gap.ranking import Ranking, TransferRanker
 from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
+from svrqp.gap.transfer import MIN_BLOCKS, LinearTransfer, Units, bootstrap_index, transfer_shrink, transfer_units
 from svrqp.gap.transforms import smooth, standardised, tau_grid
 
 Progress = Callable[[str, float], None]
@@ -185,10 +167,10 @@ def diagnose(
         safer when the true cause may be missing from the candidates and some of them drift
         within a run, at some loss of power on slow, trend-like effects.
     n_jobs : int
-        Threads on which the significance tests run (``-1``: one per core). The result does
-        not depend on it. On two cores a record of 13,000 real rows and 32 candidates takes
-        about 0.7 of the time of one thread; a short one gains nothing
-        (``benchmarks/results/gap_scale.md``).
+        Threads on which the within-real-rows significance tests run (``-1``: one per core);
+        the transfer refits and their tests run on one. The result does not depend on it.
+        A record of 13,000 real rows and 32 candidates gains little from a second thread now
+        that most of its time is the transfer tests (``benchmarks/results/gap_scale.md``).
     progress : callable, optional
         Called as ``progress(stage, fraction_done)``.
 
@@ -223,6 +205,9 @@ def diagnose(
     exact = _reproduced_exactly(r, data.y)
     base, base_errors = _base_fit(data, r, B, folds, exact)
     inputs = [] if exact else input_use(data, r, offset_columns(groups), folds)
+    units = transfer_units(data.groups, real, baseline.residual)
+    transfer = {"rmse_before": float(np.sqrt(np.mean(r**2))), "rmse_refit": None, "shrink_refit": None,
+                "units": units.n_units, "unit_kind": units.kind, "thin": units.thin}
     if exact:
         causes, errors_after, residual_gate, remaining = [], {}, None, []
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
@@ -231,17 +216,26 @@ def diagnose(
         report_progress("computing candidate transforms", 0.2)
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, rng, surrogates, n_jobs)
         attribution = attribute(problem, build_banks(data, taus),
-                                lambda stage, done: report_progress(stage, 0.2 + 0.65 * done))
-        attribution.notes = untestable_between_runs(data) | constant_on_real_rows(data) | attribution.notes
-        report_progress("quantifying", 0.85)
-        representatives = _representatives(attribution)
-        causes, errors_after = _causes(attribution, representatives, r, groups, rng, base_errors)
-        tests = {ev.test.column: ev.test for ev in representatives}
-        causes = mark_ties(causes, attribution.ambiguous,
-                           lambda top, other: attribution.losses.compare(tests[top], tests[other]))
-        verdict, residual_gate = _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
-                                          base, base_errors, rng)
-        remaining = [e.test.column for e in attribution.accepted[1:]] if verdict.column else []
+                                lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
+        report_progress("refitting on held-out runs", 0.6)
+        within = _within_numbers(attribution, r, groups, base, rng)
+        ranker = TransferRanker(data, family_of(data, baseline, units), taus, np.random.default_rng([seed, 19]))
+        ranked = ranker.rank()
+        ranker.test(ranked)
+        ranking = ranker.choose(ranked)
+        refit_errors = ranker.refit.errors
+        transfer["rmse_refit"] = float(np.sqrt(np.mean(refit_errors**2)))
+        transfer["shrink_refit"] = 1 - transfer["rmse_refit"] / transfer["rmse_before"]
+        report_progress("quantifying", 0.9)
+        notes = untestable_between_runs(data) | constant_on_real_rows(data)  # the rival notes are the ranking's
+        causes, errors_after = _causes(ranking, r, refit_errors, units, units.code[real], within, notes,
+                                       np.random.default_rng([seed, 20]))
+        verdict, residual_gate = _verdict(ranking, causes, errors_after, data, baseline, groups, gap, detected,
+                                          base, units)
+        verdict = dataclasses.replace(verdict, reason=verdict.reason + _extrapolation_text(data, inputs, transfer,
+                                                                                           units))
+        remaining = [c.column for c in causes[1:] if verdict.column and c.significant
+                     and (c.note or "").startswith("carries information beyond")]
     report_progress("reporting", 0.98)
 
     series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels, data.is_train,
@@ -269,11 +263,13 @@ def diagnose(
         remaining=remaining,
         base=base,
         inputs=inputs,
-        summary=_summary(data, gap, detected, where, verdict, exact, inputs),
+        summary=_summary(data, gap, detected, verdict, exact, inputs, transfer, units),
+        transfer=transfer,
+        blocks=units.as_dict() if units.kind == "blocks" else None,
         settings={
             "alpha": attr.ALPHA, "min_gain": attr.MIN_GAIN, "min_amplitude": attr.MIN_AMPLITUDE,
             "max_surrogates": attr.MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
-            "taus": taus.tolist(), "seed": seed,
+            "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
         },
         runtime_s=0.0,
         series=series,
@@ -292,97 +288,62 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
     return bool(np.sqrt(np.mean(r**2)) <= 1e-10 * np.max(np.abs(y)))
 
 
-def _representatives(attribution: Attribution) -> list[Evidence]:
-    """One test per column, ranked: accepted effects, undecidable rivals, then by evidence."""
-    first = list(attribution.accepted[:1])
-    first += [_best(attribution, c) for c in attribution.ambiguous]
-    first += attribution.accepted[1:]
-    taken = {e.test.column for e in first}
-    rest = [_best(attribution, c) for c in dict.fromkeys(e.test.column for e in attribution.evidence)
-            if c not in taken]
-    rest.sort(key=lambda e: (not e.passes, -e.test.gain))
-    return first + rest
+def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer:
+    """The model family the transfer refits use (:mod:`svrqp.gap.transfer`).
 
-
-def _best(attribution: Attribution, column: str) -> Evidence:
-    """A column's test: the one that stood for it in the rival checks, else its strongest (passing first)."""
-    if column in attribution.chosen:
-        return attribution.chosen[column]
-    own = [e for e in attribution.evidence if e.test.column == column]
-    return max(own, key=lambda e: (e.passes, e.test.gain))
-
-
-def _causes(attribution: Attribution, representatives: list[Evidence], r: np.ndarray, groups: np.ndarray,
-            rng: np.random.Generator, base_errors: np.ndarray) -> tuple[list[Cause], dict[str, np.ndarray]]:
-    """The causes table: one row per column, each shrink for that effect alone added to the base.
-
-    ``shrink_beyond_base`` is the same out-of-sample error against the base alone's: the
-    effect's own part, which can be negative when the effect does worse than the base.
+    Features mode: least squares of the target on an intercept and the features (``mlr``;
+    for ``svr`` and ``lssvr`` the same linear family, see the module docstring). Prediction
+    mode: the discrepancy model, target − prediction on an intercept.
     """
-    base_rmse = float(np.sqrt(np.mean(base_errors**2)))
+    ones = np.ones((len(data.y), 1))
+    if data.prediction is not None:
+        return LinearTransfer(data.y - data.prediction, ones, units, data.is_real)
+    return LinearTransfer(data.y, np.column_stack([ones, data.X]), units, data.is_real)
+
+
+def _within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray, base: BaseFit,
+                    rng: np.random.Generator) -> dict[str, tuple[float, tuple[float, float], float, float | None]]:
+    """Per column: the within-real-rows shrink, its interval, its p-value (BH) and its shrink beyond the base.
+
+    These numbers come from discrepancy models fitted on the real rows themselves: they say
+    what a per-run recalibration with the effect would remove, not what the effect buys on a
+    new run, and stay under their own keys.
+    """
+    out = {}
+    for column in dict.fromkeys(e.test.column for e in attribution.evidence):
+        ev = attribution.best(column)
+        estimate = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
+        beyond = 1.0 - estimate.rmse_after / base.rmse_after if base.rmse_after > 0 else None
+        out[column] = (estimate.shrink, (estimate.ci_low, estimate.ci_high), ev.q_value, beyond)
+    return out
+
+
+def _causes(ranking: Ranking, r: np.ndarray, refit_errors: np.ndarray, units: Units, real_units: np.ndarray,
+            within: dict, notes: dict, rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
+    """The causes table, best transfer first: one row per column with its transfer numbers.
+
+    ``real_units`` is the held-out unit of each real row; ``within`` the numbers of
+    :func:`_within_numbers`; ``notes`` the attribution's notes on columns.
+    """
+    index = bootstrap_index(units.n_units, rng)
     causes, errors_after = [], {}
-    for ev in representatives:
-        shrink = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
-        errors_after[ev.test.column] = shrink.errors
+    for row in ranking.ranked:
+        effect = row.effect
+        numbers = transfer_shrink(r, refit_errors, row.fit.errors, real_units, units.n_units, index)
+        w_shrink, w_ci, w_q, w_beyond = within.get(effect.column, (None, None, None, None))
+        note = row.note or notes.get(effect.column)
         causes.append(Cause(
-            column=ev.test.column, transform=ev.test.transform, tau=ev.test.tau, evidence=ev.test.bank.evidence,
-            p_value=ev.q_value,
-            p_raw=ev.test.p_value,
-            gain=ev.test.gain, significant=ev.passes, rmse_before=shrink.rmse_before, rmse_after=shrink.rmse_after,
-            shrink=shrink.shrink, shrink_ci=(shrink.ci_low, shrink.ci_high), round=ev.round,
-            note=attribution.notes.get(ev.test.column),
-            shrink_beyond_base=1.0 - shrink.rmse_after / base_rmse if base_rmse > 0 else None,
+            column=effect.column, transform=effect.transform, tau=row.tau,
+            evidence=EVIDENCE_BETWEEN if effect.run_level else "within runs",
+            p_value=row.q_value, p_raw=row.p_raw, gain=row.gain, significant=row.significant,
+            rmse_before=numbers.rmse_before, rmse_after=numbers.rmse_after, shrink=numbers.shrink,
+            shrink_ci=numbers.shrink_ci, round=1, note=note, ambiguous=row.ambiguous,
+            shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
+            shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
+            tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci,
         ))
+        errors_after[effect.column] = row.fit.errors
     return causes, errors_after
-
-
-def mark_ties(causes: list[Cause], undecided: list[str],
-              compare: Callable[[str, str], PairedComparison]) -> list[Cause]:
-    """Mark the causes that cannot be told apart from the top one.
-
-    A significant cause is tied with the top cause when the paired block-bootstrap test of
-    their out-of-sample losses (:func:`svrqp.gap.compare.paired_loss_test`) finds no
-    difference; the columns the conditional tests could not separate from it (``undecided``)
-    are tied as well. The top cause is marked when anything is tied with it.
-
-    Parameters
-    ----------
-    causes : list of Cause
-        Ranked causes table, best first.
-    undecided : list of str
-        Columns the conditional tests could not tell apart from the top cause.
-    compare : callable
-        ``compare(top, other)`` → the paired comparison of the two columns' out-of-sample
-        losses (the same one the rival checks of the attribution read, where they made it).
-
-    Returns
-    -------
-    list of Cause
-        The table with ``ambiguous`` and ``p_paired`` filled in.
-    """
-    if not causes or not causes[0].significant:
-        return causes
-    top, marked = causes[0], [causes[0]]
-    for cause in causes[1:]:
-        if not (cause.significant or cause.column in undecided):
-            marked.append(cause)
-            continue
-        test = compare(top.column, cause.column)
-        tied = test.tied or cause.column in undecided
-        note = cause.note
-        if test.tied and cause.column not in undecided:
-            note = _joined(note, f"fits as well as {top.column} (paired p = {test.p_value:.2g})")
-        marked.append(dataclasses.replace(cause, ambiguous=tied, p_paired=test.p_value, note=note))
-    tied = [c.column for c in marked[1:] if c.ambiguous and c.column not in undecided]
-    if tied:
-        marked[0] = dataclasses.replace(top, ambiguous=True, note=_joined(top.note, f"fits as well as {_names(tied)}"))
-    elif undecided:
-        marked[0] = dataclasses.replace(top, ambiguous=True)
-    return marked
-
-
-def _joined(note: str | None, text: str) -> str:
-    return text if not note else f"{note}; {text}"
 
 
 def _offsets_text(data: GapData) -> str:
@@ -405,62 +366,6 @@ def _base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarra
     return BaseFit(description, rmse_after, 1.0 - rmse_after / rmse_before), errors
 
 
-def _verdict(attribution, causes, errors_after, data, baseline, groups, gap, detected,
-             base: BaseFit, base_errors: np.ndarray, rng: np.random.Generator) -> tuple[Verdict, GateResult | None]:
-    train_groups = data.groups[data.is_train]
-    if not detected:
-        reason = (f"No gap beyond chance: the real-row RMSE {gap.real_rmse:.3g} is not significantly above the "
-                  f"train rows' out-of-sample error ({gap.train_rmse:.3g}) nor the noise ({gap.noise_rmse:.3g}); "
-                  "no cause is named.")
-        return Verdict(column=None, reason=reason), None
-    if attribution.verdict is None:
-        if attribution.accepted:  # strong evidence, but for several indistinguishable candidates
-            names = [causes[0].column, *attribution.ambiguous]
-            reason = (f"{', '.join(names)} explain the gap about equally well and cannot be told apart "
-                      "on these data; no single cause is named.")
-            return Verdict(column=None, reason=reason, ambiguous_with=names), None
-        reason = "No candidate explains the real-row error beyond chance (false-discovery rate "
-        reason += (f"{attr.ALPHA:g}, effect floor {attr.MIN_GAIN:.0%} of what a recalibration leaves and "
-                   f"{attr.MIN_AMPLITUDE:g}× the noise).")
-        return Verdict(column=None, reason=reason), None
-    top = causes[0]
-    if top.shrink_ci[0] <= 0.0:
-        # Significance says the candidate carries information; the interval says whether the
-        # real-row error actually shrinks. A verdict must claim both (naming a decoy is worse than null).
-        reason = (f"The {_effect_text(top, data.order_name)} passes the significance "
-                  f"test (q = {top.p_value:.2g}), but the out-of-sample shrink of the real-row RMSE it brings, "
-                  f"{top.shrink:.0%} (95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}), is not "
-                  "distinguishable from zero; no cause is named.")
-        return Verdict(column=None, reason=reason), None
-    after = errors_after[top.column]
-    beyond = top.shrink_beyond_base
-    beyond_ci = shrink_interval(base_errors, after, groups, rng)
-    if beyond is None or beyond_ci[0] <= 0.0:  # None: the base alone leaves no error to remove
-        # The effect must beat the base it is added to, out of sample: the test's gain picks the best
-        # variant on all rows, the nested estimate chooses it inside each fold and can lose.
-        reason = (f"The {_effect_text(top, data.order_name)} passes the significance "
-                  f"test (q = {top.p_value:.2g}), but out of sample it does not shrink the real-row error beyond "
-                  f"what the base alone ({base.description}) leaves: {beyond or 0.0:.0%} (95 % CI {beyond_ci[0]:.0%} … "
-                  f"{beyond_ci[1]:.0%}); no cause is named.")
-        return Verdict(column=None, reason=reason), None
-    refit = refit_shrink(data, baseline, effect_columns(data, top.column, top.transform, top.tau, top.evidence))
-    residual_gate = gate(after, groups, baseline.train_reference, train_groups)
-    reason = (f"The {_effect_text(top, data.order_name)} explains the gap "
-              f"(q = {top.p_value:.2g}); adding it shrinks the real-row RMSE by {top.shrink:.0%} out of sample "
-              f"(95 % CI {top.shrink_ci[0]:.0%} … {top.shrink_ci[1]:.0%}) — {beyond:.0%} beyond the base alone "
-              f"({base.description}; 95 % CI {beyond_ci[0]:.0%} … {beyond_ci[1]:.0%}), which gives {base.shrink:.0%}; "
-              + _refit_text(refit, top.column))
-    tied = [c.column for c in causes[1:] if c.ambiguous]
-    if tied:
-        reason += (f" Its fit cannot be told apart from that of {_names(tied)} (paired block-bootstrap test of the "
-                   f"out-of-sample losses); the verdict stays on it because {_why_it_stays(attribution, tied)}.")
-    return Verdict(column=top.column, reason=reason, transform=top.transform, tau=top.tau, evidence=top.evidence,
-                   shrink=top.shrink,
-                   shrink_ci=top.shrink_ci, shrink_beyond_base=beyond, shrink_beyond_base_ci=beyond_ci,
-                   refit_shrink=refit, rmse_before=top.rmse_before,
-                   rmse_after=top.rmse_after, p_value=top.p_value, ambiguous_with=tied), residual_gate
-
-
 def _refit_text(refit: float | None, column: str) -> str:
     """The verdict's refit of the model family on the train rows, in words (a loss said as one)."""
     if refit is None:
@@ -469,19 +374,6 @@ def _refit_text(refit: float | None, column: str) -> str:
         return (f"refitting the model on the train rows with it as an input makes the real-row error larger "
                 f"({refit:.0%}): what the train rows show of it does not carry over to the real rows.")
     return f"refitting the model with it as an input shrinks it by {refit:.0%}."
-
-
-def _why_it_stays(attribution: Attribution, tied: list[str]) -> str:
-    """Why the verdict stays on the top cause although ``tied`` fit the real rows as well."""
-    simpler = [c for c in tied if attribution.decided_by.get(c) == attr.BY_PARAMETERS]
-    informed = [c for c in tied if c not in simpler]
-    reasons = []
-    if informed:
-        reasons.append("the conditional tests, on the evidence where the candidates decorrelate, favour it or credit "
-                       "each with its own information" + (f" ({_names(informed)})" if simpler else ""))
-    if simpler:
-        reasons.append(f"it needs fewer parameters than {_names(simpler)} for the same fit (parsimony)")
-    return " and ".join(reasons)
 
 
 def _names(columns: list[str]) -> str:
@@ -504,53 +396,162 @@ def _quantity(value: float, unit: str | None) -> str:
     return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
 
 
-def _summary(data: GapData, gap: GateResult, detected: bool, where: list[Region], verdict: Verdict,
-             exact: bool, inputs: list[InputUse]) -> str:
-    """The gap in one sentence: how large, where, what explains it (and a model used beyond its data)."""
+
+
+def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.ndarray], data: GapData,
+             baseline: Baseline, groups: np.ndarray, gap: GateResult, detected: bool, base: BaseFit,
+             units: Units) -> tuple[Verdict, GateResult | None]:
+    """The cause the engine stands behind: the best-transferring significant one (:mod:`svrqp.gap.ranking`).
+
+    It must come with a gap (one-sided gate), pass the transfer test, leave the real rows better
+    than the given model does (``shrink > 0``), and — with enough held-out units for a
+    bootstrap over them to mean anything (:data:`svrqp.gap.transfer.THIN_UNITS`) — its shrink
+    beyond the refit must have an interval above zero. With thin evidence the reason and the
+    summary say so instead.
+    """
+    thin = _thin_text(units)
+    recalibration = (f" A per-run recalibration fitted on the real rows themselves ({base.description}) would "
+                     f"remove {base.shrink:.0%} of the real-row error; no new run gets that.")
+    if not detected:
+        everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
+        reason = (f"No gap: the real-row RMSE {gap.real_rmse:.3g} is {'not above' if gap.real_rmse <= gap.train_rmse else 'not significantly above'} "
+                  f"the train rows' {_train_label(data)} error ({gap.train_rmse:.3g}) beyond chance; no column is "
+                  "named as the gap's cause.")
+        if everywhere:
+            reason += (f" Adding {_names(everywhere)} would still improve the model on held-out runs everywhere "
+                       "(see the causes table).")
+        return Verdict(column=None, reason=reason, thin=units.thin), None
+    top = ranking.top
+    if top is None:
+        reason = ("No candidate improves the model on held-out runs beyond chance (transfer surrogate test, "
+                  f"false-discovery rate {attr.ALPHA:g}, effect floor {attr.MIN_GAIN:.0%} of the refit's squared "
+                  f"error).{thin}{recalibration}")
+        return Verdict(column=None, reason=reason, thin=units.thin), None
+    cause = next(c for c in causes if c.column == top.effect.column)
+    if cause.shrink <= 0.0:
+        reason = (f"The {_effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}) and "
+                  f"adds {cause.shrink_beyond_refit:.0%} to a refit, but the refit with it still leaves the real-row "
+                  f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
+                  f"cause is named.{thin}{recalibration}")
+        return Verdict(column=None, reason=reason, thin=units.thin), None
+    if cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin:
+        reason = (f"The {_effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}), "
+                  f"but what it adds to a refit is not above zero on every resample of the held-out "
+                  f"{_unit_word(units)}s: {cause.shrink_beyond_refit:.0%} (95 % CI "
+                  f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
+                  f"{thin}{recalibration}")
+        return Verdict(column=None, reason=reason, thin=units.thin), None
+    train_refit = refit_shrink(data, baseline, effect_columns(data, cause.column, cause.transform, cause.tau,
+                                                              cause.evidence))
+    after = errors_after[cause.column]
+    residual_gate = gate(after, groups, baseline.train_reference, data.groups[data.is_train])
+    reason = (f"The {_effect_text(cause, data.order_name)} transfers: refitting the model with it, "
+              f"leave-one-{_unit_word(units)}-out over all rows, shrinks the real-row RMSE from "
+              f"{cause.rmse_before:.3g} to {cause.rmse_after:.3g} ({cause.shrink:.0%}, 95 % CI {cause.shrink_ci[0]:.0%} … "
+              f"{cause.shrink_ci[1]:.0%}), {cause.shrink_beyond_refit:.0%} beyond the same refit without it "
+              f"({cause.rmse_refit:.3g}; CI {cause.shrink_beyond_refit_ci[0]:.0%} … "
+              f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q = {cause.p_value:.2g}. "
+              + _capitalised(_refit_text(train_refit, cause.column)) + thin + recalibration)
+    if ranking.ambiguous_with:
+        reason += (f" On held-out runs it cannot be told apart from {_names(ranking.ambiguous_with)} (neither adds "
+                   "to the other in a conditional transfer test); it stays named because it transfers best.")
+    return Verdict(column=cause.column, reason=reason, transform=cause.transform, tau=cause.tau,
+                   evidence=cause.evidence, shrink=cause.shrink, shrink_ci=cause.shrink_ci,
+                   refit_shrink=train_refit, rmse_before=cause.rmse_before, rmse_after=cause.rmse_after,
+                   p_value=cause.p_value, ambiguous_with=list(ranking.ambiguous_with), rmse_refit=cause.rmse_refit,
+                   shrink_beyond_refit=cause.shrink_beyond_refit,
+                   shrink_beyond_refit_ci=cause.shrink_beyond_refit_ci, thin=units.thin), residual_gate
+
+
+def _capitalised(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def _unit_word(units: Units) -> str:
+    return "block" if units.kind == "blocks" else "run"
+
+
+def _thin_text(units: Units) -> str:
+    """The sentence on thin or short transfer evidence (empty when there is none to make)."""
+    if units.kind == "blocks" and units.short:
+        return (f" The record is too short for {MIN_BLOCKS} blocks as long as the residual stays correlated "
+                f"({units.decorrelation_rows} rows): it is cut into {units.n_units} shorter blocks, so the transfer "
+                "numbers are optimistic.")
+    if units.thin:
+        return (f" Only {units.n_units} held-out {_unit_word(units)}s carry the transfer evidence: it is thin, and "
+                "one more run could change it.")
+    return ""
+
+
+def _train_label(data: GapData) -> str:
+    """How the train-row error was measured: the footing the real rows are compared on."""
+    return "prediction" if data.prediction is not None else "cross-validated"
+
+
+def _summary(data: GapData, gap: GateResult, detected: bool, verdict: Verdict, exact: bool,
+             inputs: list[InputUse], transfer: dict, units: Units) -> str:
+    """At most two sentences and 60 words: the gap, and what fixes it on held-out runs."""
     unit = unit_of(data.target)
+    n_real = int(data.is_real.sum())
     if exact:
-        return (f"On the {int(data.is_real.sum())} real rows the model reproduces {data.target} exactly (zero "
-                "residual): there is no gap and no cause is named.")
-    text = (f"On the {int(data.is_real.sum())} real rows the error of {data.target} is "
-            f"{_quantity(gap.real_rmse, unit)} RMS against {_quantity(gap.train_rmse, unit)} on the train rows")
-    top = where[0] if where else None
-    within = next((region for region in where if region.group is not None), None)
-    run_part = ("" if within is None else f"within run {within.group} alone at {within.column} {within.low:.4g} … "
-                f"{within.high:.4g}, {within.share_of_run:.0%} of that run's")
-    if top is not None and top.share < 0.999:
-        text += (f"; it concentrates at {top.column} {top.low:.4g} … {top.high:.4g} ({top.share:.0%} of the squared error"
-                 + (f"; {run_part})" if run_part else ")"))
-    elif run_part:
-        text += f"; it concentrates {run_part} squared error"
+        return f"On the {n_real} real rows the model reproduces {data.target} exactly: no gap, no cause named."
+    first = (f"On {n_real} real rows {data.target} is off by {_quantity(gap.real_rmse, unit)} RMS against "
+             f"{_quantity(gap.train_rmse, unit)} {_train_label(data)} on the train rows")
+    if not detected:
+        return first + "; that is no gap, so no cause is named."
+    held = f"{units.n_units} held-out {_unit_word(units)}s"
+    caveat = ("; thin evidence" if units.thin else "") + ("; blocks shorter than the error's correlation"
+                                                        if units.kind == "blocks" and units.short else "")
+    extrapolated = [u for u in inputs if u.role == "input" and u.extrapolated]
+    refit_gain = transfer["rmse_before"] - (transfer["rmse_refit"] or transfer["rmse_before"])
+    if extrapolated and refit_gain >= 0.5 * (gap.real_rmse - gap.train_rmse):
+        worst = _most_outside(extrapolated)
+        second = (f"The model is used outside its data ({worst.column} on {worst.outside:.0%} of real rows); "
+                  f"refitting with the new runs removes {transfer['shrink_refit']:.0%}")
+        if verdict.column is not None:
+            second += f", adding the {_short_effect(verdict)} {verdict.shrink:.0%}"
+        return f"{first}. {second} on {held}" + (f" ({caveat[2:]})." if caveat else ".")
     if verdict.column is not None:
-        text += (f", and the {_effect_text(verdict, data.order_name)} "
-                 f"explains it: adding it shrinks the error by {verdict.shrink:.0%} out of sample")
+        second = (f"Adding the {_short_effect(verdict)} and refitting shrinks it by {verdict.shrink:.0%} on "
+                  f"{held} (refit alone: {transfer['shrink_refit']:.0%}{caveat})")
         if verdict.ambiguous_with:
-            verb = "explains" if len(verdict.ambiguous_with) == 1 else "explain"
-            text += f", though {_names(verdict.ambiguous_with)} {verb} it about as well and cannot be told apart from it"
-        text += "."
-    elif not detected:
-        text += "; it is not beyond the train rows' error or the noise, so no cause is named."
-    elif verdict.ambiguous_with:
-        text += f"; {_names(verdict.ambiguous_with)} explain it equally well and cannot be told apart."
-    else:
-        text += "; no candidate explains it beyond chance."
-    extrapolated = [u for u in inputs if u.extrapolated]
-    if detected and extrapolated:
-        worst = max(extrapolated, key=lambda u: u.recalibration_shrink)
-        unit = unit_of(worst.column)
-        text += (f" The model is used beyond its data: {worst.column} lies outside its train range "
-                 f"({_quantity(worst.train_low, None)} … {_quantity(worst.train_high, unit)}) on "
-                 f"{worst.outside:.0%} of the real rows")
-        offsets = _offsets_text(data)
-        # A recalibration that removes nothing is said so, not printed as a negative shrink.
-        if worst.beyond_offsets is not None and worst.beyond_offsets <= 0:
-            text += f", though recalibrating it removes nothing out of sample beyond what {offsets} alone does."
-        elif worst.recalibration_shrink <= 0:
-            text += ", though recalibrating it does not reduce the error out of sample."
-        else:
-            text += f", and recalibrating it alone shrinks the error by {worst.recalibration_shrink:.0%} out of sample"
-            if worst.beyond_offsets is not None:
-                text += f", {worst.beyond_offsets:.0%} of what {offsets} alone leaves"
-            text += "."
-    return text
+            second += (f"; {_names(verdict.ambiguous_with[:2])} "
+                       + ("does" if len(verdict.ambiguous_with) == 1 else "do") + " about as well")
+        return f"{first}. {second}."
+    return f"{first}. No candidate improves a refit on {held} beyond chance" + (f" ({caveat[2:]})." if caveat else ".")
+
+
+def _most_outside(uses: list[InputUse]) -> InputUse:
+    """The input used furthest outside its data: most real rows outside, then the largest recalibration."""
+    return max(uses, key=lambda u: (u.outside, u.recalibration_shrink))
+
+
+def _short_effect(verdict: Verdict) -> str:
+    """``lag of T1_C (τ 125)`` — the verdict's effect in few words."""
+    text = f"{verdict.transform} of {verdict.column}"
+    if verdict.evidence == EVIDENCE_BETWEEN:
+        return text + " (constant within each run)"
+    return text + (f" (τ {verdict.tau:.3g})" if verdict.tau is not None else "")
+
+
+def _extrapolation_text(data: GapData, inputs: list[InputUse], transfer: dict, units: Units) -> str:
+    """The reason's sentence on model inputs used outside their train range (empty when none is)."""
+    extrapolated = [u for u in inputs if u.role == "input" and u.extrapolated]
+    if not extrapolated:
+        return ""
+    worst = _most_outside(extrapolated)
+    text = (f" The model is used beyond its data: {worst.column} lies outside its train range "
+            f"({_quantity(worst.train_low, None)} … {_quantity(worst.train_high, unit_of(worst.column))}) on "
+            f"{worst.outside:.0%} of the real rows; refitting leave-one-{_unit_word(units)}-out over all rows "
+            + (f"removes {transfer['shrink_refit']:.0%} of the real-row error" if transfer["shrink_refit"] > 0
+               else f"does not reduce the real-row error (the held-out {_unit_word(units)}s lie outside the others' "
+                    "range too)"))
+    offsets = _offsets_text(data)
+    if worst.beyond_offsets is not None and worst.beyond_offsets <= 0:
+        return text + f", and recalibrating it removes nothing out of sample beyond what {offsets} alone does."
+    if worst.recalibration_shrink <= 0:
+        return text + ", and recalibrating it on the real rows does not reduce the error out of sample."
+    text += f", while recalibrating it on the real rows would remove {worst.recalibration_shrink:.0%}"
+    if worst.beyond_offsets is not None:
+        text += f", {worst.beyond_offsets:.0%} of what {offsets} alone leaves"
+    return text + "."

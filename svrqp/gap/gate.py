@@ -29,10 +29,12 @@ Excess over noise
     the guard against naming a cause).
 
 Decision
-    A gap exists when the real-row error exceeds the train rows' out-of-sample error or the
-    noise level (:math:`\min(p_\mathrm{excess}, p_\mathrm{noise}) < \alpha`): an unmodelled
-    effect that was as active on the train rows leaves the real rows no worse than the train
-    rows, but still well above the noise. No cause is named without a gap.
+    The gate is one-sided. A gap exists only when the real rows fit worse than the train rows
+    (:math:`s_r > s_t`, both out of sample: the model never saw the real rows, and the train
+    reference is cross-validated, or in prediction mode the prediction's own train-row error)
+    and that excess is beyond chance against the train reference or the noise level
+    (:math:`\min(p_\mathrm{excess}, p_\mathrm{noise}) < \alpha`). Real rows that fit no worse
+    than the train rows are no gap, whatever the noise test says; no cause is then named.
 
 Whiteness
     The Ljung–Box statistic of the real-row residual, pooled over groups,
@@ -185,4 +187,4 @@ def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_gro
 
 def gap_detected(result: GateResult) -> bool:
     """Whether the gate finds a gap beyond chance (see "Decision" in the module docstring)."""
-    return min(result.p_excess, result.p_noise) < ALPHA
+    return result.real_rmse > result.train_rmse and min(result.p_excess, result.p_noise) < ALPHA

@@ -7,7 +7,7 @@ that hardly moved on the train rows, so that its coefficient was never learned, 
 lot. S0's story is the second kind: in summer the ambient air hardly changed, so an MLR on the
 air temperature cannot know what an autumn morning does.
 
-For every model feature :math:`x_j` (features mode) this step reports
+For every model feature :math:`x_j` (features mode) and every candidate (``role``) this step reports
 
 * its range on the train rows and on the real rows, and the share of real rows outside the
   train range (:math:`x < \min_\mathrm{train}` or :math:`x > \max_\mathrm{train}`);
@@ -60,6 +60,9 @@ class InputUse:
     beyond_offsets : float or None
         What this input's recalibration removes of the error the offsets alone leave, out of
         sample (None when the offsets leave no error).
+    role : {"input", "candidate"}
+        A model input, or a candidate (its train range is read where it is recorded; NaN
+        when it is recorded on the real rows only).
     """
 
     column: str
@@ -70,6 +73,7 @@ class InputUse:
     outside: float
     recalibration_shrink: float
     beyond_offsets: float | None
+    role: str = "input"
 
     @property
     def extrapolated(self) -> bool:
@@ -78,7 +82,7 @@ class InputUse:
 
 
 def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.ndarray]) -> list[InputUse]:
-    """Range and recalibration check of every model feature (empty in prediction mode).
+    """Range and recalibration check of every model feature and every candidate.
 
     Parameters
     ----------
@@ -94,22 +98,26 @@ def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.
     Returns
     -------
     list of InputUse
-        One per feature, in the order of ``data.features``.
+        One per feature, in the order of ``data.features``, then one per candidate that is
+        not a feature.
     """
-    if not data.features:  # prediction mode: no inputs, and no offsets-only fit to compare them with
-        return []
     train, real = data.is_train, data.is_real
     before = float(np.sqrt(np.mean(r**2)))
     offsets_only = float(np.sqrt(np.mean(CrossValidatedDiscrepancy(r, offsets, folds).errors_base**2)))
     uses = []
-    for j, column in enumerate(data.features):
-        x = data.X[:, j]
-        low, high = float(x[train].min()), float(x[train].max())
-        own, varying = standardised(np.column_stack([x, smooth(x, data.groups)])[real])
+    columns = [(c, data.X[:, j], "input") for j, c in enumerate(data.features)]
+    columns += [(c, data.C[:, j], "candidate") for j, c in enumerate(data.candidates) if c not in data.features]
+    for column, x, role in columns:
+        seen = x[train][np.isfinite(x[train])]
+        low, high = (float(seen.min()), float(seen.max())) if seen.size else (float("nan"), float("nan"))
+        # A candidate may be unrecorded on the train rows: it is smoothed on the real rows alone.
+        smoothed = smooth(x, data.groups)[real] if role == "input" else smooth(x[real], data.groups[real])
+        own, varying = standardised(np.column_stack([x[real], smoothed]))
         own = own[:, varying]
         after = float(np.sqrt(np.mean(CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base**2)))
         shrink = 1.0 - after / before if before > 0 else 0.0
         beyond = 1.0 - after / offsets_only if offsets_only > 0 else None
-        outside = float(np.mean((x[real] < low) | (x[real] > high)))
-        uses.append(InputUse(column, low, high, float(x[real].min()), float(x[real].max()), outside, shrink, beyond))
+        outside = float(np.mean((x[real] < low) | (x[real] > high))) if seen.size else 1.0
+        uses.append(InputUse(column, low, high, float(x[real].min()), float(x[real].max()), outside, shrink, beyond,
+                             role))
     return uses

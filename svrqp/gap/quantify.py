@@ -1,6 +1,11 @@
-r"""How far the real-row error shrinks once an effect is added — out of sample.
+r"""Within the real rows: what a per-run recalibration with an effect would remove, and the train-rows refit.
 
-Shrink
+These are not the report's transfer numbers (:mod:`svrqp.gap.transfer`): the discrepancy model
+is fitted on the real rows themselves, so they answer "would a per-run recalibration fix it?"
+(``within_shrink`` in the causes table), and the refit on the train rows alone answers "can the
+train rows teach the effect?" (``verdict.refit_shrink``).
+
+Shrink within the real rows
     With :math:`r` the baseline residual on the real rows and :math:`e` the out-of-sample
     error of the discrepancy model "base + effect" (blocked cross-validation,
     :mod:`svrqp.gap.discrepancy`),

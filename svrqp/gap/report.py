@@ -41,7 +41,15 @@ def load_schema() -> dict:
 
 @dataclass(frozen=True)
 class Cause:
-    """One row of the ranked causes table (see :mod:`svrqp.gap.attribute`)."""
+    """One row of the causes table, ranked by transfer gain (:mod:`svrqp.gap.ranking`).
+
+    ``rmse_before``, ``rmse_refit``, ``rmse_after``, ``shrink``, ``shrink_ci``,
+    ``shrink_beyond_refit`` and its interval are the transfer numbers of
+    :mod:`svrqp.gap.transfer`; ``gain``, ``p_raw`` and ``p_value`` those of the transfer test.
+    The ``within_*`` keys, ``p_within`` and ``shrink_beyond_base`` come from the discrepancy
+    model fitted on the real rows themselves (:mod:`svrqp.gap.attribute`): what a per-run
+    recalibration would remove, never a transfer number.
+    """
 
     column: str
     transform: str
@@ -60,6 +68,13 @@ class Cause:
     ambiguous: bool = False
     p_paired: float | None = None
     shrink_beyond_base: float | None = None
+    rmse_refit: float | None = None
+    shrink_beyond_refit: float | None = None
+    shrink_beyond_refit_ci: tuple[float, float] | None = None
+    tested: bool = False
+    p_within: float | None = None
+    within_shrink: float | None = None
+    within_shrink_ci: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -73,23 +88,24 @@ class Verdict:
     evidence: str | None = None
     shrink: float | None = None
     shrink_ci: tuple[float, float] | None = None
-    shrink_beyond_base: float | None = None
-    shrink_beyond_base_ci: tuple[float, float] | None = None
     refit_shrink: float | None = None
     rmse_before: float | None = None
     rmse_after: float | None = None
     p_value: float | None = None
     ambiguous_with: list[str] = field(default_factory=list)
+    rmse_refit: float | None = None
+    shrink_beyond_refit: float | None = None
+    shrink_beyond_refit_ci: tuple[float, float] | None = None
+    thin: bool = False
 
 
 @dataclass(frozen=True)
 class BaseFit:
-    """What the discrepancy base alone does, before any candidate is added.
+    """What the discrepancy base alone, fitted on the real rows themselves, removes: a per-run recalibration.
 
-    Every cause's shrink is for the base *plus* that effect, measured against the model's raw
-    residual; the base (per-group offsets and, in features mode, a recalibration of the model's
-    own inputs) already takes part of the error, and a cause's ``shrink_beyond_base`` is what it
-    adds, out of sample.
+    The base (per-group offsets and, in features mode, a recalibration of the model's own inputs)
+    is what the within-real-rows numbers of a cause (``within_shrink``, ``shrink_beyond_base``)
+    build on; no new run gets it, so it never enters a transfer shrink.
 
     Attributes
     ----------
@@ -137,6 +153,8 @@ class GapReport:
     base: BaseFit
     inputs: list[InputUse]
     summary: str
+    transfer: dict[str, Any]
+    blocks: dict[str, Any] | None
     settings: dict[str, Any]
     runtime_s: float
     series: Series = field(repr=False)
@@ -171,6 +189,8 @@ class GapReport:
             "verdict": asdict(self.verdict),
             "residual_gate": residual_gate,
             "base": asdict(self.base),
+            "transfer": self.transfer,
+            "blocks": self.blocks,
             "inputs": [asdict(u) | {"extrapolated": u.extrapolated} for u in self.inputs],
             "summary": self.summary,
             "settings": self.settings,
@@ -238,11 +258,12 @@ class GapReport:
                  [[r.column, "all" if r.group is None else r.group, _num(r.low, BOUND_DIGITS), _num(r.high, BOUND_DIGITS), _num(r.rmse),
                    share_text(r.share), "–" if r.share_of_run is None else share_text(r.share_of_run), str(r.n)]
                   for r in self.where])
-        causes = (["rank", "column", "transform", "τ", "p (BH)", "gain", f"{rmse} after", "shrink (95 % CI)",
-                   "beyond the base", "note"],
-                  [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.gain), _num(c.rmse_after),
+        causes = (["rank", "column", "transform", "τ", "q (transfer)", f"{rmse} after", "shrink (95 % CI)",
+                   "beyond the refit", "per-run recalibration", "note"],
+                  [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.rmse_after),
                     f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
-                    "–" if c.shrink_beyond_base is None else f"{c.shrink_beyond_base:.0%}",
+                    "–" if c.shrink_beyond_refit is None else f"{c.shrink_beyond_refit:.0%}",
+                    "–" if c.within_shrink is None else f"{c.within_shrink:.0%}",
                     c.note or ("significant" if c.significant else "")]
                    for i, c in enumerate(self.causes)])
         g = self.gap
@@ -250,9 +271,9 @@ class GapReport:
                 "p (white residual)", "gap"],
                [[_num(g.train_rmse), _num(g.real_rmse), _num(g.ratio), _num(g.p_excess), _num(g.noise_rmse),
                  _num(g.p_noise), _num(g.p_white), "detected" if self.gap_detected else "not detected"]])
-        inputs = (["input", "train range", "real range", "real rows outside", "recalibration shrink",
+        inputs = (["input", "role", "train range", "real range", "real rows outside", "recalibration shrink",
                    "beyond the offsets"],
-                  [[u.column, _range(u.train_low, u.train_high, unit_of(u.column)),
+                  [[u.column, u.role, _range(u.train_low, u.train_high, unit_of(u.column)),
                     _range(u.real_low, u.real_high, unit_of(u.column)),
                     share_text(u.outside), f"{u.recalibration_shrink:.0%}",
                     "–" if u.beyond_offsets is None else f"{u.beyond_offsets:.0%}"]
@@ -288,11 +309,14 @@ class GapReport:
         return "\n\n".join(render[kind](content) for kind, content in self._blocks(figure_names)) + "\n"
 
     def _base_sentence(self) -> str:
-        """How to read the shrink column: what the base alone already does."""
-        return (f"Each shrink is that of the discrepancy model \"base + the effect\" against the model's raw "
-                f"residual; the base alone ({self.base.description}) shrinks it by {self.base.shrink:.0%} out of "
-                "sample, and \"beyond the base\" is what the effect removes of what the base leaves, out of sample "
-                "(negative: it does worse than the base).")
+        """How to read the shrink columns: transfer numbers, and the per-run recalibration apart."""
+        refit = self.transfer.get("shrink_refit")
+        refit_text = "" if refit is None else f" (the refit alone: {refit:.0%})"
+        return ("Each shrink is a transfer number: the model refitted leave-one-run-out over all rows with the effect "
+                "added, scored on the real rows it never saw, against the given model's real-row error; \"beyond the "
+                f"refit\" is against the same refit without the effect{refit_text}. \"per-run recalibration\" is what a "
+                "discrepancy model fitted on the real rows themselves removes — the base alone "
+                f"({self.base.description}) removes {self.base.shrink:.0%} — which no new run gets.")
 
     def _html(self) -> str:
         figures = self._figures()

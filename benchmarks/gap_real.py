@@ -1,0 +1,268 @@
+"""An independent check of ``svrqp gap`` on real data: FL_THERMAL, leave-one-cycle-out refits.
+
+The checker imports nothing of ``svrqp.gap``: it reads FL_THERMAL (:mod:`gap_fl_data`), fits
+every model with plain :func:`numpy.linalg.lstsq`, computes the candidate transforms from their
+definitions, and runs the engine only through its command line (``svrqp gap … --json``).
+
+Models
+    For each of the five displacement channels, the :data:`PAIRS_PER_CHANNEL` two-sensor
+    linear models (intercept + two temperatures) with the lowest leave-one-cycle-out RMSE on
+    the train cycles (1250, 2500, 3750 rpm; every cycle is a run and the stop after it). The
+    real rows are the 5000 rpm cycle and the mixed-speed run.
+
+The checker's answer (DESIGN §4, "What shrink means")
+    For every candidate (the other 14 temperatures and the spindle speed) × {level, rate,
+    lag}: the model refitted leave-one-cycle-out over all five cycles with the effect added,
+    scored on the real rows. ``level`` adds :math:`x`; ``rate`` :math:`\\mathrm{d}x/\\mathrm{d}t`
+    (:func:`numpy.gradient` within each cycle); ``lag`` adds :math:`x` and its first-order
+    low-pass :math:`x_\\tau` (restarted in equilibrium at each cycle start), :math:`\\tau` taken
+    from a geometric grid of :data:`N_TAU` values from max(2 sampling steps, median cycle
+    span/100) to half the median cycle span, chosen inside each fit by the smallest squared
+    error on the fit's own rows. ``shrink = 1 − rmse_after / rmse_before`` with
+    ``rmse_before`` the model fitted on the train cycles; ``beyond_refit = 1 − rmse_after /
+    rmse_refit``. A column's score is its best transform; a candidate *transfers* when its
+    shrink beyond the refit is at least :data:`TRANSFERS`.
+
+Scores of the engine
+    * top-3 hit: the verdict's column is among the checker's three best columns (a verdict
+      withheld while some candidate transfers is a miss; withheld while none does, a hit);
+    * shrink error: ``|verdict.shrink − checker's shrink for that column and transform|``;
+    * false verdict: a verdict where no candidate transfers or there is no gap.
+    Withheld-sensor experiment: for each channel's best pair the better sensor alone is
+    withheld and offered as a candidate; with a gap the engine passes when it names the withheld
+    sensor or a candidate whose independent refit transfers at least as well (best shrink ≥ the
+    withheld sensor's best shrink − :data:`AS_WELL`), without one when it names nothing.
+
+Run: ``python benchmarks/gap_real.py`` — writes ``benchmarks/results/gap_real.{csv,md}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from svrqp.bench_report import markdown_table
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from gap_fl_data import ASSESS_CYCLES, CHANNELS, DEFAULT_DATA, REPO, TEMPERATURES, TRAIN_CYCLES, load_fl  # noqa: E402
+
+RESULTS = REPO / "benchmarks" / "results"
+EVERY = 4
+"""Every fourth sample (one a minute), as the case study."""
+PAIRS_PER_CHANNEL = 4
+N_TAU = 8
+TRANSFERS = 0.05
+AS_WELL = 0.005
+TOP = 3
+SHRINK_TARGET, HIT_TARGET = 0.05, 0.9
+
+
+# -- the checker's own computations ------------------------------------------------------------------
+
+def lstsq_predict(D_fit: np.ndarray, y_fit: np.ndarray, D_new: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares prediction of ``D_new`` and the fit's own squared error."""
+    coef, *_ = np.linalg.lstsq(D_fit, y_fit, rcond=None)
+    return D_new @ coef, float(np.sum((y_fit - D_fit @ coef) ** 2))
+
+
+def tau_grid(table: pd.DataFrame) -> np.ndarray:
+    """The geometric grid of time constants (module docstring)."""
+    steps, spans = [], []
+    for _, part in table.groupby("cycle", sort=False):
+        t = part["time_min"].to_numpy()
+        steps.extend(np.diff(t))
+        spans.append(t[-1] - t[0])
+    span = float(np.median(spans))
+    low = max(2 * float(np.median(steps)), span / 100)
+    return np.geomspace(low, max(span / 2, 2 * low), N_TAU)
+
+
+def transforms(table: pd.DataFrame, column: str, taus: np.ndarray) -> dict[str, list[np.ndarray]]:
+    """Each transform's variants as input columns (``lag``: one per time constant)."""
+    x = table[column].to_numpy(float)
+    rate, lagged = np.empty_like(x), np.empty((x.size, taus.size))
+    for _, rows in table.groupby("cycle", sort=False).indices.items():
+        t = table["time_min"].to_numpy()[rows]
+        rate[rows] = np.gradient(x[rows], t)
+        for j, tau in enumerate(taus):
+            state = x[rows[0]]
+            for k, row in enumerate(rows):
+                if k:
+                    state += (1 - np.exp(-(t[k] - t[k - 1]) / tau)) * (x[row] - state)
+                lagged[row, j] = state
+    return {"level": [x[:, None]], "rate": [rate[:, None]],
+            "lag": [np.column_stack([x, lagged[:, j]]) for j in range(taus.size)]}
+
+
+def loco_rmse(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, variants: list[np.ndarray]) -> float:
+    """Real-row RMSE of the leave-one-cycle-out refit of ``y`` on ``base`` + the best variant per fit."""
+    cycle = table["cycle"].to_numpy()
+    squared = []
+    for held in ASSESS_CYCLES:
+        test = cycle == held
+        best = None
+        for extra in variants:
+            D = np.column_stack([base, extra])
+            prediction, sse = lstsq_predict(D[~test], y[~test], D[test])
+            if best is None or sse < best[1]:
+                best = (prediction, sse)
+        squared.append((y[test] - best[0]) ** 2)
+    return float(np.sqrt(np.mean(np.concatenate(squared))))
+
+
+def checker(table: pd.DataFrame, target: str, features: list[str], candidates: list[str],
+            banks: dict[str, dict[str, list[np.ndarray]]]) -> tuple[dict[str, float], pd.DataFrame]:
+    """The checker's numbers for one model: train CV, before, refit, and every candidate × transform."""
+    y = table[target].to_numpy(float)
+    train = table["cycle"].isin(TRAIN_CYCLES).to_numpy()
+    base = np.column_stack([np.ones(y.size), table[features].to_numpy(float)])
+    prediction, _ = lstsq_predict(base[train], y[train], base[~train])
+    before = float(np.sqrt(np.mean((y[~train] - prediction) ** 2)))
+    refit = loco_rmse(table, y, base, [np.zeros((y.size, 0))])
+    rows = []
+    for column in candidates:
+        for transform, variants in banks[column].items():
+            after = loco_rmse(table, y, base, variants)
+            rows.append({"column": column, "transform": transform, "rmse_after": after,
+                         "shrink": 1 - after / before, "beyond_refit": 1 - after / refit})
+    train_cv = cv_rmse(table[train], target, features)
+    return {"rmse_train_cv": train_cv, "rmse_before": before, "rmse_refit": refit}, pd.DataFrame(rows)
+
+
+def cv_rmse(train: pd.DataFrame, target: str, features: list[str]) -> float:
+    """Leave-one-cycle-out RMSE of the linear model on the train cycles."""
+    squared = []
+    for held in TRAIN_CYCLES:
+        fit, test = train[train["cycle"] != held], train[train["cycle"] == held]
+        D_fit = np.column_stack([np.ones(len(fit)), fit[features].to_numpy(float)])
+        D_new = np.column_stack([np.ones(len(test)), test[features].to_numpy(float)])
+        prediction, _ = lstsq_predict(D_fit, fit[target].to_numpy(float), D_new)
+        squared.append((test[target].to_numpy(float) - prediction) ** 2)
+    return float(np.sqrt(np.mean(np.concatenate(squared))))
+
+
+def best_pairs(train: pd.DataFrame, target: str) -> list[tuple[str, str]]:
+    scores = {pair: cv_rmse(train, target, list(pair)) for pair in itertools.combinations(TEMPERATURES, 2)}
+    return sorted(scores, key=scores.get)[:PAIRS_PER_CHANNEL]
+
+
+# -- the engine, through its command line -----------------------------------------------------------
+
+def engine(csv: Path, target: str, features: list[str], candidates: list[str], out: Path) -> dict:
+    """``svrqp gap`` on the table written to ``csv``; its JSON."""
+    command = [sys.executable, "-c", "import sys; from svrqp.cli import main; sys.exit(main())", "gap", str(csv),
+               "--target", target, "--train", "cycle in " + repr(list(TRAIN_CYCLES)), "--features", ",".join(features),
+               "--candidates", ",".join(candidates), "--order", "time_min", "--group", "cycle",
+               "--json", str(out), "--force"]
+    subprocess.run(command, check=True, capture_output=True, text=True, env=os.environ | {"PYTHONPATH": str(REPO)})
+    return json.loads(out.read_text(encoding="utf-8"))
+
+
+def score(kind: str, target: str, features: list[str], withheld: str | None, numbers: dict, table: pd.DataFrame,
+          report: dict, seconds: float) -> dict:
+    """One row of the results table."""
+    by_column = table.sort_values("shrink", ascending=False).drop_duplicates("column").reset_index(drop=True)
+    transfers = bool((by_column["beyond_refit"] >= TRANSFERS).any())
+    gap = numbers["rmse_before"] > numbers["rmse_train_cv"]  # one-sided: real rows worse than the train cycles
+    verdict = report["verdict"]
+    named = verdict["column"]
+    top = list(by_column["column"][:TOP])
+    checker_shrink = error = None
+    if named is not None:
+        match = table[(table["column"] == named) & (table["transform"] == verdict["transform"])]
+        checker_shrink = float(match["shrink"].iloc[0])
+        error = abs(verdict["shrink"] - checker_shrink)
+    row = {"experiment": kind, "target": target, "model": "+".join(features),
+           "checker top 3": ", ".join(f"{c} {t} {s:.0%}" for c, t, s in
+                                      by_column[["column", "transform", "shrink"]].head(TOP).itertuples(index=False)),
+           "train CV RMSE": numbers["rmse_train_cv"], "real RMSE": numbers["rmse_before"], "gap": gap,
+           "refit shrink": 1 - numbers["rmse_refit"] / numbers["rmse_before"], "any transfers": transfers,
+           "verdict": "none" if named is None else f"{verdict['transform']} of {named}",
+           "engine shrink": verdict.get("shrink"), "checker shrink": checker_shrink, "shrink error": error,
+           "top-3 hit": (bool(named in top) if named is not None else not transfers) if gap else named is None,
+           "false verdict": named is not None and not (transfers and gap), "seconds": seconds}
+    if withheld is not None:
+        best = by_column.set_index("column")["shrink"]
+        row["withheld"] = withheld
+        if not gap:
+            row["withheld rule"] = named is None
+        else:
+            row["withheld rule"] = bool(named == withheld or best[named] >= best[withheld] - AS_WELL
+                                        if named is not None else not transfers)
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("data", nargs="?", type=Path, default=DEFAULT_DATA, help="FL_THERMAL data.csv")
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--channels", default=",".join(CHANNELS), help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    table = load_fl(args.data, EVERY)
+    train = table[table["cycle"].isin(TRAIN_CYCLES)]
+    taus = tau_grid(table)
+    banks = {c: transforms(table, c, taus) for c in TEMPERATURES + ["speed_rpm"]}
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        csv = Path(folder) / "fl.csv"
+        table.to_csv(csv, index=False)
+        for target in args.channels.split(","):
+            pairs = best_pairs(train, target)
+            experiments = [("pairs", list(pair), None) for pair in pairs]
+            alone = {s: cv_rmse(train, target, [s]) for s in pairs[0]}
+            better = min(alone, key=alone.get)
+            experiments.append(("withheld", [s for s in pairs[0] if s != better], better))
+            for kind, features, withheld in experiments:
+                candidates = [c for c in TEMPERATURES if c not in features] + ["speed_rpm"]
+                numbers, cands = checker(table, target, features, candidates, banks)
+                started = time.perf_counter()
+                report = engine(csv, target, features, candidates, Path(folder) / "gap.json")
+                rows.append(score(kind, target, features, withheld, numbers, cands, report,
+                                  time.perf_counter() - started))
+                print(rows[-1], flush=True)
+    write(pd.DataFrame(rows), args.out)
+    return 0
+
+
+def write(results: pd.DataFrame, out: Path) -> None:
+    """The CSV and the Markdown page with the scores against their targets."""
+    out.mkdir(parents=True, exist_ok=True)
+    results.to_csv(out / "gap_real.csv", index=False)
+    pairs = results[results["experiment"] == "pairs"]
+    withheld = results[results["experiment"] == "withheld"]
+    errors = pairs["shrink error"].dropna()
+    hit = float(pairs["top-3 hit"].mean())
+    worst = float(errors.max()) if len(errors) else float("nan")
+    lines = [
+        "# svrqp gap on FL_THERMAL — an independent leave-one-cycle-out check", "",
+        "Generated by `benchmarks/gap_real.py` (method in its docstring): the checker refits every candidate × "
+        "{level, rate, lag} leave-one-cycle-out with plain least squares; the engine runs through `svrqp gap`.", "",
+        f"- models: {len(pairs)} ({PAIRS_PER_CHANNEL} two-sensor models per channel, chosen on the train cycles)",
+        f"- top-3 hit rate: {hit:.2f} (target ≥ {HIT_TARGET}) — {'met' if hit >= HIT_TARGET else '**not met**'}",
+        f"- largest shrink error of a named verdict: {worst:.3f} over {len(errors)} verdicts (target ≤ {SHRINK_TARGET}) — "
+        + ("met" if len(errors) and worst <= SHRINK_TARGET else "**not met**" if len(errors) else "no verdict named"),
+        f"- models without a gap (real rows no worse than the train cycles' leave-one-cycle-out RMSE): "
+        f"{int((~pairs['gap'].astype(bool)).sum())}",
+        f"- false verdicts (a verdict where no candidate transfers or there is no gap): {int(pairs['false verdict'].sum())}",
+        f"- withheld-sensor experiment: {int(withheld['withheld rule'].sum())} of {len(withheld)} pass the rule "
+        "(with a gap: names the withheld sensor or a candidate whose independent refit transfers at least as well; "
+        "without one: names nothing)", "",
+        markdown_table(results.drop(columns=["seconds"])), "",
+        f"Engine time per model: median {results['seconds'].median():.1f} s (through the command line, one thread).",
+    ]
+    (out / "gap_real.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines[:9]))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,393 @@
+r"""Causes ranked by what they buy on held-out runs, and tested against surrogates.
+
+Every candidate × transform is refitted leave-one-unit-out with the model family
+(:mod:`svrqp.gap.transfer`); a column's row in the causes table is its best-transferring
+transform (the one with fewer parameters when two are within :data:`SAME_FIT` of each
+other). Its *transfer gain* is
+
+.. math::
+
+    g = 1 - \frac{\mathrm{SSE}_\mathrm{after}}{\mathrm{SSE}_\mathrm{refit}}
+      = 1 - (1 - \mathrm{shrink\_beyond\_refit})^2 .
+
+Significance by surrogates that respect what varies where
+    Under "this candidate carries nothing", where its values fall does not matter. A
+    candidate that varies within runs is rotated circularly within every group
+    (:func:`svrqp.gap.blocks.shift_offsets`, which keeps its autocorrelation); one that holds
+    a level per run (:func:`svrqp.gap.between.is_run_level`) has its run levels permuted across
+    the runs. Each surrogate is transformed again (a lag filtered again) and refitted exactly
+    as the observed one, :math:`\tau` chosen inside each fit. The Monte-Carlo p-value is
+    sequential (Besag & Clifford 1991; at most :data:`MAX_SURROGATES` draws in
+    :data:`SURROGATE_STAGES`, stopping after :data:`STOP_EXCEEDANCES` exceedances or once
+    rejected). The :data:`MAX_TESTED` best causes above the effect floor are tested;
+    Benjamini–Hochberg runs over every column (an untested one counts with :math:`p = 1`),
+    level :data:`svrqp.gap.attribute.ALPHA`.
+
+Effect floor
+    A cause is significant only if its transfer gain is at least
+    :data:`svrqp.gap.attribute.MIN_GAIN`.
+
+Confounded pairs
+    A rival whose gain reaches :data:`RIVAL_FRACTION` of the top cause's is checked by
+    conditional tests both ways: the gain of one with the other already in the family's
+    inputs, against surrogates of the one tested. The top cause stays if it adds beyond the
+    rival; a rival that adds beyond it while it adds nothing beyond the rival takes over; when
+    neither adds, the two cannot be told apart and both are named (``ambiguous_with``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import false_discovery_control
+
+from svrqp.gap.attribute import ALPHA, MIN_GAIN
+from svrqp.gap.between import is_run_level, run_level_columns
+from svrqp.gap.blocks import rotated_rows, shift_offsets
+from svrqp.gap.prepare import GapData
+from svrqp.gap.transfer import LinearTransfer, TransferFit
+from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
+
+TRANSFORMS = ("level", "rate", "lag")
+"""Transforms refitted for every candidate (a model feature: ``rate`` and ``lag`` only)."""
+
+SAME_FIT = 0.005
+"""Two transforms of one column whose shrinks differ by less than this count as the same fit."""
+
+SURROGATE_STAGES = (19, 80, 200, 300, 400)
+"""Surrogates drawn per stage of a transfer test (cumulative 19, 99, 299, 599, 999)."""
+
+MAX_SURROGATES = sum(SURROGATE_STAGES)
+"""Most surrogates of one transfer test (smallest p-value 1/1000, below Benjamini–Hochberg's
+first threshold for the tens of columns of a diagnosis)."""
+
+STOP_EXCEEDANCES = 10
+"""A sequential test stops after this many surrogates reach the observed gain."""
+
+MAX_TESTED = 5
+"""Causes tested against surrogates, best transfer gain first."""
+
+RIVAL_FRACTION = 0.5
+"""A significant cause whose gain reaches this fraction of the top one's is a rival."""
+
+LAG_BATCH = 20
+"""Surrogates whose lags are filtered as one batch."""
+
+CONDITIONAL_SURROGATES = 99
+"""Surrogates of a conditional test."""
+
+
+@dataclass(frozen=True)
+class Effect:
+    r"""One candidate transform as the refits add it.
+
+    Attributes
+    ----------
+    column, transform : str
+        The candidate and its transform.
+    taus : ndarray or None
+        The time-constant grid (``lag``).
+    run_level : bool
+        The candidate holds one level per run: surrogates permute its run levels, and its
+        ``level`` enters as the block :math:`[\Psi, \bar c, \bar c\Psi]` of
+        :mod:`svrqp.gap.between` (a level scaling a profile along each run).
+    """
+
+    column: str
+    transform: str
+    taus: np.ndarray | None
+    run_level: bool
+
+    @property
+    def parameters(self) -> int:
+        """Columns added plus a fitted time constant."""
+        return {"level": 1, "rate": 1, "lag": 3}[self.transform]
+
+
+@dataclass
+class Ranked:
+    """One column's best-transferring effect and its errors.
+
+    Attributes
+    ----------
+    effect : Effect
+    fit : TransferFit
+        Leave-one-unit-out errors with the effect (and the time constant each fit chose).
+    gain : float
+        Transfer gain (module docstring).
+    p_raw, q_value : float
+        Surrogate p-value (1 when untested) and its Benjamini–Hochberg adjustment.
+    tau : float or None
+        The time constant chosen most often over the fits (``lag``).
+    note : str or None
+    """
+
+    effect: Effect
+    fit: TransferFit
+    gain: float
+    p_raw: float = 1.0
+    q_value: float = 1.0
+    tau: float | None = None
+    note: str | None = None
+    tested: bool = False
+    ambiguous: bool = False
+
+    @property
+    def significant(self) -> bool:
+        return self.q_value < ALPHA and self.gain >= MIN_GAIN
+
+
+@dataclass
+class Ranking:
+    """Causes by transfer gain, tested, with the verdict candidate and its confounded rivals."""
+
+    ranked: list[Ranked]
+    top: Ranked | None = None
+    ambiguous_with: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+class TransferRanker:
+    """Refits every candidate transform leave-one-unit-out and tests the best (module docstring).
+
+    Parameters
+    ----------
+    data : GapData
+        Prepared rows.
+    family : LinearTransfer
+        The family's refits.
+    taus : ndarray
+        The time-constant grid.
+    rng : numpy.random.Generator
+        Source of the surrogates.
+    """
+
+    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator):
+        self.data, self.family, self.taus, self.rng = data, family, taus, rng
+        self.refit = family.refit()
+        self.sse_refit = float(self.refit.errors @ self.refit.errors)
+
+    # -- effects ------------------------------------------------------------------------
+
+    def effects(self) -> list[Effect]:
+        """Every candidate × transform to refit."""
+        data, real = self.data, self.data.is_real
+        out = []
+        for j, column in enumerate(data.candidates):
+            run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
+            for transform in TRANSFORMS:
+                if transform == "level" and column in data.features:
+                    continue
+                if run_level and transform != "level":
+                    continue  # its rate and lag are zero but for noise
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
+        return out
+
+    def columns(self, effect: Effect, x: np.ndarray | None = None,
+                ell: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+        """The effect's columns on every row (``x``: the candidate, or a surrogate of it), its
+        variants and the rows where it is known (``ell``: its lag columns on the known rows, when
+        already filtered — :meth:`lags` filters a batch of surrogates at once)."""
+        data = self.data
+        x = data.C[:, data.candidates.index(effect.column)] if x is None else x
+        known = np.isfinite(x)
+        t, groups, xk = data.t[known], data.groups[known], x[known]
+        if effect.transform == "level" and effect.run_level:  # its level scales a profile along each run
+            own = run_level_columns(xk, t, groups)
+            variants = [np.arange(own.shape[1])]
+        elif effect.transform == "level":
+            own = xk[:, None]
+            variants = [np.array([0])]
+        elif effect.transform == "rate":
+            own = rate(xk, t, groups)[:, None]
+            variants = [np.array([0])]
+        else:
+            ell = lag(xk, t, groups, effect.taus) if ell is None else ell
+            if effect.column in data.features:
+                own, variants = ell, [np.array([j]) for j in range(ell.shape[1])]
+            else:
+                own, variants = np.column_stack([xk, ell]), [np.array([0, 1 + j]) for j in range(ell.shape[1])]
+        E = np.full((x.size, own.shape[1]), np.nan)
+        E[known] = own
+        return E, variants, known
+
+    def lags(self, effect: Effect, xs: list[np.ndarray]) -> list[np.ndarray | None]:
+        """The lag columns of each series in ``xs`` on its known rows, filtered as one batch (None unless ``lag``)."""
+        if effect.transform != "lag" or not xs:
+            return [None] * len(xs)
+        known = np.isfinite(xs[0])
+        X = np.column_stack([x[known] for x in xs])
+        alpha = filter_coefficients(self.data.t[known], self.data.groups[known], effect.taus)
+        ell = lowpass_columns(X, alpha) - X[:, :, None]
+        return [ell[:, s, :] for s in range(len(xs))]
+
+    def fit(self, effect: Effect, x: np.ndarray | None = None, given: np.ndarray | None = None,
+            ell: np.ndarray | None = None) -> TransferFit:
+        """Leave-one-unit-out errors with the effect (and the columns ``given``) added."""
+        E, variants, known = self.columns(effect, x, ell)
+        if given is not None:
+            k = given.shape[1]
+            variants = [np.concatenate([np.arange(k), k + v]) for v in variants]
+            E = np.column_stack([given, E])
+            known = known & np.isfinite(given).all(axis=1)
+        return self.family.errors(E, variants, known)
+
+    def gain(self, fit: TransferFit, reference: float | None = None) -> float:
+        """Transfer gain of a fit against the refit (or against ``reference``, an SSE)."""
+        base = self.sse_refit if reference is None else reference
+        return 1.0 - float(fit.errors @ fit.errors) / base if base > 0 else 0.0
+
+    # -- ranking ------------------------------------------------------------------------
+
+    def rank(self) -> list[Ranked]:
+        """One row per column, its best-transferring transform, best first."""
+        best: dict[str, Ranked] = {}
+        for effect in self.effects():
+            fit = self.fit(effect)
+            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit))
+            held = best.get(effect.column)
+            if held is None or _better(row, held):
+                best[effect.column] = row
+        return sorted(best.values(), key=lambda r: -r.gain)
+
+    def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
+        if effect.taus is None:
+            return None
+        return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
+
+    # -- surrogates ---------------------------------------------------------------------
+
+    def surrogate(self, effect: Effect, count: int) -> list[np.ndarray]:
+        """``count`` surrogates of the candidate (rotated within groups, or run levels permuted)."""
+        data = self.data
+        x = data.C[:, data.candidates.index(effect.column)]
+        known = np.flatnonzero(np.isfinite(x))
+        groups = data.groups[known]
+        out = []
+        if effect.run_level:
+            slices = group_slices(groups)
+            means = np.array([x[known[s]].mean() for s in slices])
+            for _ in range(count):
+                order = self.rng.permutation(len(slices))
+                xs = x.copy()
+                for s, g in zip(slices, order):
+                    xs[known[s]] += means[g] - means[slices.index(s)]
+                out.append(xs)
+            return out
+        offsets = shift_offsets(groups, count, self.rng, x[known])
+        for rows in rotated_rows(groups, offsets):
+            xs = x.copy()
+            xs[known] = x[known][rows]
+            out.append(xs)
+        return out
+
+    def draw(self, effect: Effect, observed: float, count: int, given: np.ndarray | None = None,
+             reference: float | None = None) -> list[bool]:
+        """Whether each of ``count`` surrogates reaches the observed gain (stopping at the
+        :data:`STOP_EXCEEDANCES`-th that does)."""
+        hits: list[bool] = []
+        surrogates = self.surrogate(effect, count)
+        for start in range(0, count, LAG_BATCH):
+            batch = surrogates[start:start + LAG_BATCH]
+            for xs, ell in zip(batch, self.lags(effect, batch)):
+                hits.append(self.gain(self.fit(effect, xs, given, ell), reference) >= observed - 1e-12)
+                if sum(hits) >= STOP_EXCEEDANCES:
+                    return hits
+        return hits
+
+    def p_value(self, effect: Effect, observed: float, most: int, given: np.ndarray | None = None,
+                reference: float | None = None) -> float:
+        """Sequential Monte-Carlo p-value of one transfer gain, at most ``most`` surrogates."""
+        hits = self.draw(effect, observed, min(SURROGATE_STAGES[0], most), given, reference)
+        if sum(hits) < STOP_EXCEEDANCES // 2:  # not clearly null after the first stage
+            hits += self.draw(effect, observed, most - len(hits), given, reference)
+        return _besag_clifford(hits)
+
+    def test(self, ranked: list[Ranked]) -> None:
+        """Surrogate p-values of the best causes above the floor, then Benjamini–Hochberg over all.
+
+        Surrogates are drawn in :data:`SURROGATE_STAGES`; a test stops when it reaches
+        :data:`STOP_EXCEEDANCES` exceedances, when Benjamini–Hochberg over every column already
+        rejects it (a p-value after a fixed number of draws stays valid), or at the last stage.
+        """
+        tested = [r for r in ranked if r.gain >= MIN_GAIN][:MAX_TESTED]
+        hits: dict[int, list[bool]] = {id(r): [] for r in tested}
+        for stage in SURROGATE_STAGES:
+            open_rows = [r for r in tested if sum(hits[id(r)]) < STOP_EXCEEDANCES and not r.significant]
+            if not open_rows:
+                break
+            for row in open_rows:
+                hits[id(row)] += self.draw(row.effect, row.gain, stage)
+                row.p_raw, row.tested = _besag_clifford(hits[id(row)]), True
+            self._adjust(ranked)
+
+    def _adjust(self, ranked: list[Ranked]) -> None:
+        """Benjamini–Hochberg over every column (an untested one counts with p = 1)."""
+        if ranked:
+            q = false_discovery_control([r.p_raw for r in ranked], method="bh")
+            for row, qi in zip(ranked, q):
+                row.q_value = float(qi)
+
+    def adds(self, a: Ranked, b: Ranked) -> bool:
+        """Whether ``a`` carries transfer information beyond ``b`` (conditional test).
+
+        Both enter with the time constant their fits chose most (:attr:`Ranked.tau`): a second
+        free time constant would let two readings of one source "add" a two-pole filter.
+        """
+        given, _, known = self.columns(_fixed(b))
+        base = self.family.errors(given, [np.arange(given.shape[1])], known)
+        reference = float(base.errors @ base.errors)
+        effect = _fixed(a)
+        observed = self.gain(self.fit(effect, given=given), reference)
+        if observed < MIN_GAIN:
+            return False
+        return self.p_value(effect, observed, CONDITIONAL_SURROGATES, given, reference) < ALPHA
+
+    def choose(self, ranked: list[Ranked]) -> Ranking:
+        """The verdict candidate among the significant causes, confounded rivals checked."""
+        result = Ranking(ranked)
+        significant = [r for r in ranked if r.significant]
+        if not significant:
+            return result
+        top = significant[0]
+        for rival in [r for r in significant[1:] if r.gain >= RIVAL_FRACTION * top.gain]:
+            a_beyond, b_beyond = self.adds(top, rival), self.adds(rival, top)
+            if b_beyond and not a_beyond:
+                top.note = f"explained by {rival.effect.column} on held-out runs"
+                result.notes.append(f"{rival.effect.column} explains {top.effect.column} away")
+                top = rival
+            elif not a_beyond and not b_beyond:
+                rival.ambiguous = True
+                rival.note = f"cannot be told apart from {top.effect.column} on held-out runs"
+                result.ambiguous_with.append(rival.effect.column)
+            elif a_beyond and not b_beyond:
+                rival.note = f"explained by {top.effect.column} on held-out runs"
+            else:
+                rival.note = f"carries information beyond {top.effect.column}"
+        top.ambiguous = bool(result.ambiguous_with)
+        result.top = top
+        return result
+
+
+def _besag_clifford(hits: list[bool]) -> float:
+    """``h/S_h`` once :data:`STOP_EXCEEDANCES` surrogates reached the statistic, else ``(1 + hits)/(1 + drawn)``."""
+    if sum(hits) >= STOP_EXCEEDANCES:
+        return STOP_EXCEEDANCES / (int(np.flatnonzero(hits)[STOP_EXCEEDANCES - 1]) + 1)
+    return (1 + sum(hits)) / (1 + len(hits))
+
+
+def _fixed(row: Ranked) -> Effect:
+    """The row's effect with its time constant fixed at the one its fits chose most."""
+    if row.tau is None:
+        return row.effect
+    return dataclasses.replace(row.effect, taus=np.array([row.tau]))
+
+
+def _better(row: Ranked, held: Ranked) -> bool:
+    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie)."""
+    shrink = lambda r: 1 - np.sqrt(max(1 - r.gain, 0.0))  # noqa: E731 — the gain as a shrink beyond the refit
+    if abs(shrink(row) - shrink(held)) < SAME_FIT:
+        return row.effect.parameters < held.effect.parameters
+    return row.gain > held.gain
