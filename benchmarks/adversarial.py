@@ -445,7 +445,7 @@ def check_query(p: dict[str, Any]) -> str:
 
 def svr_cases(rng: np.random.Generator, n: int) -> list[Case]:
     """ε-SVR × every installed backend and dual_ipm × kernels × units × C from 1e-11 to 1e13."""
-    solvers = ["dual_ipm", *available_backends()]
+    solvers = ["auto", "dual_ipm", *available_backends()]
     draws = [draw_svr(rng, solvers) for _ in range(n)]
     return [Case(f"svr/{p['solver']}/{p['kernel']}", check_svr, p) for p in draws]
 

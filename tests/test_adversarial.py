@@ -26,7 +26,7 @@ from svrqp.linear_models import LinearLS, RecursiveLS
 from svrqp.solve import available_backends
 from svrqp.tuning import grid_search
 
-SOLVERS = ["dual_ipm", *available_backends()]
+SOLVERS = ["auto", "dual_ipm", *available_backends()]
 
 
 def sine_problem() -> tuple[np.ndarray, np.ndarray]:
