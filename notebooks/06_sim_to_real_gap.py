@@ -43,6 +43,9 @@ from svrqp import datasets
 from svrqp.gap import diagnose
 from svrqp.linear_models import LinearLS
 
+# svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
+# %matplotlib inline
+
 data = datasets.load("miao2013")
 features, target = ["T7_C", "T9_C"], "error_um"
 candidates = ["T1_C", "T2_C", "T3_C", "T4_C", "T5_C", "T6_C", "T8_C"]   # measured, unused by the model
@@ -192,11 +195,12 @@ fig, ax1 = plt.subplots(figsize=(8, 3.4))
 ax1.plot(x3["time_min"], x3["residual_um"], label="MLR residual on x3")
 ax1.plot(x3["time_min"], truth, "k--", label="true ambient effect (from its start)")
 ax1.set(xlabel="time (min)", ylabel="displacement (μm)")
-named_column = next((d["verdict"]["column"] for d in (result, autumn) if d["verdict"]["column"] is not None), None)
-if named_column is not None:
+named = next((d["verdict"] for d in (result, autumn) if d["verdict"]["column"] is not None), None)
+if named is not None:
     ax2 = ax1.twinx()
-    ax2.plot(x3["time_min"], x3[named_column], color="tab:red", lw=0.8, label=f"{named_column} (named)")
-    ax2.set_ylabel(f"{named_column} (°C)")
+    ax2.plot(x3["time_min"], x3[named["column"]], color="tab:red", lw=0.8,
+             label=f"{named['column']} reading (named: its {named['transform']})")
+    ax2.set_ylabel(f"{named['column']} (°C)")
     ax2.legend(loc="lower right", fontsize="small")
 ax1.legend(loc="upper left", fontsize="small");
 
