@@ -20,8 +20,14 @@
 # 1.3 μm in summer and 8.5 μm in autumn; the question a user has is *why*. `svrqp gap`
 # (`svrqp.gap.diagnose`) answers three questions about the rows where a model meets new data:
 # **where** the error concentrates, **which** measured column (or its rate, or a lagged version of
-# it) explains it beyond chance, and **how much** the error shrinks, out of sample, once that effect
-# is added — or it names nothing when nothing explains the gap.
+# it) explains it beyond chance, and **how much** the error shrinks once that effect is added — or it
+# names nothing when nothing explains the gap.
+#
+# *How much* is a transfer number: how much smaller the error is on a run the refit never saw. The
+# model is refitted leave one batch out over **all** rows, train and real, so each real batch is
+# predicted by a fit that did not see it; `shrink` compares that refit, with the effect added as an
+# input, with the given model on the real rows. A recalibration fitted on a batch's own rows would
+# look better, but no new batch gets one.
 #
 # **What is simulated:** the data set `miao2013` (svrqp's thermal simulator). Because it is
 # simulated, the effect the summer model never saw is known: the ambient drift acting through the
@@ -36,6 +42,9 @@ import pandas as pd
 from svrqp import datasets
 from svrqp.gap import diagnose
 from svrqp.linear_models import LinearLS
+
+# svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
+# %matplotlib inline
 
 data = datasets.load("miao2013")
 features, target = ["T7_C", "T9_C"], "error_um"
@@ -60,7 +69,7 @@ pd.DataFrame({"range of the ambient effect (μm)": ambient, "MLR residual RMS (�
 #
 # `train` selects the rows the model was built on; every other row is a *real* row where the gap
 # is assessed. `order` is the time axis (rates and lags run along it), `group` the batch
-# (transforms restart and cross-validation is blocked per batch).
+# (transforms restart per batch, and the transfer refits hold out one batch at a time).
 #
 # In `where`, regions pooled over the real batches come first (`group` is None), then regions *within* a single batch (`group` names it, `share_of_run` is its part of that batch's squared error): pooled, the autumn drift hides the summer batch's start-up transient, which shows up as a region of `x2`. A region within one batch describes where that batch's error is; it is not a test.
 
@@ -68,59 +77,117 @@ pd.DataFrame({"range of the ambient effect (μm)": ambient, "MLR residual RMS (�
 report = diagnose(data, target=target, train="batch == 'x1'", features=features, candidates=candidates,
                   order="time_min", group="batch", model="mlr", seed=0)
 result = report.to_dict()
-print("gap:", {k: round(v, 3) if isinstance(v, float) else v for k, v in result["gap"].items()})
-print("\nverdict:", result["verdict"]["reason"])
+
+
+def rounded(numbers: dict) -> dict:
+    """The floats of ``numbers`` to three significant places, for printing."""
+    return {k: float(f"{v:.3g}") if isinstance(v, float) else v for k, v in numbers.items()}
+
+
+print(result["summary"])
+print("\ngap:", rounded(result["gap"]))
+print("transfer:", rounded(result["transfer"]))
 
 # %%
 pd.DataFrame(result["where"]).head(5)
 
 # %%
 causes = pd.DataFrame(result["causes"])
-causes[[c for c in ("column", "transform", "tau", "p_value", "rmse_before", "rmse_after", "shrink", "shrink_ci",
-                    "shrink_beyond_base", "note") if c in causes]].head(6)
+causes[["column", "transform", "tau", "p_value", "tested", "rmse_before", "rmse_refit", "rmse_after", "shrink",
+        "shrink_ci", "shrink_beyond_refit", "within_shrink", "p_within", "note"]].head(6)
 
 # %% [markdown]
-# ### How much of the shrink is the effect's own?
+# ### What each shrink is measured against
 #
-# Every shrink above is that of a discrepancy model "base + effect" against the model's raw
-# residual. The *base* — here one offset per batch and a recalibration of the model's own inputs —
-# already takes part of the error on its own: with two real batches an offset between them cannot
-# be attributed to any candidate, so it is not credited to one. `shrink_beyond_base` is what the
-# effect removes of what the base leaves, out of sample; the verdict needs its interval to exclude
-# zero.
+# Every shrink in the table is a transfer number. `rmse_before` is the summer model on the real
+# rows; `rmse_refit` is the same MLR on T7 and T9 refitted leave one batch out over all three
+# batches (each real batch predicted by a fit on the other two); `rmse_after` is that refit with
+# the effect added as an input, its time constant chosen inside each fit's own rows. So
+# `shrink = 1 − rmse_after / rmse_before` is what a model refitted with the effect would gain on a
+# batch it never saw, and `shrink_beyond_refit = 1 − rmse_after / rmse_refit` is the effect's part
+# beyond refitting alone, whose own shrink is `transfer["shrink_refit"]`. Causes are ranked by that
+# transfer gain, and `p_value` is the false-discovery-adjusted p of a surrogate test of it (`tested`
+# says which columns were tested).
+#
+# `base`, `within_shrink` and `p_within` answer another question: how much would a per-run
+# recalibration — one offset per batch and a recalibration of the model's inputs, fitted on the
+# real rows themselves — remove? A new batch never gets that recalibration, so these numbers never
+# enter `shrink`, the ranking or the summary.
+#
+# With `group="batch"` only two real batches can be held out, and two held-out units are thin
+# evidence: a surrogate test over two batches has little power, so a large shrink in the table may
+# still leave the verdict empty (here it does, and the reason says why). When a column is named from
+# so few runs, the reason and the summary call the evidence thin.
 
 # %%
-print("base alone:", result["base"]["description"], "→ shrink", round(result["base"]["shrink"], 3))
-verdict = result["verdict"]
-if verdict["column"] is not None:
-    print(f"verdict {verdict['column']} ({verdict['transform']}): shrink {verdict['shrink']:.3f}, "
-          f"beyond the base {verdict['shrink_beyond_base']:.3f}, 95 % CI {verdict['shrink_beyond_base_ci']}")
+print("per-run recalibration (base):", result["base"]["description"], "→ would remove",
+      f"{result['base']['shrink']:.0%} of the real-row error (not a transfer number)")
+
+
+def verdict_line(verdict: dict) -> str:
+    """The named effect with its transfer shrinks, or the reason why nothing is named."""
+    if verdict["column"] is None:
+        return f"no verdict: {verdict['reason']}"
+    tau = f", τ = {verdict['tau']:.1f} min" if verdict["tau"] is not None else ""
+    ci = verdict["shrink_beyond_refit_ci"]
+    interval = f" (95 % CI {ci[0]:.0%} … {ci[1]:.0%})" if ci else ""
+    return (f"verdict {verdict['column']} ({verdict['transform']}{tau}): shrink {verdict['shrink']:.0%}, "
+            f"beyond the refit {verdict['shrink_beyond_refit']:.0%}{interval}")
+
+
+print(verdict_line(result["verdict"]))
+
+# %% [markdown]
+# ### One run, cut into blocks
+#
+# With a single real run (or without `group`), the held-out units are contiguous blocks of the real
+# rows instead of runs: at least five, each at least as long as the residual stays correlated when
+# the record allows it (`blocks` says how they were cut, and whether they had to be shorter). Here the
+# summer model meets the autumn batch `x3` alone. A held-out block is a stretch of autumn the refit
+# never saw, but its neighbours share that batch's conditions, so this is weaker evidence than a
+# batch never seen.
+
+# %%
+autumn = diagnose(data[data["batch"] != "x2"], target=target, train="batch == 'x1'", features=features,
+                  candidates=candidates, order="time_min", group="batch", seed=0).to_dict()
+print(autumn["summary"])
+print("\nblocks:", autumn["blocks"])
+print("transfer:", rounded(autumn["transfer"]))
+print("\n" + verdict_line(autumn["verdict"]))
 
 # %% [markdown]
 # ### The model used beyond its data
 #
 # The ambient air `T9_C` is one of the model's own inputs, so it is not a candidate: the report
-# checks the inputs apart. `outside` is the share of real rows outside an input's train range;
+# checks the inputs apart. `inputs` lists every model input and every candidate (`role`); below are
+# the model's inputs. `outside` is the share of real rows outside an input's train range;
 # `recalibration_shrink` is what one offset per batch and that input alone, refitted on the real
-# rows, remove of the error out of sample, and `beyond_offsets` that input's own part — the offsets
-# alone already take much of a gap that is one level per batch. In summer the air hardly moved; in
-# autumn it is outside its summer range on almost every row: S0's story.
+# rows, remove of the error out of sample, and `beyond_offsets` that input's own part — per-run
+# recalibrations again, not transfer numbers. In summer the air hardly moved; in autumn it is
+# outside its summer range on almost every row: S0's story. The verdict's reason says what that
+# means for the transfer refit.
 
 # %%
-pd.DataFrame(result["inputs"])
+inputs = pd.DataFrame(result["inputs"])
+print(next((sentence for sentence in result["verdict"]["reason"].split(". ") if "beyond its data" in sentence),
+           "no model input is used beyond its train range"))
+inputs[inputs["role"] == "input"]
 
 # %% [markdown]
 # ## Checking the answer against the truth
 #
 # The simulator knows what was withheld. On the autumn batch, how closely does the residual of the
-# summer model follow the true ambient effect, and how closely does each candidate follow it?
+# summer model follow the true ambient effect, and how closely does each candidate's level follow
+# it? Whether a diagnosis above named a column or not, this is what it could have found.
 
 # %%
 x3 = data[data["batch"] == "x3"]
 truth = x3["effect_ambient_drift_um"] - x3["effect_ambient_drift_um"].iloc[0]
 correlation = {"MLR residual": np.corrcoef(x3["residual_um"], truth)[0, 1]}
 correlation.update({column: np.corrcoef(x3[column], truth)[0, 1] for column in candidates})
-print("verdict column:", result["verdict"]["column"], "/", result["verdict"].get("transform"))
+for name, diagnosis in (("x2 + x3 by batch", result), ("x3 in blocks", autumn)):
+    named = diagnosis["verdict"]
+    print(f"verdict ({name}):", "none" if named["column"] is None else f"{named['column']} / {named['transform']}")
 pd.Series(correlation, name="correlation with the true ambient effect on x3").round(3)
 
 # %%
@@ -128,11 +195,12 @@ fig, ax1 = plt.subplots(figsize=(8, 3.4))
 ax1.plot(x3["time_min"], x3["residual_um"], label="MLR residual on x3")
 ax1.plot(x3["time_min"], truth, "k--", label="true ambient effect (from its start)")
 ax1.set(xlabel="time (min)", ylabel="displacement (μm)")
-verdict_column = result["verdict"]["column"]
-if verdict_column is not None:
+named = next((d["verdict"] for d in (result, autumn) if d["verdict"]["column"] is not None), None)
+if named is not None:
     ax2 = ax1.twinx()
-    ax2.plot(x3["time_min"], x3[verdict_column], color="tab:red", lw=0.8, label=f"{verdict_column} (verdict)")
-    ax2.set_ylabel(f"{verdict_column} (°C)")
+    ax2.plot(x3["time_min"], x3[named["column"]], color="tab:red", lw=0.8,
+             label=f"{named['column']} reading (named: its {named['transform']})")
+    ax2.set_ylabel(f"{named['column']} (°C)")
     ax2.legend(loc="lower right", fontsize="small")
 ax1.legend(loc="upper left", fontsize="small");
 
@@ -140,13 +208,14 @@ ax1.legend(loc="upper left", fontsize="small");
 # ## When nothing new happens
 #
 # The same diagnosis on the summer batches alone (train `x1`, real `x2`): the ambient effect did
-# not vary, so whatever the engine reports here is not the ambient effect. Compare `real_rmse` with
-# `train_rmse` in the gate numbers, and read any cause it names as a smaller, structured residual
-# that both summer batches share (such as the start-up transient the data card describes: the
-# spindle shaft heats faster than the spindle box that T7 sits on), not as a seasonal effect.
+# not vary. The gate is one-sided: when `x2` fits no worse than `x1`'s cross-validated error
+# (`real_rmse` against `train_rmse` below), there is no gap and nothing is named, even if some
+# candidate would improve a refit — the reason lists those, as columns that would help the model
+# everywhere, not as the cause of a gap.
 
 # %%
 summer = diagnose(data[data["batch"] != "x3"], target=target, train="batch == 'x1'", features=features,
                   candidates=candidates, order="time_min", group="batch", seed=0).to_dict()
-print("gap:", {k: round(v, 3) if isinstance(v, float) else v for k, v in summer["gap"].items()})
-print("verdict:", summer["verdict"].get("reason") or summer["verdict"])
+print(summer["summary"])
+print("\ngap:", rounded(summer["gap"]))
+print("verdict:", summer["verdict"]["reason"])
