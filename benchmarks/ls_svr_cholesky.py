@@ -138,7 +138,7 @@ def main() -> None:
         markdown_table(frame),
         machine_sentence(machine, package_versions()),
         ("## Limitations\n\n"
-        "The fit includes input validation, the stored KKT matrix `problem_` (an (n+1)x(n+1) copy), the "
+        "The fit includes input validation (the KKT matrix `problem_` is no longer formed: it is rebuilt on demand), the "
         "Cholesky factorisation in place of the fit's own Gram matrix, the Schur-complement solves and the certificate (one symmetric "
         "matrix-vector product); the floors are the Gram build and the factorisation only. The reference "
         "floor's `cho_factor` copies the C-ordered K to Fortran order inside scipy (what `overwrite_a=True` "

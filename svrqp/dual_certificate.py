@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations import epsilon_svr
-from svrqp.kernel_columns import KernelColumns
+from svrqp.kernels import gram_diagonal
 from svrqp.problems import QuadraticProgram
 
 
@@ -58,7 +58,7 @@ def kernel_scale(X: NDArray[np.float64], kernel_parameters: dict[str, Any]) -> f
     """:math:`\\max_i K_{ii}` without forming K (``X`` is the Gram matrix for ``"precomputed"``)."""
     if kernel_parameters["kernel"] == "precomputed":
         return float(np.max(np.diagonal(X), initial=0.0))
-    return float(np.max(KernelColumns(X, **kernel_parameters).diagonal(), initial=0.0))
+    return float(np.max(gram_diagonal(np.asarray(X, dtype=float), **kernel_parameters), initial=0.0))
 
 
 def certificates(formulation: str, y: NDArray[np.float64], C: float, epsilon: float, beta: NDArray[np.float64],

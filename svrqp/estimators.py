@@ -28,7 +28,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from svrqp import __version__, dual_ipm
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
 from svrqp.export.mixin import ExportMixin
-from svrqp.fitted_state import CompactFitMixin
+from svrqp.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.formulations.epsilon_svr import dual_qp_point  # noqa: F401  (re-exported)
 from svrqp.kernels import gram
@@ -371,7 +371,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         return beta, b
 
 
-class LSSVR(ExportMixin, _KernelModel):
+class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
     """Least-squares SVR (S4): the KKT linear system, solved by Cholesky and a Schur complement.
 
     Parameters
@@ -394,7 +394,8 @@ class LSSVR(ExportMixin, _KernelModel):
     support_, support_vectors_, gamma_, solution_
         As for :class:`EpsilonSVR`.
     problem_ : LinearSystem
-        The full KKT system of S4 eq. (5) (solved by Cholesky + Schur, or by LU).
+        The full KKT system of S4 eq. (5) (solved by LU; the Cholesky path never forms it, and it is
+        rebuilt on first access and after unpickling: :mod:`svrqp.fitted_state`).
     """
 
     _parameter_constraints = {
@@ -426,15 +427,16 @@ class LSSVR(ExportMixin, _KernelModel):
         X, y = self._validated_training_data(X, y)
         self.gamma_ = self._resolve_gamma(X)
         K = self._training_gram(X)
-        self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept)
+        self._keep_fit_data(K if self.kernel == "precomputed" else None, y)
+        self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept) if self.solver == "lu" else None
         if self.solver == "lu":
             self.solution_ = solve_linear_system(self.problem_)
             x = self.solution_.x
             alpha, b = (x[1:], float(x[0])) if self.fit_intercept else (x, 0.0)
         else:
             start = time.perf_counter()
-            # A Gram matrix of our own is not needed afterwards (problem_ holds a copy): factor it in
-            # place; a precomputed kernel is the caller's array and is left alone.
+            # A Gram matrix of our own is not needed afterwards (problem_ is rebuilt from X on demand):
+            # factor it in place; a precomputed kernel is the caller's array and is left alone.
             alpha, b, info = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept,
                                                          overwrite_K=self.kernel != "precomputed")
             self.solution_ = Solution(

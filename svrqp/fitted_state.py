@@ -1,4 +1,4 @@
-"""Small fitted ε-SVR models: ``problem_`` and the full ``solution_`` rebuilt on demand.
+"""Small fitted kernel models: ``problem_`` and the full ``solution_`` rebuilt on demand.
 
 A fitted :class:`svrqp.EpsilonSVR` needs only its support vectors, coefficients and bias to
 predict; the QP it solved (a 3n×3n ``P`` in the split form) and the solver's n-vectors are what
@@ -17,6 +17,11 @@ the QP, as ``solver="auto"`` does not — ``problem_`` is rebuilt from the train
 :func:`svrqp.estimators.dual_qp_point`, its objective and certificates recomputed on that QP (so
 they certify the returned coefficients). A linear-kernel primal fit keeps its solution vectors
 (``O(n)`` numbers; the multipliers of that QP are not a function of the model alone).
+
+:class:`svrqp.LSSVR` (:class:`CompactSystemMixin`) keeps its solution (:math:`(b, \\alpha)`, ``O(n)``)
+and drops its KKT system (an :math:`(n+1)\\times(n+1)` matrix, S4 eq. (5)); every training row is a
+support vector, so ``problem_`` is rebuilt from ``support_vectors_``, ``y`` and the fit's ``C`` and
+kernel (a precomputed Gram matrix is kept, as scikit-learn's ``KernelRidge`` keeps it).
 """
 
 from __future__ import annotations
@@ -28,9 +33,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp.dual_certificate import certificates, kernel_scale
-from svrqp.formulations import epsilon_svr
+from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram
-from svrqp.problems import QuadraticProgram
+from svrqp.problems import LinearSystem, QuadraticProgram
 
 #: Attributes held only in memory (dropped from pickles, rebuilt on demand).
 _CACHES = ("_problem", "_solution")
@@ -121,4 +126,34 @@ class CompactFitMixin:
         record = state.get("_solution_record")
         if record is not None and self.__dict__.get("_fit_data", {}).get("formulation") != "primal":
             state["_solution_record"] = dataclasses.replace(record, x=None, y=None, z=None, z_box=None)
+        return state
+
+
+class CompactSystemMixin:
+    """LS-SVR's ``problem_`` as a property: formed by ``fit`` only when solved by LU, never pickled."""
+
+    @property
+    def problem_(self) -> LinearSystem:
+        """The KKT system of S4 eq. (5) (rebuilt from the training data when not held)."""
+        if self.__dict__.get("_problem") is None:
+            if "_fit_data" not in self.__dict__:
+                raise AttributeError("the model is not fitted: problem_ exists after fit")
+            record = self._fit_data
+            K = record["K"] if record["K"] is not None else gram(self.support_vectors_, **record["kernel"])
+            self._problem = ls_svr.kkt_system(K, record["y"], record["C"], record["fit_intercept"])
+        return self._problem
+
+    @problem_.setter
+    def problem_(self, value: LinearSystem | None) -> None:
+        self._problem = value
+
+    def _keep_fit_data(self, K: NDArray[np.float64] | None, y: NDArray[np.float64]) -> None:
+        """Store what rebuilding ``problem_`` needs; ``K`` only for a precomputed kernel (call in ``fit``)."""
+        self._fit_data = {"K": K, "y": y, "C": float(self.C), "fit_intercept": bool(self.fit_intercept),
+                          "kernel": {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
+                                     "coef0": self.coef0}}
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = super().__getstate__()
+        state.pop("_problem", None)
         return state

@@ -158,6 +158,21 @@ def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int) -> Non
         raise ProblemError(f"the {kernel} kernel overflows on these inputs: scale the features")
 
 
+def gram_diagonal(X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0, degree: int = 3,
+                  coef0: float = 0.0) -> NDArray[np.float64]:
+    """:math:`K_{ii}` for every row of ``X``, in closed form (no kernel entry off the diagonal is formed).
+
+    RBF: :math:`k(x, x) = 1`; linear: :math:`\\lVert x\\rVert^2`; polynomial:
+    :math:`(\\gamma\\lVert x\\rVert^2 + c)^d`.
+    """
+    if kernel == "rbf":
+        return np.ones(X.shape[0])
+    squared_norms = np.einsum("ij,ij->i", X, X)
+    if kernel == "linear":
+        return squared_norms
+    return (gamma * squared_norms + coef0) ** int(degree)
+
+
 def gram(
     X: ArrayLike,
     Y: ArrayLike | None = None,

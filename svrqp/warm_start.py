@@ -26,14 +26,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 
 from svrqp.dual_ipm import crossover
 from svrqp.kernel_columns import KernelColumns
-from svrqp.kernels import gram
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
 #: answer needs; the crossover finishes the job. (1e-2 saves SMO iterations at large C but costs
@@ -60,25 +58,6 @@ class WarmStartFit:
 def precomputed_columns(K: NDArray[np.float64]):
     """Column access ``idx -> K[:, idx]`` for a Gram matrix the caller already holds."""
     return lambda idx: K[:, idx]
-
-
-#: Kernel entries formed at once by :func:`kernel_products`: a 2 MB block stays in cache and its
-#: memory is reused (a large block is a fresh allocation whose page faults cost more than the
-#: kernel itself: 2.5× slower at 4000 × 3550 entries, measured).
-PRODUCT_BLOCK_ENTRIES = 2**18
-
-
-def kernel_products(X: NDArray[np.float64], parameters: dict, idx: NDArray[np.intp],
-                    v: NDArray[np.float64]) -> NDArray[np.float64]:
-    r""":math:`K_{:, idx}\, v` in row blocks, the columns not kept.
-
-    The crossover's bounded term needs the columns of every coefficient at :math:`\pm C` only
-    in this product (and once more for the final check): recomputing them is cheaper than
-    caching thousands of columns that are never read again.
-    """
-    Xi = X[idx]
-    rows = max(1, PRODUCT_BLOCK_ENTRIES // max(Xi.shape[0], 1))
-    return np.concatenate([gram(X[start:start + rows], Xi, **parameters) @ v for start in range(0, X.shape[0], rows)])
 
 
 def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
@@ -111,7 +90,7 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     else:
         parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
         columns = KernelColumns(X, **parameters)
-        products = partial(kernel_products, X, parameters)
+        products = columns.products
     result = crossover(columns, y, C, epsilon, beta0, products=products)
     Kbeta = result.Kbeta
     if Kbeta is None:  # not exact: the caller rejects it, but its certificates are still reported

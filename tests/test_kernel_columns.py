@@ -46,3 +46,19 @@ def test_bad_parameters_are_rejected_when_the_cache_is_made():
         KernelColumns(diabetes().X, gamma=-1.0)
     with pytest.raises(ProblemError, match="overflows"):
         KernelColumns(np.full((4, 2), 1e160), kernel="linear")(np.array([0]))
+
+
+@pytest.mark.parametrize("parameters", [{"kernel": "rbf", "gamma": 5.0}, {"kernel": "linear"},
+                                        {"kernel": "poly", "gamma": 0.5, "degree": 3, "coef0": 1.0}])
+def test_products_equal_scikit_learn_kernel_times_vector(monkeypatch, parameters):
+    import svrqp.kernel_columns as kernel_columns
+
+    monkeypatch.setattr(kernel_columns, "PRODUCT_BLOCK_ENTRIES", 200)  # several row blocks, a short last one
+    X = diabetes().X
+    idx = np.array([3, 40, 7, 100, 119, 3])
+    v = np.random.default_rng(0).uniform(-2.0, 2.0, idx.size)
+    reference = {"rbf": lambda A, B: rbf_kernel(A, B, gamma=5.0), "linear": lambda A, B: A @ B.T,
+                 "poly": lambda A, B: polynomial_kernel(A, B, degree=3, gamma=0.5, coef0=1.0)}[parameters["kernel"]]
+    columns = KernelColumns(X, **parameters)
+    np.testing.assert_allclose(columns.products(idx, v), reference(X, X[idx]) @ v, rtol=1e-12, atol=1e-13)
+    assert columns.evaluated == 0  # the product's columns are not cached

@@ -10,7 +10,7 @@ import pytest
 from problems import SVR_CASES
 from sklearn.svm import SVR
 
-from svrqp import EpsilonSVR
+from svrqp import LSSVR, EpsilonSVR
 from svrqp.formulations import epsilon_svr
 from svrqp.kernels import gram
 
@@ -73,3 +73,44 @@ def test_unpickled_linear_primal_keeps_its_solution():
 
 def test_unfitted_model_has_no_problem():
     assert not hasattr(EpsilonSVR(), "problem_") and not hasattr(EpsilonSVR(), "solution_")
+
+
+@pytest.mark.parametrize("fit_intercept", [True, False])
+def test_ls_svr_pickle_at_most_three_times_kernel_ridge(fit_intercept):
+    from sklearn.kernel_ridge import KernelRidge
+
+    X, y = friedman_like()
+    ours = LSSVR(C=10.0, gamma=0.2, fit_intercept=fit_intercept).fit(X, y)
+    theirs = KernelRidge(alpha=0.1, kernel="rbf", gamma=0.2).fit(X, y)
+    if not fit_intercept:  # the same fitted model: LS-SVR without bias is kernel ridge with alpha = 1/C
+        np.testing.assert_allclose(ours.dual_coef_[0], theirs.dual_coef_, rtol=1e-8, atol=1e-10)
+    ratio = len(pickle.dumps(ours)) / len(pickle.dumps(theirs))
+    assert ratio <= SIZE_RATIO, ratio
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "precomputed"])
+@pytest.mark.parametrize("solver", ["cholesky", "lu"])
+def test_unpickled_ls_svr_rebuilds_its_kkt_system(kernel, solver):
+    from sklearn.metrics.pairwise import rbf_kernel
+
+    X, y = friedman_like(n=60)
+    K = rbf_kernel(X, gamma=0.3)
+    data = K if kernel == "precomputed" else X
+    model = LSSVR(C=5.0, kernel=kernel, gamma=0.3, solver=solver).fit(data, y)
+    loaded = pickle.loads(pickle.dumps(model))
+    assert "_problem" not in loaded.__dict__
+    np.testing.assert_array_equal(loaded.predict(data), model.predict(data))
+    # the bordered KKT matrix of S4 eq. (5), written here with plain numpy from scikit-learn's kernel
+    n = y.size
+    M = np.zeros((n + 1, n + 1))
+    M[0, 1:] = M[1:, 0] = 1.0
+    M[1:, 1:] = K + np.eye(n) / 5.0
+    rebuilt = loaded.problem_
+    np.testing.assert_allclose(rebuilt.M, M, rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(rebuilt.rhs, np.concatenate([[0.0], y]))
+    x = np.concatenate([loaded.intercept_, loaded.dual_coef_[0]])
+    assert np.max(np.abs(M @ x - rebuilt.rhs)) <= 1e-8 * np.max(np.abs(y))
+
+
+def test_unfitted_ls_svr_has_no_problem():
+    assert not hasattr(LSSVR(), "problem_")
