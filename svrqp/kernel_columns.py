@@ -66,10 +66,7 @@ class KernelColumns:
         idx = np.asarray(idx, dtype=np.intp).ravel()
         missing = [j for j in dict.fromkeys(idx.tolist()) if j not in self._slot]
         if missing:
-            kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
-            with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-                block = self._left @ right_factor(self._points[missing], kernel, gamma).T
-            finish_in_place(block, kernel, self.parameters["degree"])
+            block = self.uncached(np.array(missing, dtype=np.intp))
             used = len(self._slot)
             if used + len(missing) > self._store.shape[1]:
                 grown = np.empty((self.n, max(2 * self._store.shape[1], used + len(missing))), order="F")
@@ -79,6 +76,14 @@ class KernelColumns:
             self._slot.update((j, used + k) for k, j in enumerate(missing))
             self.evaluated += len(missing)
         return self._store[:, [self._slot[j] for j in idx.tolist()]]
+
+    def uncached(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        """:math:`K_{:, idx}` computed afresh and not stored (for a caller that reads each column once)."""
+        kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
+        with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
+            block = self._left @ right_factor(self._points[np.asarray(idx, dtype=np.intp).ravel()], kernel, gamma).T
+        finish_in_place(block, kernel, self.parameters["degree"])
+        return block
 
     def products(self, idx: NDArray[np.intp], v: NDArray[np.float64]) -> NDArray[np.float64]:
         r""":math:`K_{:, idx}\, v` in row blocks, the columns neither cached nor kept.

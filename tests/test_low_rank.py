@@ -107,3 +107,16 @@ def test_give_up_stops_early_only_when_the_tolerance_is_out_of_reach():
     reached = low_rank.pivoted_cholesky(columns, max_rank=125, tol=3e-5, give_up=True)
     assert reached.relative_trace_error <= 3e-5
     np.testing.assert_array_equal(reached.pivots, low_rank.pivoted_cholesky(columns, max_rank=125, tol=3e-5).pivots)
+
+
+def test_factor_without_the_column_cache_is_the_same_factor():
+    X = diabetes().X
+    cached, uncached = KernelColumns(X, gamma=2.0), KernelColumns(X, gamma=2.0)
+    with_cache = low_rank.pivoted_cholesky(cached, max_rank=40, tol=1e-10)
+    without = low_rank.pivoted_cholesky(uncached, max_rank=40, tol=1e-10, cache=False)
+    np.testing.assert_array_equal(without.L, with_cache.L)
+    np.testing.assert_array_equal(without.pivots, with_cache.pivots)
+    assert cached.evaluated == with_cache.rank and uncached.evaluated == 0
+    # the uncached columns are the Gram matrix's own
+    np.testing.assert_allclose(uncached.uncached(without.pivots), gram(X, gamma=2.0)[:, without.pivots],
+                               rtol=1e-12, atol=1e-14)
