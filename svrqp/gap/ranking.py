@@ -27,6 +27,11 @@ Effect floor
     A cause is significant only if its transfer gain is at least
     :data:`svrqp.gap.attribute.MIN_GAIN`.
 
+Stronger causes that cannot be shown
+    A cause that transfers better than the verdict candidate but is not significant (a run-level
+    candidate with too few runs to permute, a trend as flexible as its surrogates) must be
+    conditioned on: the candidate stands only if it adds beyond it, else no verdict is named.
+
 Confounded pairs
     A rival whose gain reaches :data:`RIVAL_FRACTION` of the top cause's is checked by
     conditional tests both ways: the gain of one with the other already in the family's
@@ -147,6 +152,8 @@ class Ranking:
     top: Ranked | None = None
     ambiguous_with: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    withheld: str | None = None
+    """Why no verdict is named although a cause is significant (a stronger untested cause explains it)."""
 
 
 class TransferRanker:
@@ -367,8 +374,31 @@ class TransferRanker:
             else:
                 rival.note = f"carries information beyond {top.effect.column}"
         top.ambiguous = bool(result.ambiguous_with)
+        stronger = self.stronger_unproven(ranked, top)
+        if stronger is not None:
+            top.note = f"adds nothing beyond {stronger.effect.column} on held-out runs"
+            result.withheld = (
+                f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "
+                f"{stronger.effect.transform} of {stronger.effect.column} transfers better and it adds nothing "
+                f"beyond it on held-out runs, while {stronger.effect.column} itself is not significant "
+                "(too few held-out runs, or no more than chance): no cause is named.")
+            return result
         result.top = top
         return result
+
+    def stronger_unproven(self, ranked: list[Ranked], top: Ranked) -> Ranked | None:
+        """A cause that transfers better than ``top`` without being significant and explains it away.
+
+        Naming a weaker cause because a stronger one cannot be tested (a run-level candidate with
+        few runs, a trend as flexible as its surrogates) would name the shadow of the stronger one:
+        ``top`` stands only if it adds beyond every such cause (conditional test, :meth:`adds`).
+        """
+        for row in ranked:
+            if row is top or row.gain <= top.gain:
+                break
+            if not row.significant and not row.ambiguous and row.gain >= MIN_GAIN and not self.adds(top, row):
+                return row
+        return None
 
 
 def _besag_clifford(hits: list[bool]) -> float:
