@@ -27,10 +27,10 @@ Effect floor
     A cause is significant only if its transfer gain is at least
     :data:`svrqp.gap.attribute.MIN_GAIN`.
 
-Stronger causes that cannot be shown
-    A cause that transfers better than the verdict candidate but is not significant (a run-level
-    candidate with too few runs to permute, a trend as flexible as its surrogates) must be
-    conditioned on: the candidate stands only if it adds beyond it, else no verdict is named.
+Stronger causes that cannot be tested
+    A run-level cause that transfers better than the verdict candidate but cannot be tested (fewer
+    than :data:`svrqp.gap.between.MIN_RUNS` real runs to permute) is conditioned on: the candidate
+    stands only if it adds beyond it, else no verdict is named.
 
 Confounded pairs
     A rival whose gain reaches :data:`RIVAL_FRACTION` of the top cause's is checked by
@@ -49,7 +49,7 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.between import is_run_level, run_level_columns
+from svrqp.gap.between import MIN_RUNS, is_run_level, run_level_columns
 from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, TransferFit
@@ -153,7 +153,7 @@ class Ranking:
     ambiguous_with: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     withheld: str | None = None
-    """Why no verdict is named although a cause is significant (a stronger untested cause explains it)."""
+    """Why no verdict is named although a cause is significant (a stronger untestable cause explains it)."""
 
 
 class TransferRanker:
@@ -380,23 +380,27 @@ class TransferRanker:
             result.withheld = (
                 f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "
                 f"{stronger.effect.transform} of {stronger.effect.column} transfers better and it adds nothing "
-                f"beyond it on held-out runs, while {stronger.effect.column} itself is not significant "
-                "(too few held-out runs, or no more than chance): no cause is named.")
+                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, cannot be "
+                f"tested between {MIN_RUNS - 1} or fewer real runs: no cause is named.")
             return result
         result.top = top
         return result
 
     def stronger_unproven(self, ranked: list[Ranked], top: Ranked) -> Ranked | None:
-        """A cause that transfers better than ``top`` without being significant and explains it away.
+        """An untestable cause that transfers better than ``top`` and explains it away.
 
-        Naming a weaker cause because a stronger one cannot be tested (a run-level candidate with
-        few runs, a trend as flexible as its surrogates) would name the shadow of the stronger one:
-        ``top`` stands only if it adds beyond every such cause (conditional test, :meth:`adds`).
+        A run-level candidate with fewer than :data:`svrqp.gap.between.MIN_RUNS` real runs cannot
+        reach significance by permuting its run levels, however well it transfers. Naming a weaker
+        cause in its place would name its shadow: ``top`` stands only if it adds beyond every such
+        cause (conditional test, :meth:`adds`). A cause that was tested and found no better than
+        chance is not conditioned on.
         """
+        if len(group_slices(self.data.groups[self.data.is_real])) >= MIN_RUNS:
+            return None
         for row in ranked:
             if row is top or row.gain <= top.gain:
                 break
-            if not row.significant and not row.ambiguous and row.gain >= MIN_GAIN and not self.adds(top, row):
+            if row.effect.run_level and row.gain >= MIN_GAIN and not self.adds(top, row):
                 return row
         return None
 
