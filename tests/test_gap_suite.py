@@ -80,3 +80,24 @@ def test_grids_never_share_a_seed(suite):
     assert all(len(seeds[grid]) >= 172 for grid in seeds)  # ≥ 100 withheld + ≥ 30 null, each its own seed
     assert not seeds["fresh"] & (seeds["development"] | seeds["holdout"])
     assert not seeds["development"] & seeds["holdout"]
+
+
+@pytest.mark.parametrize("name", ["tx-extrapolation-0", "tc-null-0"])
+def test_a_gap_the_refit_alone_closes_names_no_cause(suite, name):
+    """The model is used outside its data and nothing is withheld: refitting with the same inputs leaves the
+    real rows no worse than the train rows, so a decoy that still trims the refit's noise is not the gap's
+    cause (DESIGN §4: a candidate must explain what more data does not)."""
+    scenario = _scenario(suite, name)
+    report = suite.diagnose_case(scenario, suite.case_for(scenario))
+    assert report.gap_detected and report.transfer["refit_closes_gap"]
+    assert report.transfer["rmse_refit"] < 0.05 * report.transfer["rmse_before"]
+    assert report.verdict.column is None and "outside its data" in report.verdict.reason
+
+
+def test_a_cause_explained_by_a_stronger_untestable_one_is_not_named(suite):
+    """tf-bed_C-3: the withheld bed_C holds a level per run and transfers best, but two real runs cannot
+    test it; speed_rpm passes its own test yet adds nothing beyond bed_C, so it is not named in its place."""
+    scenario = _scenario(suite, "tf-bed_C-3")
+    report = suite.diagnose_case(scenario, suite.case_for(scenario))
+    assert report.causes[0].column == "bed_C" and not report.causes[0].significant
+    assert report.verdict.column is None and "bed_C transfers better" in report.verdict.reason

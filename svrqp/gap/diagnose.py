@@ -51,7 +51,7 @@ from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.blocks import blocked_folds, holds_out_groups
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.figures import Series, unit_of
-from svrqp.gap.gate import GateResult, gap_detected, gate
+from svrqp.gap.gate import GateResult, gap_detected, gate, noise_pvalue
 from svrqp.gap.inputs import InputUse, input_use
 from svrqp.gap.localise import localise
 from svrqp.gap.prepare import GapData, prepare
@@ -207,7 +207,7 @@ def diagnose(
     inputs = [] if exact else input_use(data, r, offset_columns(groups), folds)
     units = transfer_units(data.groups, real, baseline.residual)
     transfer = {"rmse_before": float(np.sqrt(np.mean(r**2))), "rmse_refit": None, "shrink_refit": None,
-                "units": units.n_units, "unit_kind": units.kind, "thin": units.thin}
+                "refit_closes_gap": None, "units": units.n_units, "unit_kind": units.kind, "thin": units.thin}
     if exact:
         causes, errors_after, residual_gate, remaining = [], {}, None, []
         verdict = Verdict(column=None, reason="The model reproduces the real rows exactly (the residual is zero to "
@@ -226,12 +226,13 @@ def diagnose(
         refit_errors = ranker.refit.errors
         transfer["rmse_refit"] = float(np.sqrt(np.mean(refit_errors**2)))
         transfer["shrink_refit"] = 1 - transfer["rmse_refit"] / transfer["rmse_before"]
+        transfer["refit_closes_gap"] = detected and refit_closes(refit_errors, groups)
         report_progress("quantifying", 0.9)
         notes = untestable_between_runs(data) | constant_on_real_rows(data)  # the rival notes are the ranking's
         causes, errors_after = _causes(ranking, r, refit_errors, units, units.code[real], within, notes,
                                        np.random.default_rng([seed, 20]))
         verdict, residual_gate = _verdict(ranking, causes, errors_after, data, baseline, groups, gap, detected,
-                                          base, units)
+                                          base, units, transfer["rmse_refit"], transfer["refit_closes_gap"])
         verdict = dataclasses.replace(verdict, reason=verdict.reason + _extrapolation_text(data, inputs, transfer,
                                                                                            units))
         remaining = [c.column for c in causes[1:] if verdict.column and c.significant
@@ -398,9 +399,22 @@ def _quantity(value: float, unit: str | None) -> str:
 
 
 
+def refit_closes(refit_real: np.ndarray, groups: np.ndarray) -> bool:
+    """Whether the refit alone, same inputs, leaves nothing but noise on the real rows.
+
+    DESIGN §4: a candidate is the gap's cause only if it explains what more data does not. When
+    the leave-one-unit-out refit leaves a real-row error no larger than the noise level beyond
+    chance (the gate's excess-over-noise test, :func:`svrqp.gap.gate.noise_pvalue`), the gap was
+    the model used outside its data; a candidate that still trims the remaining noise improves the
+    model everywhere, it is not the gap's cause. (The train rows are no reference here: a withheld
+    effect that acts on them as well inflates their error as much as the refit's.)
+    """
+    return noise_pvalue(refit_real, groups) >= attr.ALPHA
+
+
 def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.ndarray], data: GapData,
              baseline: Baseline, groups: np.ndarray, gap: GateResult, detected: bool, base: BaseFit,
-             units: Units) -> tuple[Verdict, GateResult | None]:
+             units: Units, refit_rmse: float, refit_closes_gap: bool) -> tuple[Verdict, GateResult | None]:
     """The cause the engine stands behind: the best-transferring significant one (:mod:`svrqp.gap.ranking`).
 
     It must come with a gap (one-sided gate), pass the transfer test, leave the real rows better
@@ -421,11 +435,22 @@ def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.n
             reason += (f" Adding {_names(everywhere)} would still improve the model on held-out runs everywhere "
                        "(see the causes table).")
         return Verdict(column=None, reason=reason, thin=units.thin), None
+    if refit_closes_gap:
+        everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
+        reason = (f"Refitting the model leave-one-{_unit_word(units)}-out over all rows, with the same inputs, leaves "
+                  f"a real-row RMSE of {refit_rmse:.3g}, no larger than the measurement noise beyond chance: the "
+                  "gap is the model's use outside its data, and no column is named as its cause.")
+        if everywhere:
+            reason += (f" Adding {_names(everywhere)} would still improve the refitted model on held-out "
+                       f"{_unit_word(units)}s everywhere (see the causes table).")
+        return Verdict(column=None, reason=reason + thin, thin=units.thin), None
     top = ranking.top
     if top is None:
         reason = ("No candidate improves the model on held-out runs beyond chance (transfer surrogate test, "
                   f"false-discovery rate {attr.ALPHA:g}, effect floor {attr.MIN_GAIN:.0%} of the refit's squared "
                   f"error).{thin}{recalibration}")
+        if ranking.withheld:
+            reason = ranking.withheld + thin + recalibration
         return Verdict(column=None, reason=reason, thin=units.thin), None
     cause = next(c for c in causes if c.column == top.effect.column)
     if cause.shrink <= 0.0:
@@ -518,6 +543,9 @@ def _summary(data: GapData, gap: GateResult, detected: bool, verdict: Verdict, e
             second += (f"; {_names(verdict.ambiguous_with[:2])} "
                        + ("does" if len(verdict.ambiguous_with) == 1 else "do") + " about as well")
         return f"{first}. {second}."
+    if transfer.get("refit_closes_gap"):
+        return (f"{first}. Refitting with the new {_unit_word(units)}s removes {transfer['shrink_refit']:.0%} and "
+                f"leaves only noise on {held}, so no cause is named" + (f" ({caveat[2:]})." if caveat else "."))
     return f"{first}. No candidate improves a refit on {held} beyond chance" + (f" ({caveat[2:]})." if caveat else ".")
 
 

@@ -27,6 +27,11 @@ Effect floor
     A cause is significant only if its transfer gain is at least
     :data:`svrqp.gap.attribute.MIN_GAIN`.
 
+Stronger causes that cannot be tested
+    A run-level cause that transfers better than the verdict candidate but cannot be tested (fewer
+    than :data:`svrqp.gap.between.MIN_RUNS` real runs to permute) is conditioned on: the candidate
+    stands only if it adds beyond it, else no verdict is named.
+
 Confounded pairs
     A rival whose gain reaches :data:`RIVAL_FRACTION` of the top cause's is checked by
     conditional tests both ways: the gain of one with the other already in the family's
@@ -44,7 +49,7 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.between import is_run_level, run_level_columns
+from svrqp.gap.between import MIN_RUNS, is_run_level, run_level_columns
 from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, TransferFit
@@ -147,6 +152,8 @@ class Ranking:
     top: Ranked | None = None
     ambiguous_with: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    withheld: str | None = None
+    """Why no verdict is named although a cause is significant (a stronger untestable cause explains it)."""
 
 
 class TransferRanker:
@@ -367,8 +374,35 @@ class TransferRanker:
             else:
                 rival.note = f"carries information beyond {top.effect.column}"
         top.ambiguous = bool(result.ambiguous_with)
+        stronger = self.stronger_unproven(ranked, top)
+        if stronger is not None:
+            top.note = f"adds nothing beyond {stronger.effect.column} on held-out runs"
+            result.withheld = (
+                f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "
+                f"{stronger.effect.transform} of {stronger.effect.column} transfers better and it adds nothing "
+                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, cannot be "
+                f"tested between {MIN_RUNS - 1} or fewer real runs: no cause is named.")
+            return result
         result.top = top
         return result
+
+    def stronger_unproven(self, ranked: list[Ranked], top: Ranked) -> Ranked | None:
+        """An untestable cause that transfers better than ``top`` and explains it away.
+
+        A run-level candidate with fewer than :data:`svrqp.gap.between.MIN_RUNS` real runs cannot
+        reach significance by permuting its run levels, however well it transfers. Naming a weaker
+        cause in its place would name its shadow: ``top`` stands only if it adds beyond every such
+        cause (conditional test, :meth:`adds`). A cause that was tested and found no better than
+        chance is not conditioned on.
+        """
+        if len(group_slices(self.data.groups[self.data.is_real])) >= MIN_RUNS:
+            return None
+        for row in ranked:
+            if row is top or row.gain <= top.gain:
+                break
+            if row.effect.run_level and row.gain >= MIN_GAIN and not self.adds(top, row):
+                return row
+        return None
 
 
 def _besag_clifford(hits: list[bool]) -> float:
