@@ -15,16 +15,13 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+import pandas as pd
+# A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")  # files only, no display
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from svrqp.bench import PROFILES, BenchConfig, aggregate, ratios_to_reference  # noqa: E402
-from svrqp.solve import BACKENDS  # noqa: E402
+from svrqp.bench import PROFILES, BenchConfig, aggregate, ratios_to_reference
+from svrqp.solve import BACKENDS
 
 #: Packages whose versions every report records (backends are added from :data:`BACKENDS`).
 CORE_PACKAGES = ("svrqp", "numpy", "scipy", "scikit-learn", "qpsolvers", "threadpoolctl")
@@ -164,7 +161,8 @@ def markdown_report(rows: pd.DataFrame, config: BenchConfig, machine: dict[str, 
 def plot_time_vs_n(rows: pd.DataFrame, path: Path) -> None:
     """Total time against n on log-log axes, one line per method, one panel per dataset (successes only)."""
     datasets = list(dict.fromkeys(rows["dataset"]))
-    figure, axes = plt.subplots(1, len(datasets), figsize=(6.5 * len(datasets), 4.8), squeeze=False)
+    figure = Figure(figsize=(6.5 * len(datasets), 4.8))
+    axes = figure.subplots(1, len(datasets), squeeze=False)
     for axis, dataset in zip(axes[0], datasets):
         subset = rows[(rows["dataset"] == dataset) & rows["success"]]
         for method, runs in subset.groupby("method", sort=False):
@@ -179,7 +177,6 @@ def plot_time_vs_n(rows: pd.DataFrame, path: Path) -> None:
         axis.legend(fontsize=7, ncol=2)
     figure.tight_layout()
     figure.savefig(path, dpi=120)
-    plt.close(figure)
 
 
 def output_paths(output_dir: Path, stem: str = "results") -> dict[str, Path]:

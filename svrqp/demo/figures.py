@@ -5,31 +5,28 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
+# A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402  (after choosing the Agg backend)
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from svrqp.demo.steps import S2_TRAVEL_MM, S2Result, S4Result  # noqa: E402
-from svrqp.guard.figures import draw_guard  # noqa: E402
+from svrqp.demo.steps import S2_TRAVEL_MM, S2Result, S4Result
+from svrqp.guard.figures import draw_guard
 
 BATCH_TITLES = {"x1": "x1 (summer, training batch)", "x2": "x2 (summer)", "x3": "x3 (autumn)"}
 
 
-def _save(figure: plt.Figure, path: Path) -> Path:
+def _save(figure: Figure, path: Path) -> Path:
     figure.tight_layout()
     figure.savefig(path, dpi=90)
-    plt.close(figure)
     return path
 
 
 def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
     """Measured and predicted axial error (top) and the residuals (bottom) of one batch over time."""
     rows = predictions[predictions["batch"] == batch]
-    figure, (top, bottom) = plt.subplots(2, 1, figsize=(7.5, 5.5), sharex=True)
+    figure = Figure(figsize=(7.5, 5.5))
+    top, bottom = figure.subplots(2, 1, sharex=True)
     top.plot(rows["time_min"], rows["error_um"], color="black", lw=1.2, label="measured (simulated)")
     top.plot(rows["time_min"], rows["mlr_um"], color="tab:orange", lw=1, label="MLR")
     top.plot(rows["time_min"], rows["svr_um"], color="tab:blue", lw=1, ls="--", label="ε-SVR")
@@ -49,7 +46,8 @@ def s0_batch_figure(predictions: pd.DataFrame, batch: str, path: Path) -> Path:
 def s4_figure(result: S4Result, path: Path) -> Path:
     """The first unseen run's deviation, the model fitted on another run, and what remains, along x."""
     run = result.test_runs[0]
-    figure, axis = plt.subplots(figsize=(7.5, 4))
+    figure = Figure(figsize=(7.5, 4))
+    axis = figure.subplots()
     axis.plot(run.x_mm, run.deviation_um, color="black", lw=0.8,
               label=f"run {run.run}: deviation e = g(x) − y from its LS line (simulated)")
     axis.plot(result.x_mm, result.model_um, color="tab:blue", lw=1.2, label=f"LS-SVR model fitted on run {result.train_run}")
@@ -66,7 +64,8 @@ def s2_figure(result: S2Result, path: Path) -> Path:
     """δx(x): truth, improved and original nine-line identification, SVR and 5th-order LSM."""
     x_mm = result.identified["x_mm"].to_numpy()
     fine_mm = np.linspace(x_mm.min(), x_mm.max(), 300)
-    figure, axis = plt.subplots(figsize=(7.5, 4))
+    figure = Figure(figsize=(7.5, 4))
+    axis = figure.subplots()
     axis.plot(result.truth["x_mm"], result.truth["delta_x_um"], "k-", lw=0.8, label="true δx (simulator)")
     axis.plot(x_mm, result.identified["delta_x_um"], "o", color="tab:blue", label="improved nine-line")
     axis.plot(x_mm, result.original["delta_x_um"], "x", color="tab:red", label="original nine-line")

@@ -1,15 +1,13 @@
-"""Figures of a gap report (matplotlib, Agg backend; every axis labelled with its unit)."""
+"""Figures of a gap report (matplotlib; every axis labelled with its unit)."""
 
 from __future__ import annotations
 
 import io
 from dataclasses import dataclass
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+# A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
+from matplotlib.figure import Figure
 
 from svrqp.gap.transforms import group_slices
 
@@ -87,7 +85,8 @@ def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> byt
     over every run, else the label of the one run it lies in (shaded in another colour and
     labelled with the run, since the runs share the axis).
     """
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig = Figure(figsize=(9, 6))
+    top, bottom = fig.subplots(2, 1, sharex=True)
     real = ~s.is_train
     _lines(top, s, s.y, s.is_train, color="0.6", lw=1, label="measured (train rows)")
     _lines(top, s, s.y, real, color="C0", lw=1, label="measured (real rows)")
@@ -114,7 +113,8 @@ def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> byt
 
 def before_after_figure(s: Series, effect: str) -> bytes:
     """Real-row residual before and (out of sample) after adding the effect, PNG bytes."""
-    fig, ax = plt.subplots(figsize=(9, 3.5))
+    fig = Figure(figsize=(9, 3.5))
+    ax = fig.subplots()
     real = ~s.is_train
     residual = s.y - s.y_hat
     _lines(ax, s, residual, real, color="C3", lw=1, label="before")
@@ -132,5 +132,4 @@ def _png(fig) -> bytes:
     buffer = io.BytesIO()
     fig.tight_layout()
     fig.savefig(buffer, format="png", dpi=110)
-    plt.close(fig)
     return buffer.getvalue()
