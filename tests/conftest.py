@@ -7,6 +7,7 @@ developer's machine it is skipped with its reason (never silently dropped).
 from __future__ import annotations
 
 import os
+import shutil
 
 import pytest
 
@@ -40,3 +41,15 @@ def require(backend: str) -> None:
 def backend(request) -> str:
     require(request.param)
     return request.param
+
+
+@pytest.fixture(scope="module")
+def gcc() -> str:
+    """The system C compiler for the generated-C tests: skipped locally, a failure in CI, when absent."""
+    path = shutil.which("gcc")
+    if path is None:
+        message = "gcc is not installed: the generated C cannot be compiled here"
+        if os.environ.get("CI"):
+            pytest.fail(message + " — CI must have a C compiler")
+        pytest.skip(message)
+    return path

@@ -6,13 +6,10 @@ small driver that reads points from stdin and prints ``svrqp_predict`` with ``%.
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
-
 import numpy as np
 import pytest
 
+from c_driver import run_driver
 from export_cases import EXPORT_CASES, box_grid, svr_poly, svr_raw_s0
 from svrqp.export import build_document, write
 from svrqp.export.evaluate import term_magnitude
@@ -36,29 +33,10 @@ int main(void)
 }
 """
 
-CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"]
-
-
-@pytest.fixture(scope="module")
-def gcc() -> str:
-    path = shutil.which("gcc")
-    if path is None:
-        message = "gcc is not installed: the generated C cannot be compiled here"
-        if os.environ.get("CI"):
-            pytest.fail(message + " — CI must have a C compiler")
-        pytest.skip(message)
-    return path
-
-
 def c_predictions(gcc: str, document: dict, points: np.ndarray, directory) -> np.ndarray:
     source, header = write(document, directory)
     assert header.name == "svrqp_model.h" and "double svrqp_predict(const double *x);" in header.read_text()
-    (directory / "driver.c").write_text(DRIVER)
-    binary = directory / "predict"
-    subprocess.run([gcc, *CFLAGS, "-o", str(binary), str(directory / "driver.c"), str(source), "-lm"],
-                   check=True, capture_output=True, text=True)
-    text = "\n".join(" ".join(repr(float(v)) for v in row) for row in points)
-    output = subprocess.run([str(binary)], input=text, check=True, capture_output=True, text=True).stdout
+    output = run_driver(gcc, DRIVER, source, points, directory)
     return np.array([float(value) for value in output.split()])
 
 

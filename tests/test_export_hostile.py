@@ -12,11 +12,11 @@ from __future__ import annotations
 import json
 import os
 import re
-import shutil
-import subprocess
 
+import numpy as np
 import pytest
 
+from c_driver import run_driver
 from export_cases import svr_scaled
 from svrqp.cli import main
 from svrqp.exceptions import ProblemError
@@ -59,18 +59,11 @@ def test_c_injection_through_names_and_formula_stays_in_comments(document):
     assert "*\\/ __attribute__" in c_source(hostile)  # the text is kept, escaped
 
 
-def test_c_injection_does_not_run_when_compiled(document, tmp_path):
-    gcc = shutil.which("gcc")
-    if gcc is None:
-        pytest.skip("gcc is not installed")
+def test_c_injection_does_not_run_when_compiled(document, gcc, tmp_path):
     source, _ = write(_hostile(document), tmp_path)
-    driver = tmp_path / "main.c"
-    driver.write_text('#include <stdio.h>\n#include "svrqp_model.h"\n'
-                      "int main(void) { double x[SVRQP_N_INPUTS] = {0}; printf(\"%g\\n\", svrqp_predict(x)); return 0; }\n")
-    binary = tmp_path / "run"
-    subprocess.run([gcc, "-std=c99", "-Wall", "-Werror", "-o", str(binary), str(driver), str(source), "-lm"],
-                   check=True, capture_output=True, text=True)
-    output = subprocess.run([str(binary)], check=True, capture_output=True, text=True).stdout
+    driver = ('#include <stdio.h>\n#include "svrqp_model.h"\n'
+              "int main(void) { double x[SVRQP_N_INPUTS] = {0}; printf(\"%g\\n\", svrqp_predict(x)); return 0; }\n")
+    output = run_driver(gcc, driver, source, np.empty((0, 0)), tmp_path)
     assert "PWNED" not in output
 
 

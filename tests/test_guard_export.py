@@ -8,9 +8,6 @@ export tests and compared with the live Python model (``Guarded.predict_interval
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import subprocess
 import warnings
 
 import numpy as np
@@ -20,6 +17,7 @@ from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from c_driver import run_driver
 from export_cases import thermal_raw
 from svrqp import EpsilonSVR, ExtrapolationWarning, Guarded
 from svrqp.exceptions import ProblemError
@@ -124,26 +122,10 @@ def test_a_guarded_document_needs_both_sections(tmp_path):
     assert not report.ok and "interval" in report.checks[0].detail
 
 
-@pytest.fixture(scope="module")
-def gcc() -> str:
-    path = shutil.which("gcc")
-    if path is None:
-        message = "gcc is not installed: the generated C cannot be compiled here"
-        if os.environ.get("CI"):
-            pytest.fail(message + " — CI must have a C compiler")
-        pytest.skip(message)
-    return path
-
-
 def c_guarded(gcc: str, document: dict, P: np.ndarray, directory) -> np.ndarray:
     source, header = write(document, directory)
     assert "int svrqp_predict_guarded(" in header.read_text()
-    (directory / "driver.c").write_text(DRIVER)
-    binary = directory / "guarded"
-    subprocess.run([gcc, "-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-o", str(binary),
-                    str(directory / "driver.c"), str(source), "-lm"], check=True, capture_output=True, text=True)
-    text = "\n".join(" ".join(repr(float(v)) for v in row) for row in P)
-    output = subprocess.run([str(binary)], input=text, check=True, capture_output=True, text=True).stdout
+    output = run_driver(gcc, DRIVER, source, P, directory)
     return np.array([[float(v) for v in line.split()] for line in output.splitlines()])
 
 
