@@ -6,8 +6,8 @@ import json
 
 import pytest
 
+from cli_runs import run
 from export_cases import thermal_raw
-from svrqp.cli import main
 
 
 @pytest.fixture
@@ -16,15 +16,6 @@ def data_csv(tmp_path):
     path = tmp_path / "thermal.csv"
     X.assign(error_um=y).to_csv(path, index=False)
     return path
-
-
-def run(argv: list[str]) -> int:
-    """Exit code of ``svrqp ARGV`` (0 when it returns normally)."""
-    try:
-        main(argv)
-    except SystemExit as exit_:
-        return int(exit_.code)
-    return 0
 
 
 FIT = ["--target", "error_um", "--features", "T7_C,T9_C"]

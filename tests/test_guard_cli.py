@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
+from cli_runs import run
 from export_cases import thermal_raw
-from svrqp.cli import main
 
 
 @pytest.fixture
@@ -17,14 +17,6 @@ def runs_csv(tmp_path):
     path = tmp_path / "thermal.csv"
     X.assign(error_um=y, run=np.arange(len(y)) * 5 // len(y)).to_csv(path, index=False)
     return path
-
-
-def run(argv: list[str]) -> int:
-    try:
-        main(argv)
-    except SystemExit as exit_:
-        return int(exit_.code)
-    return 0
 
 
 FIT = ["--target", "error_um", "--features", "T7_C,T9_C", "--model", "mlr"]
