@@ -426,8 +426,8 @@ def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.n
     thin = _thin_text(units)
     recalibration = (f" A per-run recalibration fitted on the real rows themselves ({base.description}) would "
                      f"remove {base.shrink:.0%} of the real-row error; no new run gets that.")
+    everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
     if not detected:
-        everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
         reason = (f"No gap: the real-row RMSE {gap.real_rmse:.3g} is {'not above' if gap.real_rmse <= gap.train_rmse else 'not significantly above'} "
                   f"the train rows' {_train_label(data)} error ({gap.train_rmse:.3g}) beyond chance; no column is "
                   "named as the gap's cause.")
@@ -436,7 +436,6 @@ def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.n
                        "(see the causes table).")
         return Verdict(column=None, reason=reason, thin=units.thin), None
     if refit_closes_gap:
-        everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
         reason = (f"Refitting the model leave-one-{_unit_word(units)}-out over all rows, with the same inputs, leaves "
                   f"a real-row RMSE of {refit_rmse:.3g}, no larger than the measurement noise beyond chance: the "
                   "gap is the model's use outside its data, and no column is named as its cause.")
