@@ -31,7 +31,7 @@ from svrqp.compensate import CompensatedRun, compensate_recorded_run, improvemen
 from svrqp.estimators import DUAL_IPM, LSSVR, EpsilonSVR
 from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
-from svrqp.gap.diagnose import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.report import GapReport
 from svrqp.guard import Guarded
 from svrqp.guard.figures import interval_columns
@@ -328,6 +328,6 @@ GAP_REAL_BATCH = "x3"
 def gap_autumn(data: pd.DataFrame, progress: Callable[[str, float], None] | None = None) -> GapReport:
     """Why does the summer MLR on absolute temperatures (``miao2013``) fail in autumn? x1 → x3."""
     rows = data[data["batch"].isin([S0_TRAIN_BATCH, GAP_REAL_BATCH])]
-    return diagnose(rows, target=S0_TARGET, train=f"batch == '{S0_TRAIN_BATCH}'", features=S0_ABSOLUTE_FEATURES,
-                    candidates=GAP_CANDIDATES, order="time_min", group="batch", model="mlr", seed=0,
-                    progress=progress)
+    question = GapQuestion(target=S0_TARGET, train=f"batch == '{S0_TRAIN_BATCH}'", features=S0_ABSOLUTE_FEATURES,
+                           candidates=GAP_CANDIDATES, order="time_min", group="batch", model="mlr")
+    return diagnose(rows, question, seed=0, progress=progress)

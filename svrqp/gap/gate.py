@@ -46,7 +46,7 @@ Whiteness
     the residual test of system identification (Ljung, *System Identification*, §16.6).
     Measurement noise is often coloured, so a non-white residual alone is reported but does
     not decide anything; the decision on causes rests on the surrogate tests of
-    :mod:`svrqp.gap.attribute`, which keep the residual's autocorrelation.
+    :mod:`svrqp.gap.surrogate_tests`, which keep the residual's autocorrelation.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ For every model feature :math:`x_j` (features mode) and every candidate (``role`
   brings: the discrepancy model "offsets + :math:`x_j` (raw and smoothed)" under the blocked
   folds of the diagnosis (:class:`svrqp.gap.discrepancy.CrossValidatedDiscrepancy`), against
   the model's raw residual — the part of the discrepancy base
-  (:func:`svrqp.gap.diagnose.base_design`) that belongs to this input;
+  (:func:`svrqp.gap.base.base_design`) that belongs to this input;
 * the input's own part of it, beyond the offsets:
   :math:`1 - \mathrm{RMSE}_{cv}(\text{offsets} + x_j) / \mathrm{RMSE}_{cv}(\text{offsets})`.
   The offsets alone (one per run) can take much of a gap that is mostly a level per run —

@@ -121,7 +121,7 @@ def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float
     baseline : Baseline
         The baseline (its kind says which family to refit).
     effect : ndarray, shape (n, k)
-        The effect's columns on every row (:func:`svrqp.gap.attribute.effect_columns`).
+        The effect's columns on every row (:func:`svrqp.gap.candidates.effect_columns`).
 
     Returns
     -------
