@@ -14,8 +14,12 @@
    (:mod:`svrqp.gap.transfer`); the refit without any effect says what more data alone buys.
    Causes are ranked by that transfer gain and tested against surrogates that respect what
    varies where, with the false-discovery rate controlled and confounded pairs checked by
-   conditional tests (:mod:`svrqp.gap.ranking`). The verdict is the best-transferring
-   significant cause whose shrink beyond the refit has an interval above zero.
+   conditional tests (:mod:`svrqp.gap.ranking`); this screen refits the linear family. For an
+   ``svr`` or ``lssvr`` model the reported numbers of the same-input refit, the best-ranked
+   causes and the verdict candidate come from refits of that kernel family itself, its C, ε
+   and γ fixed (:mod:`svrqp.gap.kernel_transfer`). The verdict is the best-transferring
+   significant cause whose shrink is positive and whose shrink beyond the refit has an
+   interval above zero.
 5. **Within the real rows** — the earlier evidence, discrepancy models fitted on the real rows
    themselves (:mod:`svrqp.gap.attribute`), stays under its own keys (``p_within``,
    ``within_shrink``, ``shrink_beyond_base``, ``base``): it says what a per-run recalibration
@@ -56,6 +60,7 @@ from svrqp.gap.candidates import (
 from svrqp.gap.figures import Series
 from svrqp.gap.gate import gap_detected, gate
 from svrqp.gap.inputs import input_use
+from svrqp.gap.kernel_transfer import LINEAR, FamilyErrors, same_family_errors
 from svrqp.gap.localise import localise
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink
@@ -178,13 +183,15 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     ranked = ranker.rank()
     ranker.test(ranked)
     ranking = ranker.choose(ranked)
-    refit_errors = ranker.refit.errors
-    transfer["rmse_refit"] = float(np.sqrt(np.mean(refit_errors**2)))
+    report_progress("refitting the model family", 0.8)
+    family = same_family_errors(data, context.baseline, units, ranker, ranking)
+    transfer["rmse_refit"] = float(np.sqrt(np.mean(family.refit**2)))
     transfer["shrink_refit"] = 1 - transfer["rmse_refit"] / transfer["rmse_before"]
-    transfer["refit_closes_gap"] = context.detected and refit_closes(refit_errors, groups)
+    transfer["refit_closes_gap"] = context.detected and refit_closes(family.refit, groups)
+    transfer |= {"family": family.family, "screened_by": LINEAR, "family_note": family.note}
     report_progress("quantifying", 0.9)
-    notes = untestable_between_runs(data) | constant_on_real_rows(data)  # the rival notes are the ranking's
-    causes, errors_after = _causes(ranking, r, refit_errors, units, units.code[real], within, notes,
+    notes = untestable_between_runs(data) | constant_on_real_rows(data) | family.kept_linear
+    causes, errors_after = _causes(ranking, r, family, units, units.code[real], within, notes,
                                    np.random.default_rng([seed, 20]))
     verdict, residual_gate = decide(ranking, causes, errors_after, context)
     verdict = replace(verdict, reason=verdict.reason + extrapolation_text(context))
@@ -241,11 +248,12 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
 
 
 def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer:
-    """The model family the transfer refits use (:mod:`svrqp.gap.transfer`).
+    """The linear family the ranking and the tests refit (:mod:`svrqp.gap.transfer`).
 
-    Features mode: least squares of the target on an intercept and the features (``mlr``;
-    for ``svr`` and ``lssvr`` the same linear family, see the module docstring). Prediction
-    mode: the discrepancy model, target − prediction on an intercept.
+    Features mode: least squares of the target on an intercept and the features (the ``mlr``
+    model itself; for ``svr`` and ``lssvr`` the screen, whose best causes
+    :mod:`svrqp.gap.kernel_transfer` refits with the kernel family). Prediction mode: the
+    discrepancy model, target − prediction on an intercept.
     """
     ones = np.ones((len(data.y), 1))
     if data.prediction is not None:
@@ -270,18 +278,22 @@ def _within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray,
     return out
 
 
-def _causes(ranking: Ranking, r: np.ndarray, refit_errors: np.ndarray, units: Units, real_units: np.ndarray,
+def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units, real_units: np.ndarray,
             within: dict, notes: dict, rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
-    """The causes table, best transfer first: one row per column with its transfer numbers.
+    """The causes table, best transfer first (by the linear screen): one row per column with its transfer numbers.
 
-    ``real_units`` is the held-out unit of each real row; ``within`` the numbers of
-    :func:`_within_numbers`; ``notes`` the attribution's notes on columns.
+    ``family`` holds the same-family refits (:mod:`svrqp.gap.kernel_transfer`); a cause it did not
+    refit keeps the linear screen's numbers, said by its ``family``. ``real_units`` is the held-out
+    unit of each real row; ``within`` the numbers of :func:`_within_numbers`; ``notes`` the
+    attribution's notes on columns.
     """
     index = bootstrap_index(units.n_units, rng)
     causes, errors_after = [], {}
     for row in ranking.ranked:
         effect = row.effect
-        numbers = transfer_shrink(r, refit_errors, row.fit.errors, real_units, units.n_units, index)
+        name, refit, after = family.of(effect.column)
+        after = row.fit.errors if after is None else after
+        numbers = transfer_shrink(r, refit, after, real_units, units.n_units, index)
         w_shrink, w_ci, w_q, w_beyond = within.get(effect.column, (None, None, None, None))
         note = row.note or notes.get(effect.column)
         causes.append(Cause(
@@ -292,8 +304,8 @@ def _causes(ranking: Ranking, r: np.ndarray, refit_errors: np.ndarray, units: Un
             shrink_ci=numbers.shrink_ci, round=1, note=note, ambiguous=row.ambiguous,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
-            tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci,
+            tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
         ))
-        errors_after[effect.column] = row.fit.errors
+        errors_after[effect.column] = after
     return causes, errors_after
 

@@ -39,8 +39,9 @@ def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:
             second += f", adding the {_short_effect(verdict)} {verdict.shrink:.0%}"
         return f"{first}. {second} on {held}" + (f" ({caveat[2:]})." if caveat else ".")
     if verdict.column is not None:
+        refit_alone = 1 - verdict.rmse_refit / verdict.rmse_before  # the verdict's own family (kernel_transfer)
         second = (f"Adding the {_short_effect(verdict)} and refitting shrinks it by {verdict.shrink:.0%} on "
-                  f"{held} (refit alone: {transfer['shrink_refit']:.0%}{caveat})")
+                  f"{held} (refit alone: {refit_alone:.0%}{caveat})")
         if verdict.ambiguous_with:
             second += (f"; {names(verdict.ambiguous_with[:2])} "
                        + ("does" if len(verdict.ambiguous_with) == 1 else "do") + " about as well")

@@ -20,6 +20,7 @@ from svrqp.gap.candidates import effect_columns
 from svrqp.gap.figures import unit_of
 from svrqp.gap.gate import GateResult, gate, noise_pvalue
 from svrqp.gap.inputs import InputUse
+from svrqp.gap.kernel_transfer import LINEAR
 from svrqp.gap.prepare import GapData
 from svrqp.gap.quantify import refit_shrink
 from svrqp.gap.ranking import Ranking
@@ -92,6 +93,20 @@ def quantity(value: float, unit: str | None) -> str:
     return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
 
 
+def family_text(cause: Cause, context: VerdictContext) -> str:
+    """Which model family the cause's transfer numbers refit, when that is not the linear screen (else empty)."""
+    transfer = context.transfer
+    if transfer["family_note"]:
+        return f" The model is {context.baseline.kind}, but {transfer['family_note']}."
+    if transfer["family"] == LINEAR:
+        return ""
+    if cause.family == LINEAR:
+        return (f" These numbers are the linear family's: {cause.column} is recorded on too few rows for a "
+                f"{transfer['family']} refit without a held-out {unit_word(context.units)}.")
+    return (f" These numbers refit the {cause.family} itself, with the given model's C, ε and γ; the ranking and "
+            "the transfer test use the linear family.")
+
+
 def refit_closes(refit_real: np.ndarray, groups: np.ndarray) -> bool:
     """Whether the refit alone, same inputs, leaves nothing but noise on the real rows.
 
@@ -149,14 +164,14 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
         reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}) and "
                   f"adds {cause.shrink_beyond_refit:.0%} to a refit, but the refit with it still leaves the real-row "
                   f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
-                  f"cause is named.{thin}{recalibration}")
+                  f"cause is named.{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin), None
     if cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin:
         reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}), "
                   f"but what it adds to a refit is not above zero on every resample of the held-out "
                   f"{unit_word(units)}s: {cause.shrink_beyond_refit:.0%} (95 % CI "
                   f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
-                  f"{thin}{recalibration}")
+                  f"{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin), None
     train_refit = refit_shrink(data, context.baseline, effect_columns(data, cause.column, cause.transform, cause.tau,
                                                               cause.evidence))
@@ -169,7 +184,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
               f"{cause.shrink_ci[1]:.0%}), {cause.shrink_beyond_refit:.0%} beyond the same refit without it "
               f"({cause.rmse_refit:.3g}; CI {cause.shrink_beyond_refit_ci[0]:.0%} … "
               f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q = {cause.p_value:.2g}. "
-              + capitalised(refit_text(train_refit, cause.column)) + thin + recalibration)
+              + capitalised(refit_text(train_refit, cause.column)) + family_text(cause, context) + thin + recalibration)
     if ranking.ambiguous_with:
         reason += (f" On held-out runs it cannot be told apart from {names(ranking.ambiguous_with)} (neither adds "
                    "to the other in a conditional transfer test); it stays named because it transfers best.")
@@ -178,7 +193,8 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                    refit_shrink=train_refit, rmse_before=cause.rmse_before, rmse_after=cause.rmse_after,
                    p_value=cause.p_value, ambiguous_with=list(ranking.ambiguous_with), rmse_refit=cause.rmse_refit,
                    shrink_beyond_refit=cause.shrink_beyond_refit,
-                   shrink_beyond_refit_ci=cause.shrink_beyond_refit_ci, thin=units.thin), residual_gate
+                   shrink_beyond_refit_ci=cause.shrink_beyond_refit_ci, thin=units.thin,
+                   family=cause.family), residual_gate
 
 
 def capitalised(text: str) -> str:
