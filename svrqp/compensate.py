@@ -219,7 +219,7 @@ def compensate_recorded_run(
 
 
 class OnlineModel(Protocol):
-    """A fitted regressor that can be updated: e.g. :class:`svrqp.linear_models.RecursiveLS`."""
+    """A fitted regressor that can be updated: e.g. :class:`svrqp.estimators.linear.RecursiveLS`."""
 
     def predict(self, X: Any) -> np.ndarray: ...
 
