@@ -50,6 +50,7 @@ import pandas as pd
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations.least_squares import check_finite_matrix
+from svrqp.metrics import rms
 
 
 @dataclass(frozen=True)
@@ -77,7 +78,7 @@ def residual_metrics(residual_um: np.ndarray) -> ResidualMetrics:
     if r.size == 0:
         raise ProblemError("residual_um is empty")
     return ResidualMetrics(
-        rms_um=float(np.sqrt(np.mean(r**2))),
+        rms_um=float(rms(r)),
         std_um=float(np.std(r)),
         max_abs_um=float(np.max(np.abs(r))),
         mean_abs_um=float(np.mean(np.abs(r))),
