@@ -39,9 +39,9 @@ import adversarial_documents  # the tampered-file family, beside this script
 
 from svrqp import LSSVR, EpsilonSVR
 from svrqp.exceptions import SvrqpError
-from svrqp.linear_models import LinearLS, RecursiveLS
+from svrqp.estimators import LinearLS, RecursiveLS
 from svrqp.query import QueryError, select_rows
-from svrqp.solve import available_backends
+from svrqp.solvers import available_backends
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

@@ -46,7 +46,7 @@ from svrqp.exceptions import SvrqpError
 from svrqp.export import build_document, content_sha256, evaluate, read_document, verify
 from svrqp.export.c_source import c_source
 from svrqp.export.guarded import predict_guarded
-from svrqp.linear_models import LinearLS, PolynomialLS
+from svrqp.estimators import LinearLS, PolynomialLS
 
 OUTCOMES = ("documented error", "right answer", "silent wrong", "crash")
 

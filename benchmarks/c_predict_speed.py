@@ -5,7 +5,7 @@ measures how much of a 1 ms cycle one ``svrqp_predict`` call takes.
 
 The model: an RBF LS-SVR (every training point is a support vector, so 56 rows give exactly 56)
 with S0's kernel width g = 0.125 on (T7_C, T9_C) → error_um, fitted on 56 evenly spaced rows of
-the simulated summer batch x1 (``svrqp.machine.datasets.miao2013``). The evaluator's cost depends
+the simulated summer batch x1 (``svrqp.datasets.build.miao2013``). The evaluator's cost depends
 only on the number of support vectors and inputs, not on the coefficients' values.
 
 Two measurements, each with ``gcc -O2``:
@@ -31,7 +31,7 @@ import numpy as np
 
 from svrqp import LSSVR, __version__
 from svrqp.export import build_document, write
-from svrqp.machine.datasets import miao2013
+from svrqp.datasets.build import miao2013
 
 N_SUPPORT = 56
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -24,8 +24,8 @@ from pathlib import Path
 
 from rich.progress import Progress
 
-from svrqp.bench import BenchConfig, run_benchmark
-from svrqp.bench_report import write_outputs
+from svrqp.bench.harness import BenchConfig, run_benchmark
+from svrqp.bench.report import write_outputs
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -33,11 +33,11 @@ NOTES = """## What is compared
 
 - `libsvm/smo`: scikit-learn's `SVR(tol=1e-8)` (libsvm's SMO, kernel cache 1000 MB), the reference.
 - `<backend>/split`: the β-split dual QP of `svrqp.formulations.epsilon_svr` handed to a stock
-  backend through `svrqp.solve` (dense Gram matrix inside a sparse P).
-- `dual_ipm/dense`: `svrqp.dual_ipm.solve_exact` — an interior point whose Newton systems are the
+  backend through `svrqp.solvers` (dense Gram matrix inside a sparse P).
+- `dual_ipm/dense`: `svrqp.solvers.dual_ipm.exact.solve_exact` — an interior point whose Newton systems are the
   reduced n×n matrix K + D⁻¹ factorised by dense LAPACK Cholesky, followed by an active-set
   crossover to the exact optimum (every KKT condition to rounding).
-- `dual_ipm/auto`: `svrqp.dual_ipm.solve_exact_from_data` — tries a pivoted-Cholesky factor of
+- `dual_ipm/auto`: `svrqp.solvers.dual_ipm.exact.solve_exact_from_data` — tries a pivoted-Cholesky factor of
   rank ≤ n/8 first (Woodbury solves in O(nr²), exact kernel columns of the support vectors only
   in the crossover) and falls back to the dense path when the kernel is not low-rank.
 

@@ -6,7 +6,7 @@ cycles at 1250, 2500, 3750, 5000 and 3500 rpm and a final mixed-speed run. The s
 
 1. **chooses the model on the lower-speed cycles only** (1250/2500/3750 rpm, each cycle = its
    run and the stop after it): for every channel and every pair of temperatures a
-   :class:`svrqp.linear_models.LinearLS` is scored by leave-one-cycle-out RMSE; each channel
+   :class:`svrqp.estimators.LinearLS` is scored by leave-one-cycle-out RMSE; each channel
    keeps its best pair, and the channel with the highest cross-validated R² is taken. Nothing
    of the assessment rows is looked at. The model is then fitted on those cycles and assessed
    on the 5000 rpm cycle and the final mixed-speed run; :func:`svrqp.gap.diagnose` gets the
@@ -54,7 +54,7 @@ import pandas as pd
 from svrqp import datasets
 from svrqp.gap import GapQuestion, GapReport, diagnose
 from svrqp.gap.report import markdown_table
-from svrqp.linear_models import LinearLS
+from svrqp.estimators import LinearLS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import (  # noqa: E402  benchmarks/ is not a package: imported from its folder

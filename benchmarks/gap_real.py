@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from svrqp.bench_report import markdown_table
+from svrqp.bench.report import markdown_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import ASSESS_CYCLES, CHANNELS, DEFAULT_DATA, REPO, TEMPERATURES, TRAIN_CYCLES, load_fl  # noqa: E402

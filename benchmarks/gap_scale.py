@@ -33,7 +33,7 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gap_suite as gs  # benchmarks/ is not a package: imported from its folder
 
-from svrqp.bench_report import machine_info, machine_sentence, markdown_table, package_versions
+from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.gap import GapQuestion, diagnose
 
 RESULTS = Path(__file__).resolve().parent / "results"

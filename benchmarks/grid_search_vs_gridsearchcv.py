@@ -29,8 +29,8 @@ from sklearn.model_selection import GridSearchCV, KFold
 from sklearn.svm import SVR
 from threadpoolctl import threadpool_limits
 
-from svrqp.bench import friedman1
-from svrqp.bench_report import machine_info, markdown_table, package_versions
+from svrqp.bench.harness import friedman1
+from svrqp.bench.report import machine_info, markdown_table, package_versions
 from svrqp.tuning import grid_search
 
 RESULTS = Path(__file__).resolve().parent / "results"

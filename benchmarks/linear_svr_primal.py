@@ -2,7 +2,7 @@
 
 Target (issue 6): at most 0.05× LinearSVR's time at the exact objective. svrqp paths:
 the primal QP of :mod:`svrqp.formulations.epsilon_svr` (:math:`x = [w; b; \\xi; \\xi^*]`, sparse)
-through ``svrqp.solve`` with several backends, and :mod:`svrqp.dual_ipm` on the exact factor
+through ``svrqp.solvers`` with several backends, and :mod:`svrqp.solvers.dual_ipm` on the exact factor
 :math:`K = XX^\\top` (rank d, Woodbury solves in O(nd²)) with the exact crossover.
 LinearSVR (liblinear) also penalises the intercept (``intercept_scaling=1``), so it solves a
 slightly different problem: its objective gap on ours is reported. Writes
@@ -22,17 +22,12 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.svm import LinearSVR
 from threadpoolctl import threadpool_limits
 
-from svrqp import dual_ipm
-from svrqp.bench import beta_certificates, make_case
-from svrqp.bench_report import (
-    machine_info,
-    machine_sentence,
-    markdown_table,
-    package_versions,
-)
+from svrqp.solvers import dual_ipm
+from svrqp.bench.harness import beta_certificates, make_case
+from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.exceptions import SolverError
 from svrqp.formulations import epsilon_svr
-from svrqp.solve import solve_qp
+from svrqp.solvers import solve_qp
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -94,7 +89,7 @@ TIGHT_MAX_ITER = 100_000
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=20000)
-    # piqp and proxqp are registered as dense backends in svrqp.solve: the primal's G would be densified
+    # piqp and proxqp are registered as dense backends in svrqp.solvers: the primal's G would be densified
     # (40000 x 40011 at n = 20000, 12.8 GB). HiGHS and OSQP took over 120 s each here at n = 20000.
     parser.add_argument("--backends", default="clarabel")
     parser.add_argument("--force", action="store_true")

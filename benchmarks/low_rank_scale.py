@@ -2,7 +2,7 @@
 
 Target (issue 6): n = 10⁵ in at most 2 minutes with memory O(n·r), the accuracy loss against an
 exact fit on a subsample reported. The factored dual (:mod:`svrqp.formulations.low_rank`) is
-solved by :func:`svrqp.dual_ipm.interior_point` on :math:`K \\approx LL^\\top` (Woodbury, O(nr²) per
+solved by :func:`svrqp.solvers.dual_ipm.interior_point` on :math:`K \\approx LL^\\top` (Woodbury, O(nr²) per
 iteration); no n×n matrix is ever formed. The loss is measured three ways:
 
 1. on a subsample of m points, the low-rank fit (same factor settings) against the exact fit of
@@ -31,21 +31,13 @@ import pandas as pd
 from sklearn.svm import SVR
 from threadpoolctl import threadpool_limits
 
-from svrqp import dual_ipm
-from svrqp.bench import GENERATORS, resolve_gamma
-from svrqp.bench_report import (
-    machine_info,
-    machine_sentence,
-    markdown_table,
-    package_versions,
-)
+from svrqp.solvers import dual_ipm
+from svrqp.bench.harness import GENERATORS, resolve_gamma
+from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.formulations.epsilon_svr import dual_objective
-from svrqp.formulations.low_rank import (
-    objective_error_bound,
-    pivot_coefficients,
-    pivoted_cholesky,
-)
-from svrqp.kernel_columns import KernelColumns
+from svrqp.formulations.low_rank import objective_error_bound, pivot_coefficients
+from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
+from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.kernels import gram
 
 RESULTS = Path(__file__).resolve().parent / "results"

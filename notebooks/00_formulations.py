@@ -41,7 +41,7 @@ from sklearn.svm import SVR
 
 from svrqp.formulations import epsilon_svr, least_squares, ls_svr
 from svrqp.kernels import gram
-from svrqp.solve import solve_linear_system, solve_qp
+from svrqp.solvers import solve_linear_system, solve_qp
 
 np.set_printoptions(precision=4, suppress=True, linewidth=120)
 

@@ -41,9 +41,9 @@ from sklearn.svm import SVR
 from svrqp import EpsilonSVR, datasets, tuning
 from svrqp.compensate import residual_metrics
 from svrqp.formulations import epsilon_svr, least_squares
-from svrqp.linear_models import LinearLS
+from svrqp.estimators import LinearLS
 from svrqp.problems import LinearSystem
-from svrqp.solve import solve_linear_system
+from svrqp.solvers import solve_linear_system
 
 card = datasets.card("miao2013_rise")
 display(Markdown(card[card.index("## Decisions"):card.index("## Effects")]))

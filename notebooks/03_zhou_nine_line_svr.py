@@ -43,11 +43,11 @@ from sklearn.svm import SVR
 from svrqp import EpsilonSVR, datasets, tuning
 from svrqp.formulations import epsilon_svr, least_squares, nine_line
 from svrqp.kernels import gamma_from_sigma_s0
-from svrqp.linear_models import PolynomialLS
-from svrqp.machine.datasets import ZHOU_AXIS
+from svrqp.estimators import PolynomialLS
+from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.machine.geometry import effect_components, measure_nine_line
 from svrqp.problems import LinearSystem
-from svrqp.solve import solve_linear_system
+from svrqp.solvers import solve_linear_system
 
 readings = datasets.load("zhou_axis_x")
 truth = datasets.load("zhou_axis_x_true").set_index("x_mm")

@@ -35,9 +35,9 @@ from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
 from svrqp.compensate import online_compensation, residual_metrics
-from svrqp.linear_models import LinearLS, RecursiveLS, merge_models
+from svrqp.estimators import LinearLS, RecursiveLS, merge_models
 from svrqp.problems import LinearSystem
-from svrqp.solve import solve_linear_system
+from svrqp.solvers import solve_linear_system
 
 data = datasets.load("yang_turning")
 features, target = ["coolant_C", "nut_C", "spindle_C", "bed_C"], "error_um"

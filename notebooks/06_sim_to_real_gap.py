@@ -41,7 +41,7 @@ import pandas as pd
 
 from svrqp import datasets
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.linear_models import LinearLS
+from svrqp.estimators import LinearLS
 
 # svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
 # %matplotlib inline

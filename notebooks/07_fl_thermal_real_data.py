@@ -39,7 +39,7 @@ from threadpoolctl import threadpool_limits
 from svrqp import EpsilonSVR, LSSVR, datasets, tuning
 from svrqp.compensate import residual_metrics
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.linear_models import LinearLS
+from svrqp.estimators import LinearLS
 
 # svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
 # %matplotlib inline

@@ -23,17 +23,16 @@ from svrqp.exceptions import (
 )
 
 if TYPE_CHECKING:
-    from svrqp.estimators import LSSVR, EpsilonSVR
+    from svrqp.estimators import LSSVR, EpsilonSVR, LinearLS, PolynomialLS, RecursiveLS
     from svrqp.guard import Guarded
-    from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
 
 #: Public name -> module that defines it, imported when the name is first asked for.
 _LAZY = {
     "EpsilonSVR": "svrqp.estimators",
     "LSSVR": "svrqp.estimators",
-    "LinearLS": "svrqp.linear_models",
-    "PolynomialLS": "svrqp.linear_models",
-    "RecursiveLS": "svrqp.linear_models",
+    "LinearLS": "svrqp.estimators",
+    "PolynomialLS": "svrqp.estimators",
+    "RecursiveLS": "svrqp.estimators",
     "Guarded": "svrqp.guard",
 }
 

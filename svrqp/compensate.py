@@ -50,6 +50,7 @@ import pandas as pd
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations.least_squares import check_finite_matrix
+from svrqp.metrics import rms
 
 
 @dataclass(frozen=True)
@@ -77,7 +78,7 @@ def residual_metrics(residual_um: np.ndarray) -> ResidualMetrics:
     if r.size == 0:
         raise ProblemError("residual_um is empty")
     return ResidualMetrics(
-        rms_um=float(np.sqrt(np.mean(r**2))),
+        rms_um=float(rms(r)),
         std_um=float(np.std(r)),
         max_abs_um=float(np.max(np.abs(r))),
         mean_abs_um=float(np.mean(np.abs(r))),
@@ -219,7 +220,7 @@ def compensate_recorded_run(
 
 
 class OnlineModel(Protocol):
-    """A fitted regressor that can be updated: e.g. :class:`svrqp.linear_models.RecursiveLS`."""
+    """A fitted regressor that can be updated: e.g. :class:`svrqp.estimators.linear.RecursiveLS`."""
 
     def predict(self, X: Any) -> np.ndarray: ...
 

@@ -11,19 +11,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from benchmark_modules import load_benchmark
+from support.benchmark_modules import load_benchmark
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sklearn.kernel_ridge import KernelRidge
 from sklearn.model_selection import KFold
 from sklearn.svm import SVR
 
-from svrqp import LSSVR, EpsilonSVR, datasets, estimators
+from svrqp import LSSVR, EpsilonSVR, datasets
+from svrqp.estimators import kernel as estimators
 from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations import epsilon_svr
 from svrqp.kernels import gram
-from svrqp.linear_models import LinearLS, RecursiveLS
-from svrqp.solve import available_backends
+from svrqp.estimators import LinearLS, RecursiveLS
+from svrqp.solvers import available_backends
 from svrqp.tuning import grid_search
 
 SOLVERS = ["auto", "dual_ipm", *available_backends()]

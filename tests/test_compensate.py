@@ -15,7 +15,7 @@ from svrqp.compensate import (
     windowed_mean_offsets,
 )
 from svrqp.exceptions import ProblemError
-from svrqp.linear_models import RecursiveLS
+from svrqp.estimators import RecursiveLS
 
 
 def _linear_deviation(x_mm: np.ndarray) -> np.ndarray:

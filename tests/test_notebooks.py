@@ -8,12 +8,11 @@ fail here.
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 
 import nbformat
 import pytest
+from support.paths import NOTEBOOKS
 
-NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
 _spec = importlib.util.spec_from_file_location("notebook_build", NOTEBOOKS / "build.py")
 build = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(build)

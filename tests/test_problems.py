@@ -6,12 +6,7 @@ import scipy.sparse as sp
 
 from svrqp import ProblemError
 from svrqp.problems import LinearSystem, QuadraticProgram
-
-
-def box_qp() -> QuadraticProgram:
-    """min ½(x1² + x2²) − x1 − x2 s.t. x1 + x2 = 1, 0 ≤ x ≤ 0.8: optimum (0.5, 0.5), y = 0.5."""
-    return QuadraticProgram(P=np.eye(2), q=-np.ones(2), A=np.ones((1, 2)), b=np.ones(1),
-                            lb=np.zeros(2), ub=np.full(2, 0.8))
+from support.problems import box_qp
 
 
 def test_objective_and_exact_certificates_at_the_known_optimum():

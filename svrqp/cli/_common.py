@@ -8,10 +8,10 @@ from typing import Any
 
 import pandas as pd
 
-from svrqp.estimators import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
+from svrqp.estimators.kernel import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
 from svrqp.exceptions import BackendNotAvailableError, ProblemError
-from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
-from svrqp.solver_choice import AUTO, SMO_CROSSOVER
+from svrqp.estimators.linear import LinearLS, PolynomialLS, RecursiveLS
+from svrqp.solvers.auto import AUTO, SMO_CROSSOVER
 from svrqp.table_checks import check_numeric, check_present
 
 #: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.

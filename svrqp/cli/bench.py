@@ -7,9 +7,9 @@ from pathlib import Path
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from svrqp.bench import GENERATORS, PROFILES, BenchConfig, run_benchmark
+from svrqp.bench.harness import GENERATORS, PROFILES, BenchConfig, run_benchmark
 from svrqp.exceptions import ProblemError
-from svrqp.solve import available_backends
+from svrqp.solvers.qp_backends import available_backends
 
 
 def _names(text: str, option: str) -> tuple[str, ...]:
@@ -61,7 +61,7 @@ def bench(
     force: bool = typer.Option(False, "--force", help="Overwrite existing result files."),
 ) -> None:
     """Run every backend x formulation on generated SVR problems; write a CSV, a Markdown report and a plot."""
-    from svrqp.bench_report import output_paths, write_outputs  # matplotlib: not needed for --help
+    from svrqp.bench.report import output_paths, write_outputs  # matplotlib: not needed for --help
 
     chosen_backends = tuple(available_backends()) if backends == "all" else _names(backends, "--backends")
     config = BenchConfig(

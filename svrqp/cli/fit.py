@@ -35,7 +35,7 @@ from svrqp.compensate import online_compensation, residual_metrics
 from svrqp.exceptions import ProblemError
 from svrqp.export.guarded import sections
 from svrqp.guard import Guarded
-from svrqp.linear_models import PolynomialLS, split_unit
+from svrqp.estimators.linear import PolynomialLS, split_unit
 from svrqp.query import QueryError, select_rows
 
 

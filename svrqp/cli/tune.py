@@ -18,7 +18,7 @@ from svrqp.cli._common import SOLVER_HELP, read_table, split_columns
 from svrqp.exceptions import ProblemError
 
 if TYPE_CHECKING:
-    from svrqp.tuning import SearchResult
+    from svrqp.tuning.search import SearchResult
 
 
 class Model(str, Enum):
@@ -124,7 +124,12 @@ def tune(
     force: bool = typer.Option(False, "--force", help="Overwrite existing --plot/--json files."),
 ) -> None:
     """Choose (C, ε, γ) by k-fold cross-validated MSE: a grid (S0, S2) or a genetic algorithm (S1)."""
-    from svrqp.tuning import ga_search, grid_search, plot_convergence, plot_grid_scores  # matplotlib: not for --help
+    from svrqp.tuning.search import (  # matplotlib: not for --help
+        ga_search,
+        grid_search,
+        plot_convergence,
+        plot_grid_scores,
+    )
 
     _writable(plot, force)
     _writable(json_path, force)

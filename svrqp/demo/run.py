@@ -24,7 +24,7 @@ from svrqp.demo import figures, steps
 from svrqp.demo.report import SIMULATED_NOTE, report_html
 from svrqp.export import build_document, verify, write
 from svrqp.kernels import gamma_from_sigma_s4
-from svrqp.linear_models import LinearLS
+from svrqp.estimators.linear import LinearLS
 
 Progress = Callable[[str, float], None]
 

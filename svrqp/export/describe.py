@@ -64,8 +64,8 @@ def floats(values: Any) -> list[float]:
 def kind_of(estimator: Any) -> str:
     """The ``kind`` of an exportable estimator."""
     # Imported here, not at the top: the estimators inherit ExportMixin from this package.
-    from svrqp.estimators import LSSVR, EpsilonSVR
-    from svrqp.linear_models import LinearLS, PolynomialLS, RecursiveLS
+    from svrqp.estimators.kernel import LSSVR, EpsilonSVR
+    from svrqp.estimators.linear import LinearLS, PolynomialLS, RecursiveLS
 
     kinds = {EpsilonSVR: "epsilon_svr", LSSVR: "ls_svr", LinearLS: "linear_ls", PolynomialLS: "polynomial_ls",
              RecursiveLS: "recursive_ls"}
@@ -146,7 +146,7 @@ def _json_value(value: Any) -> Any:
 
 def _least_squares_solver(estimator: Any) -> dict[str, Any]:
     """The normal equations / the S3 recursion have no iterative solver: record how they were solved."""
-    from svrqp.linear_models import RecursiveLS
+    from svrqp.estimators.linear import RecursiveLS
 
     scipy_version = f"scipy {version('scipy')}, numpy {np.__version__}"
     if isinstance(estimator, RecursiveLS):

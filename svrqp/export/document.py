@@ -30,10 +30,10 @@ N_PROBES = 16
 def unit_from_name(name: str) -> str | None:
     """The unit carried in a column name (``T7_C`` → °C, ``ch1(um)`` → μm), or None.
 
-    The naming convention is :func:`svrqp.linear_models.split_unit`'s.
+    The naming convention is :func:`svrqp.estimators.linear.split_unit`'s.
     """
     # Imported here, not at the top: the estimators inherit ExportMixin from this package.
-    from svrqp.linear_models import split_unit
+    from svrqp.estimators.linear import split_unit
 
     return split_unit(name)[1] or None
 

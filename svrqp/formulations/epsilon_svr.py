@@ -462,10 +462,10 @@ class DualScaling(NamedTuple):
 def _certified_solution(problem: QuadraticProgram, formulation: str, K: NDArray[np.float64],
                         y: NDArray[np.float64], beta: NDArray[np.float64], b: float, epsilon: float,
                         check_tol: float, backend: str, record: Any) -> Any:
-    """The :class:`~svrqp.solve.Solution` of ``problem`` at the returned model, its QP residuals
+    """The :class:`~svrqp.solution.Solution` of ``problem`` at the returned model, its QP residuals
     and its :func:`model_certificate` checked; ``record`` (a Solution of the scaled QP) gives
     the backend's settings, times and iterations."""
-    from svrqp.solve import Solution, require_certificates
+    from svrqp.solution import Solution, require_certificates
 
     C = float(problem.ub[0])
     x, y_eq, z_box = dual_qp_point(formulation, K, y, beta, b, epsilon)
@@ -487,7 +487,7 @@ class DualFit(NamedTuple):
     beta: NDArray[np.float64]  #: all n coefficients, alpha* - alpha (as returned: see returned_coefficients)
     b: float  #: the bias from the KKT conditions
     problem: QuadraticProgram  #: the QP that was solved (in the units of the data)
-    solution: Any  #: its certificate-checked svrqp.solve.Solution, at the returned (beta, b)
+    solution: Any  #: its certificate-checked svrqp.solution.Solution, at the returned (beta, b)
     polished: bool  #: whether polish() replaced the solver's coefficients
 
 
@@ -525,7 +525,10 @@ def solve_dual(
     otherwise :class:`~svrqp.exceptions.SolverError` names the backend. ``initvals`` is a
     solution of that QP (e.g. a previous ``DualFit.solution.x``).
     """
-    from svrqp.solve import DEFAULT_CHECK_FACTOR, solve_qp  # the solver layer sits above the formulations
+    from svrqp.solvers.qp_backends import (  # the solver layer sits above the formulations
+        DEFAULT_CHECK_FACTOR,
+        solve_qp,
+    )
 
     check_parameters(y, C, epsilon)
     C, epsilon = float(C), float(epsilon)
@@ -540,9 +543,9 @@ def solve_dual(
     beta_scaled = beta_from_solution(formulation, y.shape[0], record.x)
     polished = polish(K_scaled, y_scaled, beta_scaled, C_scaled, epsilon_scaled)
     if polished is None:
-        # The exact crossover of svrqp.dual_ipm: polish guesses the active sets once, the
+        # The exact crossover of svrqp.solvers.dual_ipm: polish guesses the active sets once, the
         # crossover corrects them (coefficients a few 1e-6·C inside a bound, for instance).
-        from svrqp.dual_ipm import crossover
+        from svrqp.solvers.dual_ipm.crossover import crossover
 
         exact = crossover(lambda idx: K_scaled[:, idx], y_scaled, C_scaled, epsilon_scaled, beta_scaled)
         polished = exact.beta if exact.exact else None

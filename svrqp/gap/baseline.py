@@ -5,17 +5,17 @@ Model kinds (``--model``), fitted on the train rows only:
 ``mlr``
     multiple linear regression of the target on the features with an intercept.
 ``svr``
-    :class:`svrqp.estimators.EpsilonSVR` with an RBF kernel on standardised features and a
+    :class:`svrqp.estimators.kernel.EpsilonSVR` with an RBF kernel on standardised features and a
     standardised target: ``C = 10``, ``epsilon = 0.05`` (in target standard deviations),
     ``gamma="scale"`` (:math:`1/p` for :math:`p` unit-variance features), solved exactly by
     svrqp's interior point and crossover (``solver="dual_ipm"``): the baseline is refitted once
     per cross-validation fold and once more with the effect, so the fast exact path matters
     (3,012 train rows: 5 s for the whole diagnosis against 59 s through Clarabel).
 ``lssvr``
-    :class:`svrqp.estimators.LSSVR` with an RBF kernel on standardised features and target:
+    :class:`svrqp.estimators.kernel.LSSVR` with an RBF kernel on standardised features and target:
     ``C = 10``, ``gamma="scale"``.
 
-``mlr`` is :class:`svrqp.linear_models.LinearLS`; it returns the minimum-norm solution for
+``mlr`` is :class:`svrqp.estimators.linear.LinearLS`; it returns the minimum-norm solution for
 collinear inputs (``rank_deficient="lstsq"``) so that a refit with an added effect column that
 is constant on the train rows still works.
 
@@ -36,10 +36,10 @@ from sklearn.compose import TransformedTargetRegressor
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from svrqp.estimators import LSSVR, EpsilonSVR
+from svrqp.estimators.kernel import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.gap.prepare import GapData
-from svrqp.linear_models import LinearLS
+from svrqp.estimators.linear import LinearLS
 
 MODEL_KINDS = ("mlr", "svr", "lssvr")
 """Model families a baseline can be fitted with."""

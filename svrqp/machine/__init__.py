@@ -6,7 +6,7 @@
   laser-interferometer nine-line measurement of them.
 * :mod:`svrqp.machine.contour` — straightness deviation of a 2X/Y gantry during a linear
   interpolation, recorded at a 15 Hz time base.
-* :mod:`svrqp.machine.datasets` — regenerates the embedded datasets (``svrqp.datasets``).
+* :mod:`svrqp.datasets.build` — regenerates the embedded datasets (``svrqp.datasets``).
 
 Every simulator takes one frozen config dataclass in which each physical effect is a named
 scale (0 turns it off) and returns a table with one ``effect_<name>_um`` column per effect,

@@ -1,0 +1,145 @@
+r"""``EpsilonSVR(solver="auto")``: the fastest exact path for the problem, certified on the stated QP.
+
+**The rule** (measured; see ``docs/solvers.md`` and ``benchmarks/results/epsilon_svr_vs_libsvm*``):
+
+1. ``"smo_crossover"`` (:mod:`svrqp.solvers.warm_start`): libsvm's SMO at a loose tolerance, then the
+   exact active-set crossover. First for every kernel and size: a loose SMO run costs a fraction
+   of a tight one, and the crossover needs only the kernel columns of the support vectors.
+2. ``"dual_ipm"`` (:func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data`, or
+   :func:`~svrqp.solvers.dual_ipm.exact.solve_exact` on a precomputed kernel): the interior point on the
+   reduced n×n system (or a low-rank factor) and the same crossover, when the first path does not
+   reach the exact optimum (the crossover did not settle, or its certificate misses ``check_tol``).
+
+Each answer is certified on the QP of ``formulation`` (:mod:`svrqp.formulations.epsilon_svr_certificate`): the
+relative primal residual, dual residual and duality gap must be at most ``check_tol``. When no
+path certifies, :class:`SolverError` names every path tried and why it was rejected — never an
+uncertified answer.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from svrqp import __version__
+from svrqp.solvers import dual_ipm
+from svrqp.formulations.epsilon_svr_certificate import certificates, kernel_scale
+from svrqp.exceptions import SolverError, SvrqpError
+from svrqp.kernels import gram
+from svrqp.formulations.epsilon_svr import require_model_certificate
+from svrqp.solution import Solution, require_certificates
+from svrqp.solvers.warm_start import solve_warm_started
+
+#: ``EpsilonSVR(solver=AUTO)``: choose the path (module docstring).
+AUTO = "auto"
+#: ``EpsilonSVR(solver=SMO_CROSSOVER)``: the loose-SMO warm start and exact crossover alone.
+SMO_CROSSOVER = "smo_crossover"
+#: The keys of :func:`~svrqp.formulations.epsilon_svr.model_certificate`.
+MODEL_CERTIFICATES: tuple[str, ...] = ("box_rel", "balance_rel", "kkt_rel")
+#: The paths ``auto`` tries, in order.
+AUTO_ORDER: tuple[str, ...] = (SMO_CROSSOVER, "dual_ipm")
+
+
+def _smo_crossover(X, y, C, epsilon, kernel_parameters, tol):
+    fit = solve_warm_started(X, y, C, epsilon, **kernel_parameters)
+    settings = {"smo_iterations": fit.smo_iterations, "crossover_steps": fit.crossover_steps,
+                "crossover_exact": fit.exact}
+    return fit.beta, fit.intercept, fit.Kbeta, settings, fit.times_s
+
+
+def _dual_ipm(X, y, C, epsilon, kernel_parameters, tol):
+    if kernel_parameters["kernel"] == "precomputed":
+        fit = dual_ipm.solve_exact(X, y, C, epsilon, tol=tol)
+    else:
+        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, tol=tol, **kernel_parameters)
+    support = np.flatnonzero(fit.beta)
+    Kbeta = _kernel_times(X, kernel_parameters, support, fit.beta[support])
+    settings = {"ipm_iterations": fit.ipm.iterations, "ipm_converged": fit.ipm.converged,
+                "crossover_steps": fit.crossover.steps, "crossover_exact": fit.crossover.exact,
+                "low_rank_path": fit.low_rank}
+    return fit.beta, fit.intercept, Kbeta, settings, fit.times_s
+
+
+PATHS: dict[str, Callable[..., tuple]] = {SMO_CROSSOVER: _smo_crossover, "dual_ipm": _dual_ipm}
+
+
+def _kernel_times(X: NDArray[np.float64], kernel_parameters: dict[str, Any], idx: NDArray[np.intp],
+                  coefficients: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:math:`K_{:, idx}` ``coefficients`` (a precomputed ``X`` is the Gram matrix itself)."""
+    if kernel_parameters["kernel"] == "precomputed":
+        return X[:, idx] @ coefficients
+    return gram(X, X[idx], **kernel_parameters) @ coefficients
+
+
+def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
+               kernel_parameters: dict[str, Any], formulation: str = "split", tol: float = 1e-8,
+               check_tol: float | None = None) -> tuple[NDArray[np.float64], float, Solution]:
+    """Run one exact path and certify its answer: ``(beta, b, solution)``.
+
+    Parameters
+    ----------
+    path
+        A key of :data:`PATHS`.
+    X
+        Training inputs (the training Gram matrix when ``kernel_parameters["kernel"]`` is
+        ``"precomputed"``).
+    kernel_parameters
+        ``kernel``, ``gamma``, ``degree``, ``coef0`` as in :func:`svrqp.kernels.gram`.
+    formulation
+        The dual QP the answer is certified on (``"split"`` or ``"stacked"``).
+    tol, check_tol
+        Requested accuracy, and the largest relative certificate accepted (default ``100·tol``).
+
+    Raises
+    ------
+    SolverError
+        When a certificate of the stated QP or of the returned model exceeds ``check_tol``
+        (an answer whose crossover did not settle is judged by its certificates like any other).
+    """
+    from svrqp.solvers.qp_backends import DEFAULT_CHECK_FACTOR
+
+    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
+    C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
+    start = time.perf_counter()
+    beta, b, Kbeta, settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
+    solve_time = time.perf_counter() - start
+    residuals, objective, (x, y_eq, z_box), qp = certificates(formulation, y, C, epsilon, beta, b, Kbeta,
+                                                              kernel_scale(X, kernel_parameters))
+    solution = Solution(x=x, y=y_eq, z=None, z_box=z_box, objective=objective, status="optimal",
+                        residuals=residuals, backend=path, backend_version=f"svrqp {__version__}",
+                        settings={"tol": tol, "check_tol": check_tol, **settings, "times_s": times_s},
+                        build_time=time.perf_counter() - start - solve_time, solve_time=solve_time)
+    require_certificates(solution, qp, check_tol)
+    require_model_certificate({key: residuals[key] for key in MODEL_CERTIFICATES}, check_tol, path)
+    return beta, b, solution
+
+
+def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
+               kernel_parameters: dict[str, Any], formulation: str = "split", tol: float = 1e-8,
+               check_tol: float | None = None) -> tuple[NDArray[np.float64], float, Solution]:
+    """Try the paths of :data:`AUTO_ORDER` until one certifies (arguments as :func:`solve_path`).
+
+    ``solution.backend`` names the path that certified; ``solution.settings["rejected"]`` lists
+    the paths tried before it and why they were rejected.
+
+    Raises
+    ------
+    SolverError
+        When no path certifies; the message names each path tried and why it failed.
+    """
+    rejected: list[str] = []
+    for path in AUTO_ORDER:
+        try:
+            beta, b, solution = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters,
+                                           formulation=formulation, tol=tol, check_tol=check_tol)
+        except (SvrqpError, np.linalg.LinAlgError) as error:
+            rejected.append(f"{path}: {error}")
+            continue
+        solution.settings["rejected"] = rejected
+        return beta, b, solution
+    raise SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
+                      + "; ".join(rejected), AUTO, "failed")

@@ -1,0 +1,340 @@
+r"""The exact active-set crossover from an interior-point solution of the ε-SVR dual.
+
+The problem and its optimality conditions are those of :mod:`svrqp.solvers.dual_ipm.interior_point`.
+
+**Crossover** (active-set steps started at the interior point). Each coefficient has a state:
+at :math:`-C`, free negative, zero, free positive, at :math:`+C`. For the free set :math:`F` with
+signs :math:`s_F` the optimum solves (cf. ``epsilon_svr.polish``)
+
+.. math::
+
+    K_{FF}\beta_F + b\mathbf 1 = y_F - \varepsilon s_F - K_{F,\bar F}\beta_{\bar F},
+    \qquad \mathbf 1^\top \beta_F = -\mathbf 1^\top \beta_{\bar F} ;
+
+and the residuals :math:`\rho = y - K\beta - b` free every fixed coefficient that violates its KKT
+condition (a zero with :math:`|\rho_i| > \varepsilon`, a bound with :math:`\rho` on the wrong side of
+:math:`\pm\varepsilon`). The primal–dual active-set method (Hintermüller, Ito & Kunisch 2002) also
+moves every free coefficient whose solution changed sign or left the box, all at once: a few steps
+from a good start, without a guarantee. The feasible active-set method instead steps towards the
+free-set solution only as far as signs and box allow, fixing the coefficient that blocks: while
+the free-set systems are nonsingular the objective never increases, so it cannot cycle. A
+singular free-set system (coinciding inputs, or a linear kernel with more free points than
+features plus one) is either consistent — many optimal :math:`\beta`, the least-squares one is
+taken — or inconsistent: coinciding inputs with different targets cannot all sit on the tube
+edge, the free-set objective then falls without bound along a null-space direction of the
+bordered system, and the feasible method moves along it until a coefficient blocks. When no
+state changes and every free coefficient sits on its tube edge, every KKT condition holds to
+rounding; when the step limit is reached the caller keeps the interior-point solution.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+
+#: A coefficient within this fraction of C of zero or of a bound starts the crossover in that state.
+CROSSOVER_THRESHOLD = 1e-6
+
+@dataclass
+class CrossoverResult:
+    """Outcome of :func:`crossover`: the coefficients, bias, steps taken and whether every KKT condition holds."""
+
+    beta: NDArray[np.float64]
+    intercept: float
+    steps: int
+    exact: bool
+    free: int
+    Kbeta: NDArray[np.float64] | None = None  # K beta from the final (fresh) bounded term, when exact
+
+
+def _states(beta: NDArray[np.float64], C: float, threshold: float) -> NDArray[np.int8]:
+    """-2: at -C, -1: free negative, 0: zero, 1: free positive, 2: at +C."""
+    states = np.sign(beta).astype(np.int8)
+    states[np.abs(beta) <= threshold * C] = 0
+    states[beta >= C * (1 - threshold)] = 2
+    states[beta <= -C * (1 - threshold)] = -2
+    return states
+
+
+def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64], C: float,
+              epsilon: float, beta: NDArray[np.float64], *,
+              products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]] | None = None,
+              threshold: float = CROSSOVER_THRESHOLD, kkt_tol: float = 1e-9, max_steps: int = 200,
+              fast_steps: int = 8) -> CrossoverResult:
+    """Active-set steps from an approximate ``beta`` to the exact optimum (module docstring).
+
+    First up to ``fast_steps`` primal–dual active-set steps (every state updated at once: a few
+    steps from a good start, but no guarantee); if they do not settle, the feasible active-set
+    method restarts from ``beta`` (one blocking coefficient at a time, objective never increasing).
+
+    Parameters
+    ----------
+    columns
+        ``columns(idx)`` returns the exact kernel columns :math:`K_{:, idx}` (shape ``(n, len(idx))``),
+        so only the columns of support vectors are ever formed.
+    y, C, epsilon
+        Targets and SVR parameters.
+    beta
+        Starting coefficients (an interior-point solution): states within ``threshold``·C of a bound
+        or of zero are taken as active.
+    products
+        ``products(idx, v)`` returns :math:`K_{:, idx} v`; defaults to ``columns(idx) @ v``. A linear
+        kernel passes :math:`X (X_{idx}^\\top v)`, so the many bounded columns are never formed.
+    kkt_tol
+        Slack on the tube conditions, relative to :math:`1 + \\max|y|`.
+    max_steps
+        Limit on the feasible active-set steps; ``exact`` is false when it is reached.
+    fast_steps
+        Limit on the primal–dual active-set steps tried first.
+    """
+    beta = np.asarray(beta, dtype=float)
+    C = float(C)  # an integer C times the int8 states would overflow
+    slack = kkt_tol * (1.0 + float(np.max(np.abs(y))))
+    kernel = _KernelAccess(columns, products or (lambda idx, v: columns(idx) @ v), y.size)
+    fast = _primal_dual_active_set(kernel, y, C, epsilon, _states(beta, C, threshold), slack, fast_steps)
+    if fast.exact:
+        return fast
+    careful = _feasible_active_set(kernel, y, C, epsilon, beta, _states(beta, C, threshold), slack, max_steps)
+    careful.steps += fast.steps
+    return careful
+
+
+class _KernelAccess:
+    """Kernel columns for the crossover and the bounded term :math:`K_{:,B}\\beta_B`, kept up to date.
+
+    Each active-set step changes few states, so the bounded term changes by a few columns:
+    updating it by the change only makes a step cost :math:`O(n\\,(|F| + \\Delta))` kernel entries
+    instead of :math:`O(n\\,(|F| + |B|))`. Columns are served by ``columns`` (a
+    :class:`svrqp.linalg.kernel_columns.KernelColumns` caches them; a dense K is indexed).
+    """
+
+    def __init__(self, columns: Callable[[NDArray[np.intp]], NDArray[np.float64]],
+                 products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]], n: int) -> None:
+        self.free_columns, self._products, self.n = columns, products, n
+        self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
+        self.bounded_term = np.zeros(n)
+        self._from_scratch = True  # bounded_term is one product over every bounded column
+
+    def update_bounded(self, fixed: NDArray[np.float64], *, fresh: bool = False) -> NDArray[np.float64]:
+        """:math:`K \\cdot` ``fixed`` (``fixed`` is ±C on the bounded set, 0 elsewhere), updated by the change only.
+
+        ``fresh`` recomputes it from all bounded columns, so the final KKT check carries no
+        accumulated rounding; a term that is still the single product it was first computed as
+        is already fresh and is kept.
+        """
+        if fresh and not self._from_scratch:
+            self._fixed, self.bounded_term = np.zeros(self.n), np.zeros(self.n)
+        changed = np.flatnonzero(fixed != self._fixed)
+        if changed.size:
+            self._from_scratch = not self._fixed.any()
+            self.bounded_term = self.bounded_term + self._products(changed, fixed[changed] - self._fixed[changed])
+            self._fixed = fixed.copy()
+        return self.bounded_term
+
+
+def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False):
+    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, K_{:,bounded} beta_bounded,
+    and the direction in which the free-set objective is unbounded below (None when it is not)."""
+    free = np.flatnonzero(np.abs(states) == 1)
+    fixed = np.where(np.abs(states) == 2, np.sign(states) * C, 0.0)
+    K_free = kernel.free_columns(free)
+    bounded_term = kernel.update_bounded(fixed, fresh=fresh)
+    rhs = y[free] - epsilon * states[free] - bounded_term[free]
+    target, b, unbounded = _bordered_solve(K_free[free], rhs, -float(fixed.sum()))
+    return free, fixed, K_free, bounded_term, target, b, unbounded
+
+
+#: At most this many KKT violators (the worst ones) enter the free set in one step, beyond the
+#: size of the free set itself: a bias far off early on can flag thousands, and a free set of
+#: thousands costs O(n·|F|) kernel entries and an O(|F|³) solve for a step that is soon undone.
+ENTERING_PER_STEP = 64
+
+
+def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float):
+    """The worst fixed coefficients whose residual violates their KKT condition: (to free positive, to free negative).
+
+    A zero with :math:`|\\rho| > \\varepsilon` or a bound with :math:`\\rho` on the wrong side of
+    :math:`\\pm\\varepsilon` violates by that distance; at most ``ENTERING_PER_STEP`` plus the number
+    of free coefficients enter at once.
+    """
+    zero = states == 0
+    violation_positive = np.where(zero, rho - epsilon, np.where(states == 2, epsilon - rho, -np.inf))
+    violation_negative = np.where(zero, -rho - epsilon, np.where(states == -2, rho + epsilon, -np.inf))
+    positive, negative = violation_positive > slack, violation_negative > slack
+    limit = ENTERING_PER_STEP + int(np.sum(np.abs(states) == 1))
+    if positive.sum() + negative.sum() > limit:
+        worst = np.maximum(violation_positive, violation_negative)
+        kept = np.zeros(rho.size, dtype=bool)
+        kept[np.argpartition(-worst, limit)[:limit]] = True
+        positive, negative = positive & kept, negative & kept
+    return positive, negative
+
+
+def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
+    rho = y - K_free @ beta_free - bounded_term
+    if free.size == 0:
+        b = _midpoint_bias(rho, states, epsilon)
+    return rho - b, b
+
+
+def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
+    """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result.
+
+    Gives up as soon as the number of state changes stops shrinking: away from the optimum the
+    method can swing large sets back and forth, and each such step costs a large free-set solve.
+    """
+    beta, b, fresh, previous_changes = np.zeros(y.size), 0.0, False, y.size + 1
+    for step in range(1, max_steps + 1):
+        free, fixed, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states,
+                                                                                     fresh)
+        if unbounded is not None:  # no free-set optimum to jump to: the feasible method moves along it
+            return CrossoverResult(beta, b, step, False, int(free.size))
+        beta = fixed.copy()
+        beta[free] = target
+        rho, b = _residuals(y, K_free, target, bounded_term, states, epsilon, b, free)
+        new_states = states.copy()
+        positive, negative = states == 1, states == -1
+        new_states[(positive & (beta <= 0)) | (negative & (beta >= 0))] = 0
+        new_states[positive & (beta > C)] = 2
+        new_states[negative & (beta < -C)] = -2
+        entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
+        new_states[entering_positive] = 1
+        new_states[entering_negative] = -1
+        if np.array_equal(new_states, states):
+            if fresh or not _balanced(beta, C):
+                exact = _balanced(beta, C) and _free_equalities_hold(rho, states, epsilon, slack)
+                return CrossoverResult(beta, b, step, exact, int(free.size), K_free @ target + bounded_term)
+            fresh = True  # confirm once with the bounded term recomputed from scratch
+            continue
+        changes = int(np.count_nonzero(new_states != states))
+        if changes >= previous_changes:
+            return CrossoverResult(beta, b, step, False, int(free.size))
+        states, fresh, previous_changes = new_states, False, changes
+    return CrossoverResult(beta, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
+
+
+def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) -> CrossoverResult:
+    """Move towards the free-set optimum as far as signs and box allow; free KKT violators after a full step."""
+    current = np.where(np.abs(states) == 2, np.sign(states) * C, np.where(states == 0, 0.0, beta))
+    b, fresh = 0.0, False
+    for step in range(1, max_steps + 1):
+        free, _, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states, fresh)
+        if unbounded is None:
+            direction = target - current[free]
+        else:  # scaled so that the largest coordinate would cross the whole box: a coefficient must block
+            direction = unbounded * (2.0 * C / np.max(np.abs(unbounded)))
+        length, blocking = _step_to_sign_or_box(current[free], direction, states[free], C)
+        current[free] += length * direction
+        if length < 1.0:
+            hit = free[blocking]
+            at_bound = np.abs(current[hit]) >= 0.5 * C
+            states[hit] = np.where(at_bound, 2 * states[hit], 0)
+            current[hit] = np.where(at_bound, np.sign(states[hit]) * C, 0.0)
+            fresh = False
+            continue
+        rho, b = _residuals(y, K_free, current[free], bounded_term, states, epsilon, b, free)
+        entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
+        if not (entering_positive.any() or entering_negative.any()):
+            if fresh or not _balanced(current, C):
+                exact = _balanced(current, C) and _free_equalities_hold(rho, states, epsilon, slack)
+                return CrossoverResult(current, b, step, exact, int(free.size), K_free @ current[free] + bounded_term)
+            fresh = True  # confirm once with the bounded term recomputed from scratch
+            continue
+        states[entering_positive] = 1
+        states[entering_negative] = -1
+        fresh = False
+    return CrossoverResult(current, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
+
+
+def _balanced(beta: NDArray[np.float64], C: float) -> bool:
+    """Whether :math:`\\mathbf 1^\\top\\beta = 0` to rounding: with no free coefficient the free-set
+    solve cannot restore it, and states that admit no KKT violation are then not an optimum."""
+    return abs(float(beta.sum())) <= BALANCE_TOL * C * beta.size
+
+
+#: Relative tolerance of the equality :math:`\mathbf 1^\top\beta = 0` in the crossover's final check.
+BALANCE_TOL = 1e-9
+
+
+def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8], epsilon: float,
+                          slack: float) -> bool:
+    """Whether every free coefficient sits on its tube edge, :math:`y_i - f(x_i) = \\varepsilon s_i`.
+
+    The free-set solve makes this hold unless its system was inconsistent (coinciding inputs with
+    different targets both free), which the final check must not take on trust.
+    """
+    free = np.abs(states) == 1
+    return bool(np.all(np.abs(residual[free] - epsilon * states[free]) <= slack))
+
+
+def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64], signs: NDArray[np.int8],
+                         C: float) -> tuple[float, NDArray[np.bool_]]:
+    """Largest step in [0, 1] keeping ``s·x`` in [0, C] for each sign s, and which coordinates block it."""
+    toward = signs * direction  # rate of change of s·x
+    position = signs * x
+    with np.errstate(divide="ignore", invalid="ignore"):
+        limits = np.where(toward < 0, position / -toward, np.where(toward > 0, (C - position) / toward, np.inf))
+    limits = np.maximum(limits, 0.0)
+    length = float(min(1.0, np.min(limits, initial=np.inf)))
+    return length, limits <= length if length < 1.0 else np.zeros(x.size, dtype=bool)
+
+
+def _midpoint_bias(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float) -> float:
+    """With no free coefficient, b is the midpoint of the interval the KKT conditions allow (libsvm's rule)."""
+    zero, upper, lower = states == 0, states == 2, states == -2
+    low = np.concatenate([rho[zero] - epsilon, rho[lower] + epsilon])
+    high = np.concatenate([rho[zero] + epsilon, rho[upper] - epsilon])
+    bounds = [float(low.max()) if low.size else None, float(high.min()) if high.size else None]
+    finite = [value for value in bounds if value is not None]
+    return float(np.mean(finite)) if finite else 0.0
+
+
+#: Below this ratio of the smallest to the largest squared Cholesky pivot, K_FF counts as singular.
+SINGULAR_PIVOT_RATIO = 1e-12
+
+#: A singular free-set system whose least-squares residual exceeds this (relative to its right-hand
+#: side) is inconsistent: its objective has no minimum on the free set.
+INCONSISTENT_TOL = 1e-9
+
+
+def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: float
+                    ) -> tuple[NDArray[np.float64], float, NDArray[np.float64] | None]:
+    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}`: ``(x, b, unbounded)``.
+
+    Cholesky of :math:`K_{FF}` and the Schur complement for b. When :math:`K_{FF}` is singular
+    (a linear kernel with more free points than features, or coinciding points) the least-squares
+    solution is taken. If the system is consistent it is one of its many exact solutions and
+    ``unbounded`` is None. If not (coinciding inputs with different targets), the residual
+    :math:`w = v - Mz` of the bordered system :math:`Mz = v` lies in the null space of the
+    symmetric :math:`M`, and its first :math:`m` entries :math:`d` satisfy
+    :math:`K_{FF}d \\propto \\mathbf 1,\\ \\mathbf 1^\\top d = 0`: along :math:`d` the free-set
+    objective :math:`\\tfrac12 x^\\top K_{FF}x - \\text{rhs}^\\top x` falls at the constant rate
+    :math:`\\|w\\|^2` with no minimum, and ``unbounded`` is :math:`d`.
+    """
+    m = rhs.size
+    if m == 0:
+        return np.zeros(0), 0.0, None  # no free SV: the caller sets b by the midpoint rule
+    try:
+        factor = scipy.linalg.cho_factor(K_FF, lower=True, check_finite=False)
+        pivots = np.abs(np.diag(factor[0])) ** 2
+        if pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
+            solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]), check_finite=False)
+            mu, nu = solution[:, 0], solution[:, 1]
+            b = (mu.sum() - total) / nu.sum()
+            return mu - b * nu, float(b), None
+    except np.linalg.LinAlgError:
+        pass
+    M = np.zeros((m + 1, m + 1))
+    M[:m, :m] = K_FF
+    M[:m, m] = M[m, :m] = 1.0
+    v = np.concatenate([rhs, [total]])
+    x = scipy.linalg.lstsq(M, v, cond=SINGULAR_PIVOT_RATIO, check_finite=False,
+                         lapack_driver="gelsy")[0]  # QR with column pivoting: several times faster than the SVD
+    w = v - M @ x
+    consistent = np.max(np.abs(w)) <= INCONSISTENT_TOL * (1.0 + np.max(np.abs(v)))
+    return x[:m], float(x[m]), None if consistent else w[:m]

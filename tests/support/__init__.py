@@ -1,0 +1,1 @@
+"""Helpers shared by the tests: problems, tables, CLI and C drivers."""
