@@ -16,6 +16,7 @@ from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.prepare import GapData
 from svrqp.gap.report import BaseFit
 from svrqp.gap.transforms import smooth, standardised
+from svrqp.metrics import rms
 
 
 def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
@@ -82,9 +83,9 @@ def base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray
     """The base discrepancy model alone, out of sample: what a per-run recalibration would remove."""
     offsets = offsets_text(data)
     description = offsets if data.prediction is not None else f"{offsets} and a recalibration of the model's inputs"
-    rmse_before = float(np.sqrt(np.mean(r**2)))
+    rmse_before = float(rms(r))
     if exact:
         return BaseFit(description, 0.0, 0.0)
     errors = CrossValidatedDiscrepancy(r, B, folds).errors_base
-    rmse_after = float(np.sqrt(np.mean(errors**2)))
+    rmse_after = float(rms(errors))
     return BaseFit(description, rmse_after, 1.0 - rmse_after / rmse_before)

@@ -37,9 +37,9 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
+from svrqp.estimators.linear import LinearLS
 from svrqp.exceptions import ProblemError
 from svrqp.gap.prepare import GapData
-from svrqp.estimators.linear import LinearLS
 
 MODEL_KINDS = ("mlr", "svr", "lssvr")
 """Model families a baseline can be fitted with."""

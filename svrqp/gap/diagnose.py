@@ -79,6 +79,7 @@ from svrqp.gap.transfer import (
 )
 from svrqp.gap.transforms import tau_grid
 from svrqp.gap.verdict import VerdictContext, decide, refit_closes
+from svrqp.metrics import rms
 
 Progress = Callable[[str, float], None]
 
@@ -147,7 +148,7 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     context = VerdictContext(
         data, baseline, gap, gap_detected(gap), base_fit(data, r, B, folds, exact), units,
         [] if exact else input_use(data, r, offset_columns(groups), folds),
-        {"rmse_before": float(np.sqrt(np.mean(r**2))), "rmse_refit": None, "shrink_refit": None,
+        {"rmse_before": float(rms(r)), "rmse_refit": None, "shrink_refit": None,
          "refit_closes_gap": None, "units": units.n_units, "unit_kind": units.kind, "thin": units.thin})
     if exact:
         findings = _Findings([], Verdict(column=None, reason="The model reproduces the real rows exactly (the residual "
@@ -185,7 +186,7 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     ranking = ranker.choose(ranked)
     report_progress("refitting the model family", 0.8)
     family = same_family_errors(data, context.baseline, units, ranker, ranking)
-    transfer["rmse_refit"] = float(np.sqrt(np.mean(family.refit**2)))
+    transfer["rmse_refit"] = float(rms(family.refit))
     transfer["shrink_refit"] = 1 - transfer["rmse_refit"] / transfer["rmse_before"]
     transfer["refit_closes_gap"] = context.detected and refit_closes(family.refit, groups)
     transfer |= {"family": family.family, "screened_by": LINEAR, "family_note": family.note}
@@ -244,7 +245,7 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
     Every later step divides by the residual's sum of squares; a model (or prediction) that
     reproduces the measurements has no gap to explain.
     """
-    return bool(np.sqrt(np.mean(r**2)) <= 1e-10 * np.max(np.abs(y)))
+    return bool(rms(r) <= 1e-10 * np.max(np.abs(y)))
 
 
 def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer:

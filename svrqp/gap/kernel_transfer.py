@@ -1,7 +1,7 @@
 r"""The transfer numbers of a kernel baseline (``--model svr|lssvr``), from refits of that same family.
 
-DESIGN §4 defines :math:`\mathrm{RMSE}_\mathrm{refit}` and :math:`\mathrm{RMSE}_\mathrm{after}`
-as refits of *the same model family*. For an ε-SVR or LS-SVR baseline, leave-one-unit-out over
+The contract (``docs/gap.md``, "What shrink means") defines :math:`\mathrm{RMSE}_\mathrm{refit}`
+and :math:`\mathrm{RMSE}_\mathrm{after}` as refits of *the same model family*. For an ε-SVR or LS-SVR baseline, leave-one-unit-out over
 all rows (the units of :mod:`svrqp.gap.transfer`),
 
 .. math::

@@ -2,7 +2,7 @@
 
 The summary states the gap against the train rows' error on the same footing, then what fixes it
 on held-out units: leading with extrapolation when a model input is used outside its train range
-and the same-input refit removes most of the gap (DESIGN §4), else the verdict's transfer shrink.
+and the same-input refit removes most of the gap (``docs/gap.md``, "The contract"), else the verdict's transfer shrink.
 """
 
 from __future__ import annotations

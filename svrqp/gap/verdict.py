@@ -1,7 +1,7 @@
 """The verdict: the one cause the engine stands behind, or none and why, in words.
 
-:func:`decide` applies DESIGN §4's rules to the ranked causes (:mod:`svrqp.gap.ranking`): no
-gap, no culprit; no culprit when refitting with the same inputs leaves only noise
+:func:`decide` applies the contract's rules (``docs/gap.md``) to the ranked causes
+(:mod:`svrqp.gap.ranking`): no gap, no culprit; no culprit when refitting with the same inputs leaves only noise
 (:func:`refit_closes`); otherwise the best-transferring significant cause, if its transfer
 shrink is positive and, with enough held-out units, its shrink beyond the refit has an
 interval above zero. The wording helpers here are shared with :mod:`svrqp.gap.summary`.
@@ -110,7 +110,7 @@ def family_text(cause: Cause, context: VerdictContext) -> str:
 def refit_closes(refit_real: np.ndarray, groups: np.ndarray) -> bool:
     """Whether the refit alone, same inputs, leaves nothing but noise on the real rows.
 
-    DESIGN §4: a candidate is the gap's cause only if it explains what more data does not. When
+    The contract (``docs/gap.md``): a candidate is the gap's cause only if it explains what more data does not. When
     the leave-one-unit-out refit leaves a real-row error no larger than the noise level beyond
     chance (the gate's excess-over-noise test, :func:`svrqp.gap.gate.noise_pvalue`), the gap was
     the model used outside its data; a candidate that still trims the remaining noise improves the
