@@ -15,7 +15,7 @@ from sklearn.svm import SVR
 
 from svrqp.gap import GapQuestion, diagnose, load_schema
 from svrqp.gap.baseline import LSSVR_C, SVR_C, SVR_EPSILON
-from svrqp.gap.kernel_transfer import MIN_KERNEL_ROWS
+from svrqp.gap.kernel_transfer import KERNEL_CAUSES, MIN_KERNEL_ROWS
 
 
 def kernel_problem(seed: int = 0, runs: int = 5, rows: int = 60) -> pd.DataFrame:
@@ -101,12 +101,16 @@ def test_verdict_shrink_equals_an_independent_same_family_refit(model, fit_predi
     assert "refit the " + model in verdict.reason
 
 
-def test_causes_beyond_the_best_keep_the_linear_screen_and_say_so():
-    report = diagnose(kernel_problem(), GapQuestion(**QUESTION, model="lssvr"))
-    families = {c.column: c.family for c in report.causes}
-    assert families == {"c_C": "lssvr", "d_C": "lssvr"}  # both among the best few
+def test_causes_below_the_best_few_keep_the_linear_screen_and_say_so():
+    df = kernel_problem()
+    t = df["time_min"].to_numpy()
+    df = df.assign(e_C=np.cos(2 * np.pi * t / 37), g_C=t / 60, h_C=np.sin(2 * np.pi * t / 19))  # more decoys
+    report = diagnose(df, GapQuestion(**QUESTION | {"candidates": ["c_C", "d_C", "e_C", "g_C", "h_C"]}, model="lssvr"))
+    families = [c.family for c in report.causes]
+    assert families == ["lssvr"] * KERNEL_CAUSES + ["linear"] * (len(families) - KERNEL_CAUSES)
+    assert report.verdict.column == "c_C" and report.verdict.family == "lssvr"
     header, rows = report.tables()["causes"]
-    assert "refitted family" in header and [row[header.index("refitted family")] for row in rows] == ["lssvr"] * 2
+    assert [row[header.index("refitted family")] for row in rows] == families
 
 
 def _few_rows(train_rows: int) -> pd.DataFrame:
