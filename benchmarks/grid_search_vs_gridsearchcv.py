@@ -29,7 +29,7 @@ from sklearn.model_selection import GridSearchCV, KFold
 from sklearn.svm import SVR
 from threadpoolctl import threadpool_limits
 
-from svrqp.bench.harness import friedman1
+from svrqp.bench.cases import friedman1
 from svrqp.bench.report import machine_info, markdown_table, package_versions
 from svrqp.tuning import grid_search
 
