@@ -35,8 +35,9 @@ from svrqp.compensate import online_compensation, residual_metrics
 from svrqp.exceptions import ProblemError
 from svrqp.export.guarded import sections
 from svrqp.guard import Guarded
-from svrqp.estimators.linear import PolynomialLS, split_unit
+from svrqp.estimators.linear import PolynomialLS
 from svrqp.query import QueryError, select_rows
+from svrqp.units import split_unit
 
 
 def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:

@@ -25,9 +25,10 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from svrqp import __version__
+from svrqp._version import __version__
 from svrqp.solvers import dual_ipm
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
+from svrqp.export import describe
 from svrqp.export.mixin import ExportMixin
 from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.formulations import epsilon_svr, ls_svr
@@ -257,6 +258,11 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.check_tol = check_tol
         self.fallback = fallback
 
+    _export_kind = "epsilon_svr"
+
+    def _export_sections(self) -> describe.Sections:
+        return describe.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
+
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
 
@@ -410,6 +416,11 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         self.coef0 = coef0
         self.fit_intercept = fit_intercept
         self.solver = solver
+
+    _export_kind = "ls_svr"
+
+    def _export_sections(self) -> describe.Sections:
+        return describe.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LSSVR:
         """Solve the LS-SVR KKT system for (X, y).

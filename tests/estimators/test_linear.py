@@ -17,7 +17,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 from support.paths import FL_THERMAL
 from svrqp.exceptions import ProblemError, SingularSystemError
 from svrqp.estimators import LinearLS, PolynomialLS, RecursiveLS, merge_models
-from svrqp.estimators.linear import latex_symbol, split_unit
+from svrqp.units import latex_symbol, split_unit
 
 
 #: scikit-learn checks that feed PolynomialLS several input columns. PolynomialLS is S2 eq.

@@ -1,0 +1,115 @@
+"""The models of svrqp by name: one table for the command line, the export format and the tools.
+
+Each :class:`ModelSpec` ties together the short name a user types (``svrqp fit --model svr``),
+the estimator class that fits it, the ``kind`` an exported ``svrqp.model/1`` document records
+(the export format page, ``docs/export.md``), and which command-line options set its parameters.
+The classes are named by their import path and loaded on first use, so reading the table imports
+no estimator (the export package and ``svrqp --help`` stay light).
+
+>>> from svrqp import registry
+>>> registry.names()
+('svr', 'lssvr', 'mlr', 'poly', 'rls')
+>>> registry.spec("svr").export_kind
+'epsilon_svr'
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+from svrqp.exceptions import ProblemError
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """One model of the registry.
+
+    Attributes
+    ----------
+    name
+        The short name of the command line (``--model``) and of the tuning and gap tools.
+    estimator
+        ``"module:Class"`` of the scikit-learn estimator.
+    export_kind
+        The ``kind`` of its exported document (``svrqp.model/1``).
+    parameters
+        The estimator parameters the command line sets, each from the option of the same name.
+    summary
+        What the model is, in a few words.
+    """
+
+    name: str
+    estimator: str
+    export_kind: str
+    parameters: tuple[str, ...]
+    summary: str
+
+    @property
+    def class_name(self) -> str:
+        """The estimator's class name (``"EpsilonSVR"``), without importing it."""
+        return self.estimator.rpartition(":")[2]
+
+    def estimator_class(self) -> type:
+        """The estimator class, imported on first use."""
+        module, _, name = self.estimator.partition(":")
+        return getattr(importlib.import_module(module), name)
+
+    def make(self, **options: Any) -> Any:
+        """An unfitted estimator with ``options`` that are among its :attr:`parameters` (others ignored)."""
+        return self.estimator_class()(**{key: options[key] for key in self.parameters if key in options})
+
+
+#: The models, in the order the command line lists them.
+MODELS: tuple[ModelSpec, ...] = (
+    ModelSpec("svr", "svrqp.estimators.kernel:EpsilonSVR", "epsilon_svr", ("C", "epsilon", "gamma", "solver"),
+              "ε-support vector regression, an explicit QP"),
+    ModelSpec("lssvr", "svrqp.estimators.kernel:LSSVR", "ls_svr", ("C", "gamma"),
+              "least-squares SVR, a KKT linear system"),
+    ModelSpec("mlr", "svrqp.estimators.linear:LinearLS", "linear_ls", (),
+              "multiple linear regression, the normal equations"),
+    ModelSpec("poly", "svrqp.estimators.linear:PolynomialLS", "polynomial_ls", ("degree",),
+              "polynomial in one input, Legendre basis"),
+    ModelSpec("rls", "svrqp.estimators.linear:RecursiveLS", "recursive_ls", ("forgetting",),
+              "recursive least squares with a forgetting factor"),
+)
+
+_BY_NAME = {model.name: model for model in MODELS}
+_BY_KIND = {model.export_kind: model for model in MODELS}
+
+
+def names() -> tuple[str, ...]:
+    """The short model names, in the order of :data:`MODELS`."""
+    return tuple(_BY_NAME)
+
+
+def export_kinds() -> tuple[str, ...]:
+    """The ``kind`` of every exportable model, in the order of :data:`MODELS`."""
+    return tuple(_BY_KIND)
+
+
+def spec(name: str, option: str = "model") -> ModelSpec:
+    """The model called ``name``.
+
+    Raises
+    ------
+    ProblemError
+        For a name that is not in :data:`MODELS` (the message lists the valid ones).
+    """
+    if name not in _BY_NAME:
+        raise ProblemError(f"{option} must be one of {', '.join(names())}, got {name!r}")
+    return _BY_NAME[name]
+
+
+def spec_of_kind(kind: str) -> ModelSpec:
+    """The model whose exported documents have ``kind``.
+
+    Raises
+    ------
+    ProblemError
+        For a kind that no model exports.
+    """
+    if kind not in _BY_KIND:
+        raise ProblemError(f"kind must be one of {', '.join(export_kinds())}, got {kind!r}")
+    return _BY_KIND[kind]
