@@ -38,6 +38,10 @@ class ModelSpec:
         The estimator parameters the command line sets, each from the option of the same name.
     summary
         What the model is, in a few words.
+    tunable
+        Whether :mod:`svrqp.tuning` searches its hyperparameters (the kernel models).
+    baseline
+        Whether ``svrqp gap`` can fit it as the baseline model (any number of inputs, one batch).
     """
 
     name: str
@@ -45,6 +49,8 @@ class ModelSpec:
     export_kind: str
     parameters: tuple[str, ...]
     summary: str
+    tunable: bool = False
+    baseline: bool = False
 
     @property
     def class_name(self) -> str:
@@ -64,16 +70,19 @@ class ModelSpec:
 #: The models, in the order the command line lists them.
 MODELS: tuple[ModelSpec, ...] = (
     ModelSpec("svr", "svrqp.estimators.kernel:EpsilonSVR", "epsilon_svr", ("C", "epsilon", "gamma", "solver"),
-              "ε-support vector regression, an explicit QP"),
+              "ε-support vector regression, an explicit QP", tunable=True, baseline=True),
     ModelSpec("lssvr", "svrqp.estimators.kernel:LSSVR", "ls_svr", ("C", "gamma"),
-              "least-squares SVR, a KKT linear system"),
+              "least-squares SVR, a KKT linear system", tunable=True, baseline=True),
     ModelSpec("mlr", "svrqp.estimators.linear:LinearLS", "linear_ls", (),
-              "multiple linear regression, the normal equations"),
+              "multiple linear regression, the normal equations", baseline=True),
     ModelSpec("poly", "svrqp.estimators.linear:PolynomialLS", "polynomial_ls", ("degree",),
               "polynomial in one input, Legendre basis"),
     ModelSpec("rls", "svrqp.estimators.linear:RecursiveLS", "recursive_ls", ("forgetting",),
               "recursive least squares with a forgetting factor"),
 )
+
+#: The baseline ``svrqp gap`` fits when none is named: multiple linear regression.
+DEFAULT_BASELINE = "mlr"
 
 _BY_NAME = {model.name: model for model in MODELS}
 _BY_KIND = {model.export_kind: model for model in MODELS}
@@ -82,6 +91,17 @@ _BY_KIND = {model.export_kind: model for model in MODELS}
 def names() -> tuple[str, ...]:
     """The short model names, in the order of :data:`MODELS`."""
     return tuple(_BY_NAME)
+
+
+def tunable() -> tuple[str, ...]:
+    """The names of the models whose hyperparameters :mod:`svrqp.tuning` searches."""
+    return tuple(model.name for model in MODELS if model.tunable)
+
+
+def baselines() -> tuple[str, ...]:
+    """The names of the models ``svrqp gap`` can fit as its baseline, :data:`DEFAULT_BASELINE` first."""
+    others = (model.name for model in MODELS if model.baseline and model.name != DEFAULT_BASELINE)
+    return (DEFAULT_BASELINE, *others)
 
 
 def export_kinds() -> tuple[str, ...]:

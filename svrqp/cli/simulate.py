@@ -18,19 +18,24 @@ from __future__ import annotations
 from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    Progress,
+    TaskProgressColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 
 from svrqp.cli._common import read_table, split_columns
 from svrqp.exceptions import ProblemError
-from svrqp.machine._config import load_toml
-from svrqp.machine.contour import GantryConfig, simulate_gantry
-from svrqp.machine.geometry import AxisConfig, measure_nine_line, simulate_axis
-from svrqp.machine.thermal import ThermalConfig, simulate_thermal
 from svrqp.units import axis_label
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 ORDER_COLUMNS = ("time_min", "time_s", "x_mm")
 TARGET_COLUMNS = ("error_um", "deviation_um")
@@ -65,6 +70,12 @@ def run_simulation(
     progress: Callable[[float], None] | None = None,
 ) -> pd.DataFrame:
     """Build the config of ``kind`` (defaults, or ``config_path``) and run the simulator."""
+    # Imported when a simulation runs: `svrqp simulate --help` loads no simulator.
+    from svrqp.machine._config import load_toml
+    from svrqp.machine.contour import GantryConfig, simulate_gantry
+    from svrqp.machine.geometry import AxisConfig, measure_nine_line, simulate_axis
+    from svrqp.machine.thermal import ThermalConfig, simulate_thermal
+
     if nine_line is not None and kind is not Kind.axis:
         raise ProblemError("--nine-line applies to the axis simulator only")
     if kind is Kind.thermal:
