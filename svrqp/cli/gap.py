@@ -1,4 +1,4 @@
-"""``svrqp gap``: sim-to-real gap diagnosis (the fixed command line of DESIGN §4).
+"""``svrqp gap``: sim-to-real gap diagnosis (the fixed command line of ``docs/gap.md``, "The contract").
 
 ::
 

@@ -12,19 +12,17 @@ Units are read from column names that follow the project's convention (``T7_C``,
 
 from __future__ import annotations
 
-from numbers import Integral, Real
-
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin, clone
-from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp.exceptions import ProblemError, input_errors_as_problem_errors
-from svrqp.formulations import least_squares, recursive_ls
 from svrqp.export import describe
 from svrqp.export.mixin import ExportMixin
+from svrqp.formulations import least_squares, recursive_ls
+from svrqp.parameters import Boolean, Number, OneOf, check_parameters
 from svrqp.table_checks import check_magnitude, check_numeric_array
 from svrqp.units import latex_symbol, ratio_unit, split_unit
 
@@ -148,12 +146,12 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         Name of ``y`` when it was a named pandas Series, else ``""``.
     """
 
-    _parameter_constraints = {
-        "fit_intercept": ["boolean"],
-        "rank_deficient": [StrOptions({"raise", "lstsq"})],
+    _parameter_checks = {
+        "fit_intercept": [Boolean()],
+        "rank_deficient": [OneOf(frozenset({"raise", "lstsq"}))],
     }
 
-    def __init__(self, fit_intercept=True, rank_deficient="raise"):
+    def __init__(self, *, fit_intercept=True, rank_deficient="raise"):
         self.fit_intercept = fit_intercept
         self.rank_deficient = rank_deficient
 
@@ -173,7 +171,7 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         X : array-like of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         target_name = _target_name(y)
         X, y = _finite_training_data(self, X, y, reset=True)
         names = self._feature_names()
@@ -209,9 +207,9 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         Condition number of the equilibrated Legendre normal matrix.
     """
 
-    _parameter_constraints = {"degree": [Interval(Integral, 0, None, closed="left")]}
+    _parameter_checks = {"degree": [Number(0, closed="left", integer=True)]}
 
-    def __init__(self, degree=5):
+    def __init__(self, *, degree=5):
         self.degree = degree
 
     _export_kind = "polynomial_ls"
@@ -230,7 +228,7 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         X : array-like of shape (n_samples, 1)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         X, y = _finite_training_data(self, X, y, reset=True)
         if X.shape[1] != 1:
             raise ProblemError(f"PolynomialLS models one variable; X has {X.shape[1]} features")
@@ -288,9 +286,9 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     target_name_ : str
     """
 
-    _parameter_constraints = {"forgetting": [Interval(Real, 0.0, 1.0, closed="right")]}
+    _parameter_checks = {"forgetting": [Number(0.0, 1.0, closed="right")]}
 
-    def __init__(self, forgetting=1.0):
+    def __init__(self, *, forgetting=1.0):
         self.forgetting = forgetting
 
     _export_kind = "recursive_ls"
@@ -333,7 +331,7 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         X : array-like of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         first_call = not hasattr(self, "n_features_in_")
         if first_call:
             self.target_name_ = _target_name(y)

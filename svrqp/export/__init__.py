@@ -4,7 +4,8 @@ Pipeline: fitted model → :func:`build_document` (a plain, schema-checked ``dic
 hash) → :func:`write` (``json`` | ``csv`` | ``c``); :func:`verify` checks a JSON file from the file
 alone; :func:`read_document` loads one only after the same checks (never executes code);
 :func:`predict` evaluates a loaded document. The JSON Schema ships as ``model.schema.json`` in
-this package (:func:`load_schema`). The contract is DESIGN §5.
+this package (:func:`load_schema`). The contract is the export format page of the documentation
+(``docs/export.md``).
 """
 
 from __future__ import annotations
