@@ -233,6 +233,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         whether its crossover reached the exact optimum.
     """
 
+    _export_kind = "epsilon_svr"
     _parameter_checks = {
         "C": [Number(0.0)],
         "epsilon": [Number(0.0, closed="left")],
@@ -257,8 +258,6 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.tol = tol
         self.check_tol = check_tol
         self.fallback = fallback
-
-    _export_kind = "epsilon_svr"
 
     def _export_sections(self) -> describe.Sections:
         return describe.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
@@ -400,6 +399,7 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         rebuilt on first access and after unpickling: :mod:`svrqp.estimators.fitted_state`).
     """
 
+    _export_kind = "ls_svr"
     _parameter_checks = {
         "C": [Number(0.0)],
         **_KERNEL_CHECKS,
@@ -416,8 +416,6 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         self.coef0 = coef0
         self.fit_intercept = fit_intercept
         self.solver = solver
-
-    _export_kind = "ls_svr"
 
     def _export_sections(self) -> describe.Sections:
         return describe.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)

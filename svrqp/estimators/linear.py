@@ -146,6 +146,7 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         Name of ``y`` when it was a named pandas Series, else ``""``.
     """
 
+    _export_kind = "linear_ls"
     _parameter_checks = {
         "fit_intercept": [Boolean()],
         "rank_deficient": [OneOf(frozenset({"raise", "lstsq"}))],
@@ -154,8 +155,6 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     def __init__(self, *, fit_intercept=True, rank_deficient="raise"):
         self.fit_intercept = fit_intercept
         self.rank_deficient = rank_deficient
-
-    _export_kind = "linear_ls"
 
     def _export_sections(self) -> describe.Sections:
         return describe.Sections(
@@ -207,12 +206,11 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         Condition number of the equilibrated Legendre normal matrix.
     """
 
+    _export_kind = "polynomial_ls"
     _parameter_checks = {"degree": [Number(0, closed="left", integer=True)]}
 
     def __init__(self, *, degree=5):
         self.degree = degree
-
-    _export_kind = "polynomial_ls"
 
     def _export_sections(self) -> describe.Sections:
         return describe.Sections(
@@ -286,12 +284,11 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     target_name_ : str
     """
 
+    _export_kind = "recursive_ls"
     _parameter_checks = {"forgetting": [Number(0.0, 1.0, closed="right")]}
 
     def __init__(self, *, forgetting=1.0):
         self.forgetting = forgetting
-
-    _export_kind = "recursive_ls"
 
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, "state_")
