@@ -36,6 +36,10 @@ class ModelSpec:
         The ``kind`` of its exported document (``svrqp.model/1``).
     parameters
         The estimator parameters the command line sets, each from the option of the same name.
+    formula
+        The form of its prediction, which the exported document stores and every evaluator
+        (Python, C) computes: :data:`KERNEL` (support vectors, coefficients, a bias),
+        :data:`LINEAR` (coefficients and an intercept) or :data:`LEGENDRE` (a Legendre series).
     summary
         What the model is, in a few words.
     tunable
@@ -48,6 +52,7 @@ class ModelSpec:
     estimator: str
     export_kind: str
     parameters: tuple[str, ...]
+    formula: str
     summary: str
     tunable: bool = False
     baseline: bool = False
@@ -67,17 +72,24 @@ class ModelSpec:
         return self.estimator_class()(**{key: options[key] for key in self.parameters if key in options})
 
 
+#: :attr:`ModelSpec.formula` of a kernel expansion :math:`\sum_i \beta_i k(u, x_i) + b`.
+KERNEL = "kernel"
+#: :attr:`ModelSpec.formula` of :math:`a_0 + u^\top a`.
+LINEAR = "linear"
+#: :attr:`ModelSpec.formula` of a Legendre series in one input.
+LEGENDRE = "legendre"
+
 #: The models, in the order the command line lists them.
 MODELS: tuple[ModelSpec, ...] = (
     ModelSpec("svr", "svrqp.estimators.kernel:EpsilonSVR", "epsilon_svr", ("C", "epsilon", "gamma", "solver"),
-              "ε-support vector regression, an explicit QP", tunable=True, baseline=True),
-    ModelSpec("lssvr", "svrqp.estimators.kernel:LSSVR", "ls_svr", ("C", "gamma"),
+              KERNEL, "ε-support vector regression, an explicit QP", tunable=True, baseline=True),
+    ModelSpec("lssvr", "svrqp.estimators.kernel:LSSVR", "ls_svr", ("C", "gamma"), KERNEL,
               "least-squares SVR, a KKT linear system", tunable=True, baseline=True),
-    ModelSpec("mlr", "svrqp.estimators.linear:LinearLS", "linear_ls", (),
+    ModelSpec("mlr", "svrqp.estimators.linear:LinearLS", "linear_ls", (), LINEAR,
               "multiple linear regression, the normal equations", baseline=True),
-    ModelSpec("poly", "svrqp.estimators.linear:PolynomialLS", "polynomial_ls", ("degree",),
+    ModelSpec("poly", "svrqp.estimators.linear:PolynomialLS", "polynomial_ls", ("degree",), LEGENDRE,
               "polynomial in one input, Legendre basis"),
-    ModelSpec("rls", "svrqp.estimators.linear:RecursiveLS", "recursive_ls", ("forgetting",),
+    ModelSpec("rls", "svrqp.estimators.linear:RecursiveLS", "recursive_ls", ("forgetting",), LINEAR,
               "recursive least squares with a forgetting factor"),
 )
 
@@ -133,3 +145,14 @@ def spec_of_kind(kind: str) -> ModelSpec:
     if kind not in _BY_KIND:
         raise ProblemError(f"kind must be one of {', '.join(export_kinds())}, got {kind!r}")
     return _BY_KIND[kind]
+
+
+def formula(kind: str) -> str:
+    """The :attr:`~ModelSpec.formula` of the model whose documents have ``kind``.
+
+    Raises
+    ------
+    ProblemError
+        For a kind that no model exports.
+    """
+    return spec_of_kind(kind).formula
