@@ -92,7 +92,8 @@ print(f"train: {len(train)} samples up to {cut_min / 60:.1f} h (speeds {sorted(i
 # %%
 search = tuning.grid_search(X_train.to_numpy(), train[target].to_numpy(), model="lssvr",
                             C=[1.0, 10.0, 100.0], gamma=[0.005, 0.02, 0.1],
-                            cv=GroupKFold(3), groups=train["segment"].to_numpy(), backend="sequential")
+                            execution=tuning.Execution(cv=GroupKFold(3), groups=train["segment"].to_numpy(),
+                                                       backend="sequential"))
 print(f"grouped 3-fold CV: {search.best_params}, CV MSE {search.best_mse:.2f} μm² ({search.elapsed_s:.1f} s)")
 C, gamma = search.best_params["C"], search.best_params["gamma"]
 models = {

@@ -1,30 +1,45 @@
-"""Helpers shared by the subcommands: reading tables, splitting column lists, the model factory."""
+"""Helpers shared by the subcommands: option help texts, reading tables, the model factory.
+
+This module is imported when a command's ``--help`` is shown, so it loads no heavy library at
+import time: pandas and the table checks are imported by the functions that read a table, the
+estimators by :func:`make_estimator` (through :mod:`svrqp.registry`).
+"""
 
 from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
-
-from svrqp.estimators.kernel import DUAL_IPM, LSSVR, SOLVERS, EpsilonSVR
+from svrqp import registry
 from svrqp.exceptions import BackendNotAvailableError, ProblemError
-from svrqp.estimators.linear import LinearLS, PolynomialLS, RecursiveLS
 from svrqp.solvers.auto import AUTO, SMO_CROSSOVER
-from svrqp.table_checks import check_numeric, check_present
+from svrqp.solvers.qp_backends import BACKENDS
 
-#: The model kinds ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
-MODELS = ("svr", "lssvr", "mlr", "poly", "rls")
+if TYPE_CHECKING:
+    import pandas as pd
+
+#: The model names ``svrqp fit`` and ``svrqp export`` build with :func:`make_estimator`.
+MODELS = registry.names()
+#: svrqp's interior point with exact crossover, a value of ``EpsilonSVR(solver=...)``.
+DUAL_IPM = "dual_ipm"
 
 #: ``--help`` of every ``--solver`` option that picks how an ε-SVR is solved.
 SOLVER_HELP = (f"svr: '{AUTO}' (the default: the fastest certified exact path), '{SMO_CROSSOVER}' (loose SMO, "
                f"then the exact crossover), '{DUAL_IPM}' (svrqp's interior point with exact crossover) or a QP "
-               f"backend: {', '.join(name for name in SOLVERS if name not in (AUTO, SMO_CROSSOVER, DUAL_IPM))}.")
+               f"backend: {', '.join(BACKENDS)}.")
+#: ``--help`` of ``--coverage``, ``--group`` and ``--interval`` (:mod:`svrqp.cli._guard`).
+COVERAGE_HELP = ("Calibrate a conformal prediction interval of this coverage (e.g. 0.9) and record the "
+                 "training domain (svrqp.Guarded); default: no interval.")
+GROUP_HELP = ("With --coverage: column naming the run/batch/cycle of each row; calibration folds hold out "
+              "whole groups (rows within a run are not exchangeable).")
+INTERVAL_HELP = "With --coverage: absolute or normalized (normalised: wider where the errors are larger)."
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
     """Read a CSV or Parquet file into a DataFrame, with a clear error when it is missing."""
+    import pandas as pd
+
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"input file not found: {path}")
@@ -67,6 +82,8 @@ def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: b
     """Split ``"a,b,c"`` into column names and check that each is in ``table`` (and numeric, if asked)."""
     if text is None or not text.strip():
         return []
+    from svrqp.table_checks import check_numeric, check_present
+
     names = [name.strip() for name in text.split(",") if name.strip()]
     check_present(table, names, option)
     if numeric:
@@ -89,17 +106,11 @@ def parse_gamma(text: str) -> str | float:
 
 def make_estimator(model: str, *, C: float, epsilon: float, gamma: str | float, degree: int,
                    forgetting: float, solver: str) -> Any:
-    """The unfitted estimator of kind ``model`` (one of :data:`MODELS`)."""
-    if model == "svr":
+    """The unfitted estimator called ``model`` in :mod:`svrqp.registry`, with the options it takes."""
+    spec = registry.spec(model, "--model")
+    if "solver" in spec.parameters:
+        from svrqp.estimators.kernel import SOLVERS
+
         if solver not in SOLVERS:
             raise ProblemError(f"--solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
-        return EpsilonSVR(C=C, epsilon=epsilon, gamma=gamma, solver=solver)
-    if model == "lssvr":
-        return LSSVR(C=C, gamma=gamma)
-    if model == "mlr":
-        return LinearLS()
-    if model == "poly":
-        return PolynomialLS(degree=degree)
-    if model == "rls":
-        return RecursiveLS(forgetting=forgetting)
-    raise ProblemError(f"--model must be one of {MODELS}, got {model!r}")
+    return spec.make(C=C, epsilon=epsilon, gamma=gamma, degree=degree, forgetting=forgetting, solver=solver)

@@ -1,4 +1,7 @@
-"""``--coverage``, ``--group`` and ``--interval`` of ``svrqp fit`` and ``svrqp export``: wrap in Guarded."""
+"""``--coverage``, ``--group`` and ``--interval`` of ``svrqp fit`` and ``svrqp export``: wrap in Guarded.
+
+The options' help texts are in :mod:`svrqp.cli._common` (this module loads scikit-learn).
+"""
 
 from __future__ import annotations
 
@@ -13,12 +16,6 @@ from svrqp.exceptions import ExtrapolationWarning, ProblemError
 from svrqp.guard import Guarded
 from svrqp.guard.conformal import METHODS
 from svrqp.table_checks import check_present
-
-COVERAGE_HELP = ("Calibrate a conformal prediction interval of this coverage (e.g. 0.9) and record the "
-                 "training domain (svrqp.Guarded); default: no interval.")
-GROUP_HELP = ("With --coverage: column naming the run/batch/cycle of each row; calibration folds hold out "
-              "whole groups (rows within a run are not exchangeable).")
-INTERVAL_HELP = f"With --coverage: {' or '.join(METHODS)} (normalised: wider where the errors are larger)."
 
 
 def guarded_or_plain(model: Any, coverage: float | None, group: str | None, method: str) -> Any:

@@ -10,9 +10,6 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from svrqp.demo import run_demo
-from svrqp.demo.report import SIMULATED_NOTE, verdict_label
-
 
 def _s0_table(s0: dict[str, Any]) -> Table:
     table = Table(title=f"S0 — RMS of the residuals (μm), models fitted on x1 ({s0['dataset']}: temperature rises)",
@@ -37,6 +34,8 @@ def _reproduction_table(rows: list[dict[str, Any]]) -> Table:
 
 def print_summary(console: Console, results: dict[str, Any], out: Path) -> None:
     """The demo's results as the terminal shows them."""
+    from svrqp.demo.report import SIMULATED_NOTE, verdict_label
+
     console.print(f"[bold]{SIMULATED_NOTE}[/bold]")
     console.print(_reproduction_table(results["reproduction"]))
     console.print(_s0_table(results["s0"]))
@@ -79,6 +78,10 @@ def register(app: typer.Typer) -> None:
                                                               "(default 2; 1 with --quick)."),
     ) -> None:
         """Reproduce S0, S4 and S2 on the embedded simulated data, export and verify S0's ε-SVR, diagnose the gap."""
+        from svrqp.demo import (
+            run_demo,  # imported when the command runs: `svrqp demo --help` stays quick
+        )
+
         console = Console()
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                       TimeElapsedColumn(), console=Console(stderr=True), transient=True) as progress:

@@ -12,24 +12,18 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-from rich.console import Console
-from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
 
-from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
-from svrqp.cli._guard import (
+from svrqp.cli._common import (
     COVERAGE_HELP,
     GROUP_HELP,
     INTERVAL_HELP,
-    describe_interval,
-    fit_guarded,
-    group_labels,
-    guarded_or_plain,
+    MODELS,
+    SOLVER_HELP,
 )
 from svrqp.exceptions import ProblemError
-from svrqp.export import FORMATS, build_document, read_document, write
 
+#: The output formats, as ``--help`` lists them (kept light: svrqp.export loads scikit-learn).
+FORMAT_CHOICES = "json, csv, c"
 MODEL_SUFFIXES = {".json"}
 DATA_SUFFIXES = {".csv", ".parquet", ".pq"}
 
@@ -43,7 +37,7 @@ def register(app: typer.Typer) -> None:
                                                 "table (.csv/.parquet) to fit a model on and export."),
         out: Path = typer.Option(..., "--out", "-o", help="Output file (.json, .csv, .c) or, for C, a directory "
                                                            "that receives svrqp_model.c and svrqp_model.h."),
-        format: str = typer.Option(None, "--format", "-f", help=f"One of {', '.join(FORMATS)}; default: from "
+        format: str = typer.Option(None, "--format", "-f", help=f"One of {FORMAT_CHOICES}; default: from "
                                                                  "the suffix of --out."),
         force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
         target: str = typer.Option(None, "--target", help="Data tables: the target column (unit in its name, "
@@ -67,6 +61,26 @@ def register(app: typer.Typer) -> None:
         interval: str = typer.Option("absolute", "--interval", help="Data tables: " + INTERVAL_HELP),
     ) -> None:
         """Export a model as svrqp.model/1 JSON, a CSV coefficient table (S0 Table 1) or C source."""
+        # Imported when the command runs: `svrqp export --help` loads no scikit-learn.
+        from rich.console import Console
+        from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+        from sklearn.pipeline import make_pipeline
+        from sklearn.preprocessing import StandardScaler
+
+        from svrqp.cli._common import (
+            make_estimator,
+            parse_gamma,
+            read_table,
+            split_columns,
+        )
+        from svrqp.cli._guard import (
+            describe_interval,
+            fit_guarded,
+            group_labels,
+            guarded_or_plain,
+        )
+        from svrqp.export import build_document, read_document, write
+
         suffix = source.suffix.lower()
         data_options = {"--target": target, "--features": features, "--coverage": coverage, "--group": group}
         console = Console(stderr=True)

@@ -10,37 +10,33 @@ With ``--coverage`` the model is wrapped in :class:`svrqp.Guarded` (calibration 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-import pandas as pd
 import typer
 from rich.console import Console
-from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
-from sklearn.pipeline import make_pipeline
-from sklearn.preprocessing import StandardScaler
 
-from svrqp.cli._common import MODELS, SOLVER_HELP, make_estimator, parse_gamma, read_table, split_columns
-from svrqp.cli._guard import (
+from svrqp.cli._common import (
     COVERAGE_HELP,
     GROUP_HELP,
     INTERVAL_HELP,
-    describe_interval,
-    fit_guarded,
-    group_labels,
-    guarded_or_plain,
-    interval_table,
+    MODELS,
+    SOLVER_HELP,
 )
-from svrqp.compensate import online_compensation, residual_metrics
 from svrqp.exceptions import ProblemError
-from svrqp.export.guarded import sections
-from svrqp.guard import Guarded
-from svrqp.estimators.linear import PolynomialLS, split_unit
-from svrqp.query import QueryError, select_rows
+from svrqp.units import split_unit
+
+if TYPE_CHECKING:
+    import numpy as np
+    import pandas as pd
 
 
 def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:
     """Boolean mask of the rows ``query`` selects (all rows when it is ``None``)."""
+    import pandas as pd
+
+    from svrqp.query import QueryError, select_rows
+
     if query is None:
         return pd.Series(True, index=table.index)
     try:
@@ -62,7 +58,7 @@ def _print_linear(console: Console, estimator) -> None:
     typer.echo(estimator.to_latex())
 
 
-def _print_polynomial(console: Console, estimator: PolynomialLS, target: str) -> None:
+def _print_polynomial(console: Console, estimator, target: str) -> None:
     table = Table()
     table.add_column("m", justify="right")
     table.add_column("Legendre c_m", justify="right")
@@ -80,7 +76,7 @@ def _print_model(console: Console, fitted, target: str) -> None:
     estimator = fitted.steps[-1][1] if hasattr(fitted, "steps") else fitted
     if hasattr(estimator, "coefficient_table"):
         _print_linear(console, estimator)
-    elif isinstance(estimator, PolynomialLS):
+    elif hasattr(estimator, "legendre_coef_"):
         _print_polynomial(console, estimator, target)
     else:
         typer.echo(f"{len(estimator.support_)} support vectors, b = {estimator.intercept_[0]:.6g}, "
@@ -88,6 +84,8 @@ def _print_model(console: Console, fitted, target: str) -> None:
 
 
 def _metrics_table(rows: list[tuple[str, np.ndarray]], unit: str) -> Table:
+    from svrqp.compensate import residual_metrics
+
     caption = ("online: the other rows through S3's loop (predict, then update the model)"
                if any(label == "online" for label, _ in rows) else None)
     table = Table(title=f"residuals ({unit or 'target units'})", caption=caption)
@@ -128,6 +126,28 @@ def register(app: typer.Typer) -> None:
         interval: str = typer.Option("absolute", "--interval", help=INTERVAL_HELP),
     ) -> None:
         """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
+        # Imported when the command runs: `svrqp fit --help` loads no scikit-learn.
+        from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+        from sklearn.pipeline import make_pipeline
+        from sklearn.preprocessing import StandardScaler
+
+        from svrqp.cli._common import (
+            make_estimator,
+            parse_gamma,
+            read_table,
+            split_columns,
+        )
+        from svrqp.cli._guard import (
+            describe_interval,
+            fit_guarded,
+            group_labels,
+            guarded_or_plain,
+            interval_table,
+        )
+        from svrqp.compensate import online_compensation
+        from svrqp.export.guarded import sections
+        from svrqp.guard import Guarded
+
         table = read_table(data)
         columns = split_columns(features, table, "--features", numeric=True)
         if not columns:

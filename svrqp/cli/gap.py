@@ -1,4 +1,4 @@
-"""``svrqp gap``: sim-to-real gap diagnosis (the fixed command line of DESIGN §4).
+"""``svrqp gap``: sim-to-real gap diagnosis (the fixed command line of ``docs/gap.md``, "The contract").
 
 ::
 
@@ -19,10 +19,9 @@ from pathlib import Path
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from svrqp import registry
 from svrqp.cli._common import read_table, split_columns
 from svrqp.exceptions import ProblemError
-from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.baseline import MODEL_KINDS
 
 REPORT_SUFFIXES = (".html", ".htm", ".md")
 
@@ -44,7 +43,7 @@ def gap(
     features: str = typer.Option(
         None, "--features", help="Comma-separated model inputs; a --model baseline is fitted on the train rows."),
     model: str = typer.Option(
-        None, "--model", help=f"Baseline family with --features: {' | '.join(MODEL_KINDS)} (default mlr)."),
+        None, "--model", help=f"Baseline family with --features: {' | '.join(registry.baselines())} (default mlr)."),
     prediction: str = typer.Option(
         None, "--prediction", help="Column holding a simulation's prediction (instead of --features)."),
     candidates: str = typer.Option(
@@ -65,6 +64,8 @@ def gap(
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
 ) -> None:
     """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
+    from svrqp.gap import GapQuestion, diagnose  # imported when the command runs: `svrqp gap --help` stays quick
+
     if (features is None) == (prediction is None):
         raise ProblemError("give exactly one of --features (a model is fitted) or --prediction (a column)")
     if prediction is not None and model is not None:

@@ -18,22 +18,27 @@ from __future__ import annotations
 from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    Progress,
+    TaskProgressColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 
 from svrqp.cli._common import read_table, split_columns
 from svrqp.exceptions import ProblemError
-from svrqp.machine._config import load_toml
-from svrqp.machine.contour import GantryConfig, simulate_gantry
-from svrqp.machine.geometry import AxisConfig, measure_nine_line, simulate_axis
-from svrqp.machine.thermal import ThermalConfig, simulate_thermal
+from svrqp.units import axis_label
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 ORDER_COLUMNS = ("time_min", "time_s", "x_mm")
 TARGET_COLUMNS = ("error_um", "deviation_um")
-UNITS = {"min": "min", "s": "s", "mm": "mm", "um": "μm", "C": "°C", "rpm": "rpm", "urad": "μrad"}
 
 
 class Kind(str, Enum):
@@ -65,6 +70,12 @@ def run_simulation(
     progress: Callable[[float], None] | None = None,
 ) -> pd.DataFrame:
     """Build the config of ``kind`` (defaults, or ``config_path``) and run the simulator."""
+    # Imported when a simulation runs: `svrqp simulate --help` loads no simulator.
+    from svrqp.machine._config import load_toml
+    from svrqp.machine.contour import GantryConfig, simulate_gantry
+    from svrqp.machine.geometry import AxisConfig, measure_nine_line, simulate_axis
+    from svrqp.machine.thermal import ThermalConfig, simulate_thermal
+
     if nine_line is not None and kind is not Kind.axis:
         raise ProblemError("--nine-line applies to the axis simulator only")
     if kind is Kind.thermal:
@@ -77,12 +88,6 @@ def run_simulation(
         return simulate_axis(config, seed=seed)
     config = GantryConfig() if config_path is None else load_toml(GantryConfig, config_path)
     return simulate_gantry(config, seed=seed)
-
-
-def _label(column: str) -> str:
-    """``time_min`` → ``time (min)``: the name with its unit suffix spelled out."""
-    stem, _, unit = column.rpartition("_")
-    return f"{stem} ({UNITS[unit]})" if stem and unit in UNITS else column
 
 
 def plot_table(
@@ -141,8 +146,8 @@ def plot_table(
         ax.plot(part[order], part[target], color="k", lw=1.3, label=target)
         for column in effects:
             ax.plot(part[order], part[column], ls="--", lw=0.9, label=column)
-        ax.set_xlabel(_label(order))
-        ax.set_ylabel(_label(target))
+        ax.set_xlabel(axis_label(order))
+        ax.set_ylabel(axis_label(target))
         ax.axhline(0.0, color="0.6", lw=0.6)
     if temperatures:
         axes[0, -1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))

@@ -6,8 +6,6 @@ from pathlib import Path
 
 import typer
 
-from svrqp.export import verify
-
 
 def register(app: typer.Typer) -> None:
     """Add ``svrqp verify`` to ``app``."""
@@ -17,6 +15,10 @@ def register(app: typer.Typer) -> None:
         file: Path = typer.Argument(..., help="An exported model, svrqp.model/1 JSON."),
     ) -> None:
         """Validate the schema, recompute the content hash and re-evaluate the probe points; exit 1 on failure."""
+        from svrqp.export import (
+            verify,  # imported when the command runs: `svrqp verify --help` stays quick
+        )
+
         if not file.is_file():
             raise FileNotFoundError(f"model file not found: {file}")
         report = verify(file)

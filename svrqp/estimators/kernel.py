@@ -16,23 +16,23 @@ import dataclasses
 import time
 from functools import partial
 from importlib.metadata import version
-from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin
-from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from svrqp import __version__
+from svrqp._version import __version__
 from svrqp.solvers import dual_ipm
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
+from svrqp.export import describe
 from svrqp.export.mixin import ExportMixin
 from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.formulations.epsilon_svr import dual_qp_point  # noqa: F401  (re-exported)
 from svrqp.kernels import gram
+from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
 from svrqp.problems import check_psd
 from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
 from svrqp.solvers.qp_backends import BACKENDS, DEFAULT_CHECK_FACTOR, solve_qp
@@ -51,11 +51,12 @@ FALLBACK_SOLVER = "clarabel"
 #: The QP statements a ``dual_ipm`` solution is certified on (the primal has no kernel matrix).
 DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 
-_KERNEL_CONSTRAINTS = {
-    "kernel": [StrOptions({"linear", "poly", "rbf", "precomputed"})],
-    "gamma": [StrOptions({"scale", "auto"}), Interval(Real, 0.0, None, closed="neither")],
-    "degree": [Interval(Integral, 1, None, closed="left")],
-    "coef0": [Interval(Real, None, None, closed="neither")],
+#: What the kernel parameters of both models accept (:mod:`svrqp.parameters`).
+_KERNEL_CHECKS = {
+    "kernel": [OneOf(frozenset({"linear", "poly", "rbf", "precomputed"}))],
+    "gamma": [OneOf(frozenset({"scale", "auto"})), Number(0.0)],
+    "degree": [Number(1, closed="left", integer=True)],
+    "coef0": [Number()],
 }
 
 
@@ -232,18 +233,19 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         whether its crossover reached the exact optimum.
     """
 
-    _parameter_constraints = {
-        "C": [Interval(Real, 0.0, None, closed="neither")],
-        "epsilon": [Interval(Real, 0.0, None, closed="left")],
-        **_KERNEL_CONSTRAINTS,
-        "solver": [StrOptions(set(SOLVERS))],
-        "formulation": [StrOptions(set(epsilon_svr.FORMULATIONS))],
-        "tol": [Interval(Real, 0.0, None, closed="neither")],
-        "check_tol": [Interval(Real, 0.0, None, closed="neither"), None],
-        "fallback": ["boolean"],
+    _export_kind = "epsilon_svr"
+    _parameter_checks = {
+        "C": [Number(0.0)],
+        "epsilon": [Number(0.0, closed="left")],
+        **_KERNEL_CHECKS,
+        "solver": [OneOf(frozenset(SOLVERS))],
+        "formulation": [OneOf(frozenset(epsilon_svr.FORMULATIONS))],
+        "tol": [Number(0.0)],
+        "check_tol": [Number(0.0), Nothing()],
+        "fallback": [Boolean()],
     }
 
-    def __init__(self, C=1.0, epsilon=0.1, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
+    def __init__(self, *, C=1.0, epsilon=0.1, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
                  solver="auto", formulation="split", tol=1e-8, check_tol=None, fallback=True):
         self.C = C
         self.epsilon = epsilon
@@ -257,6 +259,9 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.check_tol = check_tol
         self.fallback = fallback
 
+    def _export_sections(self) -> describe.Sections:
+        return describe.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
+
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
 
@@ -265,7 +270,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         X : array-like of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
@@ -394,14 +399,15 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         rebuilt on first access and after unpickling: :mod:`svrqp.estimators.fitted_state`).
     """
 
-    _parameter_constraints = {
-        "C": [Interval(Real, 0.0, None, closed="neither")],
-        **_KERNEL_CONSTRAINTS,
-        "fit_intercept": ["boolean"],
-        "solver": [StrOptions({"cholesky", "lu"})],
+    _export_kind = "ls_svr"
+    _parameter_checks = {
+        "C": [Number(0.0)],
+        **_KERNEL_CHECKS,
+        "fit_intercept": [Boolean()],
+        "solver": [OneOf(frozenset({"cholesky", "lu"}))],
     }
 
-    def __init__(self, C=1.0, kernel="rbf", gamma="scale", degree=3, coef0=0.0, fit_intercept=True,
+    def __init__(self, *, C=1.0, kernel="rbf", gamma="scale", degree=3, coef0=0.0, fit_intercept=True,
                  solver="cholesky"):
         self.C = C
         self.kernel = kernel
@@ -411,6 +417,9 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         self.fit_intercept = fit_intercept
         self.solver = solver
 
+    def _export_sections(self) -> describe.Sections:
+        return describe.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
+
     def fit(self, X: ArrayLike, y: ArrayLike) -> LSSVR:
         """Solve the LS-SVR KKT system for (X, y).
 
@@ -419,7 +428,7 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         X : array-like of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         self.gamma_ = self._resolve_gamma(X)
         K = self._training_gram(X)

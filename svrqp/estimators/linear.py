@@ -7,65 +7,29 @@
   (S3 eqs. (13)–(19)); :func:`merge_models` merges two of them (S3 eqs. (20)–(24)).
 
 Units are read from column names that follow the project's convention (``T7_C``, ``error_um``,
-``x_mm``) or the ``name(unit)`` form of measured tables (``t1(°C)``, ``ch1(um)``).
+``x_mm``) or the ``name(unit)`` form of measured tables (``t1(°C)``, ``ch1(um)``): :mod:`svrqp.units`.
 """
 
 from __future__ import annotations
-
-import re
-from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin, clone
-from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp.exceptions import ProblemError, input_errors_as_problem_errors
-from svrqp.formulations import least_squares, recursive_ls
+from svrqp.export import describe
 from svrqp.export.mixin import ExportMixin
+from svrqp.formulations import least_squares, recursive_ls
+from svrqp.parameters import Boolean, Number, OneOf, check_parameters
 from svrqp.table_checks import check_magnitude, check_numeric_array
+from svrqp.units import latex_symbol, ratio_unit, split_unit
 
-#: Unit suffixes of the naming convention (``T7_C``) and how they are written.
-_UNIT_SUFFIXES = {
-    "C": "°C", "K": "K", "um": "μm", "mm": "mm", "m": "m", "min": "min", "s": "s", "h": "h",
-    "rpm": "rpm", "urad": "μrad", "arcsec": "arcsec", "deg": "°",
-}
-_PARENTHESISED_UNIT = re.compile(r"^\s*(?P<base>.*?)\s*\((?P<unit>[^()]*)\)\s*$")
-_INDEXED_SYMBOL = re.compile(r"^(?P<letters>[A-Za-z]+)_?(?P<index>\d+)$")
-
-
-def split_unit(name: str) -> tuple[str, str]:
-    """Split a column name into (base name, unit): ``"T7_C"`` → ``("T7", "°C")``,
-    ``"ch1(um)"`` → ``("ch1", "μm")``, ``"speed"`` → ``("speed", "")``."""
-    match = _PARENTHESISED_UNIT.match(name)
-    if match:
-        unit = match["unit"].strip()
-        return match["base"], _UNIT_SUFFIXES.get(unit, unit)
-    base, _, suffix = name.rpartition("_")
-    if base and suffix in _UNIT_SUFFIXES:
-        return base, _UNIT_SUFFIXES[suffix]
-    return name, ""
-
-
-def latex_symbol(name: str) -> str:
-    """LaTeX symbol of a column: ``"T7_C"`` → ``T_7``, ``"t12(°C)"`` → ``t_{12}``,
-    ``"ambient"`` → ``\\mathrm{ambient}``."""
-    base, _ = split_unit(name)
-    match = _INDEXED_SYMBOL.match(base)
-    if match:
-        index = match["index"]
-        return f"{match['letters']}_{index}" if len(index) == 1 else f"{match['letters']}_{{{index}}}"
-    if len(base) == 1 and base.isalpha():
-        return base
-    return r"\mathrm{" + base.replace("_", r"\_") + "}"
-
-
-def _ratio_unit(numerator: str, denominator: str) -> str:
-    if not denominator:
-        return numerator
-    return f"{numerator or '1'}/{denominator}"
+#: How :class:`LinearLS` and :class:`PolynomialLS` solve (the ``solver`` of their exported documents).
+NORMAL_EQUATIONS = "normal equations, equilibrated, Cholesky (svrqp.formulations.least_squares)"
+#: How :class:`RecursiveLS` solves.
+RECURSION = "recursive least squares (S3 eqs. 13-17), started from the batch normal equations"
 
 
 class _LinearFormula:
@@ -93,7 +57,7 @@ class _LinearFormula:
         if target_unit is None:
             target_unit = split_unit(self.target_name_)[1] if self.target_name_ else ""
         names = self._feature_names()
-        units = [_ratio_unit(target_unit, split_unit(name)[1]) for name in names]
+        units = [ratio_unit(target_unit, split_unit(name)[1]) for name in names]
         return pd.DataFrame({
             "name": [*names, "intercept"],
             "value": [*map(float, self.coef_), float(self.intercept_)],
@@ -182,14 +146,21 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         Name of ``y`` when it was a named pandas Series, else ``""``.
     """
 
-    _parameter_constraints = {
-        "fit_intercept": ["boolean"],
-        "rank_deficient": [StrOptions({"raise", "lstsq"})],
+    _export_kind = "linear_ls"
+    _parameter_checks = {
+        "fit_intercept": [Boolean()],
+        "rank_deficient": [OneOf(frozenset({"raise", "lstsq"}))],
     }
 
-    def __init__(self, fit_intercept=True, rank_deficient="raise"):
+    def __init__(self, *, fit_intercept=True, rank_deficient="raise"):
         self.fit_intercept = fit_intercept
         self.rank_deficient = rank_deficient
+
+    def _export_sections(self) -> describe.Sections:
+        return describe.Sections(
+            describe.linear_model(self.coef_, self.intercept_, self.fit_intercept),
+            describe.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
+                                          {"condition_number": self.condition_number_, "rank": self.rank_}))
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LinearLS:
         """Solve the normal equations for (X, y).
@@ -199,7 +170,7 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         X : array-like of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         target_name = _target_name(y)
         X, y = _finite_training_data(self, X, y, reset=True)
         names = self._feature_names()
@@ -235,10 +206,17 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         Condition number of the equilibrated Legendre normal matrix.
     """
 
-    _parameter_constraints = {"degree": [Interval(Integral, 0, None, closed="left")]}
+    _export_kind = "polynomial_ls"
+    _parameter_checks = {"degree": [Number(0, closed="left", integer=True)]}
 
-    def __init__(self, degree=5):
+    def __init__(self, *, degree=5):
         self.degree = degree
+
+    def _export_sections(self) -> describe.Sections:
+        return describe.Sections(
+            describe.polynomial_model(self.degree, self.domain_, self.legendre_coef_),
+            describe.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
+                                          {"condition_number": self.condition_number_}))
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> PolynomialLS:
         """Fit the polynomial to one input column.
@@ -248,7 +226,7 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         X : array-like of shape (n_samples, 1)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         X, y = _finite_training_data(self, X, y, reset=True)
         if X.shape[1] != 1:
             raise ProblemError(f"PolynomialLS models one variable; X has {X.shape[1]} features")
@@ -306,13 +284,20 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     target_name_ : str
     """
 
-    _parameter_constraints = {"forgetting": [Interval(Real, 0.0, 1.0, closed="right")]}
+    _export_kind = "recursive_ls"
+    _parameter_checks = {"forgetting": [Number(0.0, 1.0, closed="right")]}
 
-    def __init__(self, forgetting=1.0):
+    def __init__(self, *, forgetting=1.0):
         self.forgetting = forgetting
 
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, "state_")
+
+    def _export_sections(self) -> describe.Sections:
+        return describe.Sections(
+            describe.linear_model(self.coef_, self.intercept_, True, forgetting=float(self.forgetting),
+                                  n_samples_seen=int(self.n_samples_seen_)),
+            describe.least_squares_solver(RECURSION, {"forgetting": self.forgetting}, {"sigma2": self.sigma2_}))
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> RecursiveLS:
         """Forget any previous state and run the recursion over the rows of (X, y) in order.
@@ -343,7 +328,7 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         X : array-like of shape (n_samples, n_features)
         y : array-like of shape (n_samples,)
         """
-        self._validate_params()
+        check_parameters(self, self._parameter_checks)
         first_call = not hasattr(self, "n_features_in_")
         if first_call:
             self.target_name_ = _target_name(y)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from svrqp import registry
 from svrqp.exceptions import ProblemError
 from svrqp.export.safe_text import c_file_name, c_macro_name, comment_text
 
@@ -193,15 +194,15 @@ def _legendre_code(document: dict[str, Any]) -> tuple[str, str]:
     return data, body
 
 
-_MODEL_CODE = {"epsilon_svr": _kernel_code, "ls_svr": _kernel_code, "linear_ls": _linear_code,
-               "recursive_ls": _linear_code, "polynomial_ls": _legendre_code}
+#: The data and body of ``svrqp_predict`` for each :attr:`svrqp.registry.ModelSpec.formula`.
+_FORMULA_CODE = {registry.KERNEL: _kernel_code, registry.LINEAR: _linear_code, registry.LEGENDRE: _legendre_code}
 
 
 def c_source(document: dict[str, Any], header_name: str = "svrqp_model.h") -> str:
     """The ``.c`` evaluator of ``document``; it includes ``header_name``."""
     c_file_name(header_name)
     scaling_data, scaling_body = _scaling_code(document)
-    model_data, model_body = _MODEL_CODE[document["kind"]](document)
+    model_data, model_body = _FORMULA_CODE[registry.formula(document["kind"])](document)
     return (f"/*\n{_comment_lines(document)} *\n"
             f" * {comment_text(document['model']['formula'])}\n */\n"
             f"#include \"{header_name}\"\n#include <math.h>\n\n"

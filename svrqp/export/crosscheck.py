@@ -12,7 +12,8 @@ References (none shares code with svrqp's solvers):
 * ``polynomial_ls`` → ``numpy.polynomial.Polynomial.fit`` (power basis, numpy's own scaling).
 
 The recorded deviation is :math:`\\max_i |f(x_i) - f_\\text{ref}(x_i)|` over the training inputs,
-in target units, next to ``std(y)`` so a reader can judge it against DESIGN §3 (1e-5·std(y)).
+in target units, next to ``std(y)`` so a reader can judge it against the numerical contract
+(1e-5·std(y) for the ε-SVR; "The cross-check" in ``docs/export.md``).
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from importlib.metadata import version
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from numpy.polynomial import Polynomial
+from numpy.typing import NDArray
 from sklearn.kernel_ridge import KernelRidge
 from sklearn.linear_model import LinearRegression
 from sklearn.metrics.pairwise import pairwise_kernels

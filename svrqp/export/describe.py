@@ -2,22 +2,27 @@
 
 A model is either a fitted svrqp estimator or a scikit-learn ``Pipeline`` of a ``StandardScaler``
 followed by one. :func:`split_pipeline` separates the scaling (recorded so the file alone maps raw
-inputs to the model's coordinates ``u = (x - mean) / scale``) from the estimator;
-:func:`model_section` writes the estimator's coefficients; :func:`solver_section` its
-certificate-checked solution.
+inputs to the model's coordinates ``u = (x - mean) / scale``) from the estimator.
+
+Each exportable estimator describes itself (:class:`svrqp.export.mixin.ExportMixin`): its class
+attribute ``_export_kind`` is the document's ``kind`` and its ``_export_sections()`` returns the
+``model`` section (its coefficients) and the ``solver`` section (how they were computed), built
+with the helpers of this module (:func:`kernel_sections`, :func:`linear_model`,
+:func:`polynomial_model`, :func:`least_squares_solver`). This package never imports an estimator.
 """
 
 from __future__ import annotations
 
 import math
 from importlib.metadata import version
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
+from svrqp import registry
 from svrqp.exceptions import ProblemError
 from svrqp.kernels import rbf_conventions
 
@@ -61,19 +66,29 @@ def floats(values: Any) -> list[float]:
     return [float(value) for value in np.asarray(values, dtype=float).ravel()]
 
 
-def kind_of(estimator: Any) -> str:
-    """The ``kind`` of an exportable estimator."""
-    # Imported here, not at the top: the estimators inherit ExportMixin from this package.
-    from svrqp.estimators.kernel import LSSVR, EpsilonSVR
-    from svrqp.estimators.linear import LinearLS, PolynomialLS, RecursiveLS
+class Sections(NamedTuple):
+    """The sections of a document that an estimator writes about itself."""
 
-    kinds = {EpsilonSVR: "epsilon_svr", LSSVR: "ls_svr", LinearLS: "linear_ls", PolynomialLS: "polynomial_ls",
-             RecursiveLS: "recursive_ls"}
-    for cls, kind in kinds.items():
-        if isinstance(estimator, cls):
-            return kind
-    raise ProblemError(f"model: cannot export a {type(estimator).__name__}; exportable: "
-                       f"{', '.join(cls.__name__ for cls in kinds)} (alone or after a StandardScaler)")
+    model: dict[str, Any]
+    """Coefficients and formula (the document's ``model``)."""
+    solver: dict[str, Any]
+    """How the coefficients were computed and their certificates (the document's ``solver``)."""
+
+
+def kind_of(estimator: Any) -> str:
+    """The ``kind`` of an exportable estimator (its ``_export_kind``)."""
+    kind = getattr(estimator, "_export_kind", None)
+    if kind is None:
+        exportable = ", ".join(model.class_name for model in registry.MODELS)
+        raise ProblemError(f"model: cannot export a {type(estimator).__name__}; exportable: "
+                           f"{exportable} (alone or after a StandardScaler)")
+    return kind
+
+
+def sections(estimator: Any) -> Sections:
+    """The ``model`` and ``solver`` sections of a fitted exportable estimator."""
+    check_is_fitted(estimator)
+    return estimator._export_sections()
 
 
 def kernel_section(name: str, gamma: float, degree: int, coef0: float) -> dict[str, Any]:
@@ -88,38 +103,40 @@ def kernel_section(name: str, gamma: float, degree: int, coef0: float) -> dict[s
     raise ProblemError(f"model: kernel {name!r} cannot be exported (a precomputed kernel has no formula)")
 
 
-def model_section(kind: str, estimator: Any) -> dict[str, Any]:
-    """Coefficients of a fitted estimator of ``kind``."""
-    check_is_fitted(estimator)
-    if kind in ("epsilon_svr", "ls_svr"):
-        return {
-            "formula": KERNEL_FORMULA,
-            "kernel": kernel_section(estimator.kernel, estimator.gamma_, estimator.degree, estimator.coef0),
-            "C": float(estimator.C),
-            "epsilon": float(estimator.epsilon) if kind == "epsilon_svr" else None,
-            "fit_intercept": bool(getattr(estimator, "fit_intercept", True)),
-            "support_vectors": [floats(row) for row in estimator.support_vectors_],
-            "dual_coef": floats(estimator.dual_coef_[0]),
-            "intercept": float(estimator.intercept_[0]),
-        }
-    if kind == "polynomial_ls":
-        return {
-            "formula": POLYNOMIAL_FORMULA,
-            "basis": "legendre",
-            "degree": int(estimator.degree),
-            "domain": floats(estimator.domain_),
-            "coef": floats(estimator.legendre_coef_),
-        }
-    section = {
-        "formula": LINEAR_FORMULA,
-        "coef": floats(estimator.coef_),
-        "intercept": float(estimator.intercept_),
-        "fit_intercept": bool(getattr(estimator, "fit_intercept", True)),
+def kernel_model(estimator: Any, *, epsilon: float | None, fit_intercept: bool) -> dict[str, Any]:
+    """The ``model`` section of a fitted kernel model (:math:`\\beta` of its support vectors, b)."""
+    return {
+        "formula": KERNEL_FORMULA,
+        "kernel": kernel_section(estimator.kernel, estimator.gamma_, estimator.degree, estimator.coef0),
+        "C": float(estimator.C),
+        "epsilon": None if epsilon is None else float(epsilon),
+        "fit_intercept": bool(fit_intercept),
+        "support_vectors": [floats(row) for row in estimator.support_vectors_],
+        "dual_coef": floats(estimator.dual_coef_[0]),
+        "intercept": float(estimator.intercept_[0]),
     }
-    if kind == "recursive_ls":
-        section["forgetting"] = float(estimator.forgetting)
-        section["n_samples_seen"] = int(estimator.n_samples_seen_)
-    return section
+
+
+def polynomial_model(degree: int, domain: Any, legendre_coef: Any) -> dict[str, Any]:
+    """The ``model`` section of a polynomial on the Legendre basis over ``domain``."""
+    return {
+        "formula": POLYNOMIAL_FORMULA,
+        "basis": "legendre",
+        "degree": int(degree),
+        "domain": floats(domain),
+        "coef": floats(legendre_coef),
+    }
+
+
+def linear_model(coef: Any, intercept: float, fit_intercept: bool, **extra: Any) -> dict[str, Any]:
+    """The ``model`` section of ``y = intercept + u @ coef``; ``extra`` entries follow (recursive LS)."""
+    return {
+        "formula": LINEAR_FORMULA,
+        "coef": floats(coef),
+        "intercept": float(intercept),
+        "fit_intercept": bool(fit_intercept),
+        **extra,
+    }
 
 
 def _json_number(value: Any) -> float | int | None:
@@ -144,41 +161,23 @@ def _json_value(value: Any) -> Any:
     return repr(value)  # an enum or object setting: recorded by its text, never re-evaluated
 
 
-def _least_squares_solver(estimator: Any) -> dict[str, Any]:
-    """The normal equations / the S3 recursion have no iterative solver: record how they were solved."""
-    from svrqp.estimators.linear import RecursiveLS
-
-    scipy_version = f"scipy {version('scipy')}, numpy {np.__version__}"
-    if isinstance(estimator, RecursiveLS):
-        backend = "recursive least squares (S3 eqs. 13-17), started from the batch normal equations"
-        settings = {"forgetting": estimator.forgetting}
-        residuals = {"sigma2": estimator.sigma2_}
-    else:
-        backend = "normal equations, equilibrated, Cholesky (svrqp.formulations.least_squares)"
-        settings = estimator.get_params()
-        residuals = {"condition_number": estimator.condition_number_}
-        if hasattr(estimator, "rank_"):
-            residuals["rank"] = estimator.rank_
+def least_squares_solver(backend: str, settings: dict[str, Any], residuals: dict[str, Any]) -> dict[str, Any]:
+    """The ``solver`` section of a model solved as a linear system (no iterative solver, no certificates
+    of a QP): ``backend`` says how, ``residuals`` its figures (a condition number, a rank, a variance)."""
     return {
-        "backend": backend, "version": scipy_version, "requested_tol": None, "settings": _json_value(settings),
-        "status": "optimal", "primal_residual": None, "dual_residual": None, "duality_gap": None,
-        "residuals": {key: _json_number(value) for key, value in residuals.items()}, "iterations": None,
+        "backend": backend, "version": f"scipy {version('scipy')}, numpy {np.__version__}", "requested_tol": None,
+        "settings": _json_value(settings), "status": "optimal", "primal_residual": None, "dual_residual": None,
+        "duality_gap": None, "residuals": {key: _json_number(value) for key, value in residuals.items()},
+        "iterations": None,
     }
 
 
-def solver_section(estimator: Any) -> dict[str, Any]:
-    """Backend, version, requested tolerance, settings, status and certificates of the fit.
-
-    Kernel models report their certificate-checked ``solution_``; least-squares models how
-    their linear system was solved (certificates that do not apply are null).
-    """
-    if not hasattr(estimator, "solution_"):
-        return _least_squares_solver(estimator)
-    solution = estimator.solution_
+def solution_solver(solution: Any, requested_tol: float | None) -> dict[str, Any]:
+    """The ``solver`` section of a kernel model: its certificate-checked ``solution_``."""
     return {
         "backend": solution.backend,
         "version": solution.backend_version,
-        "requested_tol": _json_number(estimator.tol) if hasattr(estimator, "tol") else None,
+        "requested_tol": None if requested_tol is None else _json_number(requested_tol),
         "settings": _json_value(dict(solution.settings)),
         "status": solution.status,
         "primal_residual": _json_number(solution.residuals["primal"]),
@@ -187,3 +186,10 @@ def solver_section(estimator: Any) -> dict[str, Any]:
         "residuals": {key: _json_number(value) for key, value in solution.residuals.items()},
         "iterations": solution.iterations,
     }
+
+
+def kernel_sections(estimator: Any, *, epsilon: float | None, fit_intercept: bool,
+                    requested_tol: float | None) -> Sections:
+    """Both sections of a fitted kernel model (:func:`kernel_model`, :func:`solution_solver`)."""
+    return Sections(kernel_model(estimator, epsilon=epsilon, fit_intercept=fit_intercept),
+                    solution_solver(estimator.solution_, requested_tol))

@@ -17,25 +17,15 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-import svrqp
+from svrqp._version import __version__
 from svrqp.exceptions import ExtrapolationWarning, ProblemError
 from svrqp.export import canonical, crosscheck, describe, evaluate, guarded
 from svrqp.export.schema import SCHEMA_ID, validate_document
 from svrqp.export.verify import PROBE_RELATIVE_TOLERANCE
+from svrqp.units import unit_from_name
 
 #: How many probe points a document stores when the caller gives none.
 N_PROBES = 16
-
-
-def unit_from_name(name: str) -> str | None:
-    """The unit carried in a column name (``T7_C`` → °C, ``ch1(um)`` → μm), or None.
-
-    The naming convention is :func:`svrqp.estimators.linear.split_unit`'s.
-    """
-    # Imported here, not at the top: the estimators inherit ExportMixin from this package.
-    from svrqp.estimators.linear import split_unit
-
-    return split_unit(name)[1] or None
 
 
 def _names(given: Sequence[str] | None, X: Any, model: Any, d: int) -> list[str]:
@@ -118,7 +108,7 @@ def build_document(
         cross-check against an independent reference fitted on them; without them both are null.
     feature_names, feature_units
         Input names and units; by default from ``X``'s columns or the model's
-        ``feature_names_in_`` and the unit suffixes of those names (:func:`unit_from_name`).
+        ``feature_names_in_`` and the unit suffixes of those names (:func:`svrqp.units.unit_from_name`).
     target_name, target_unit
         Target name (default: ``y.name`` or ``"y"``) and unit (default: from the name).
     probes
@@ -135,7 +125,7 @@ def build_document(
         model = model.estimator_  # the model that predicts; the interval and domain come from outer
     scaling, estimator = describe.split_pipeline(model)
     kind = describe.kind_of(estimator)
-    section = describe.model_section(kind, estimator)
+    section, solver = describe.sections(estimator)
     d = int(estimator.n_features_in_)
     names = _names(feature_names, X, outer, d)
     if target_name is None:
@@ -144,14 +134,14 @@ def build_document(
     document: dict[str, Any] = {
         "schema": SCHEMA_ID,
         "kind": kind,
-        "library": {"name": "svrqp", "version": svrqp.__version__},
+        "library": {"name": "svrqp", "version": __version__},
         "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "inputs": _variables(names, feature_units),
         "target": {"name": target_name, "unit": target_unit if target_unit is not None else unit_from_name(target_name)},
         "scaling": scaling,
         "model": section,
         "training_data": None,
-        "solver": describe.solver_section(estimator),
+        "solver": solver,
         "cross_check": None,
     }
     if X_raw is not None:

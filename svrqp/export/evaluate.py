@@ -23,6 +23,7 @@ import numpy as np
 from numpy.polynomial import legendre
 from numpy.typing import ArrayLike, NDArray
 
+from svrqp import registry
 from svrqp.exceptions import ProblemError
 from svrqp.kernels import gram
 
@@ -51,10 +52,10 @@ def _terms(document: dict[str, Any], X: ArrayLike) -> tuple[NDArray[np.float64],
     """The summands of ``f`` per input row (n, m) and the constant term."""
     U = model_coordinates(document, X)
     model = document["model"]
-    kind = document["kind"]
-    if kind in ("epsilon_svr", "ls_svr"):
+    formula = registry.formula(document["kind"])
+    if formula == registry.KERNEL:
         return _kernel_matrix(document, U) * np.asarray(model["dual_coef"]), model["intercept"]
-    if kind == "polynomial_ls":
+    if formula == registry.LEGENDRE:
         low, high = model["domain"]
         t = (2.0 * U[:, 0] - low - high) / (high - low)
         return legendre.legvander(t, model["degree"]) * np.asarray(model["coef"]), 0.0
@@ -65,10 +66,10 @@ def predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
     """Evaluate the model of ``document`` at raw inputs ``X`` of shape (n, d)."""
     U = model_coordinates(document, X)
     model = document["model"]
-    kind = document["kind"]
-    if kind in ("epsilon_svr", "ls_svr"):
+    formula = registry.formula(document["kind"])
+    if formula == registry.KERNEL:
         return _kernel_matrix(document, U) @ np.asarray(model["dual_coef"]) + model["intercept"]
-    if kind == "polynomial_ls":
+    if formula == registry.LEGENDRE:
         low, high = model["domain"]
         return legendre.legval((2.0 * U[:, 0] - low - high) / (high - low), np.asarray(model["coef"]))
     return U @ np.asarray(model["coef"]) + model["intercept"]

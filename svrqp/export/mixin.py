@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from numpy.typing import ArrayLike
 
@@ -53,7 +53,18 @@ def export_model(
 
 
 class ExportMixin:
-    """Adds :meth:`export` to an estimator (``class EpsilonSVR(ExportMixin, _KernelModel)``)."""
+    """Adds :meth:`export` to an estimator (``class EpsilonSVR(ExportMixin, _KernelModel)``).
+
+    An exportable estimator describes itself, so that this package never imports an estimator:
+
+    * ``_export_kind`` (class attribute): the ``kind`` of its documents, one of
+      :func:`svrqp.registry.export_kinds`;
+    * ``_export_sections()``: the ``model`` and ``solver`` sections of the fitted estimator, a
+      :class:`svrqp.export.describe.Sections` built with the helpers of
+      :mod:`svrqp.export.describe`.
+    """
+
+    _export_kind: ClassVar[str]
 
     def export(self, path: str | Path, format: str | None = None, **options: Any) -> list[Path]:
         """Write this fitted model as an auditable ``svrqp.model/1`` JSON, a CSV table or C source.

@@ -18,6 +18,7 @@ from typing import Any
 import jsonschema
 from jsonschema.exceptions import best_match
 
+from svrqp import registry
 from svrqp.exceptions import ProblemError
 
 SCHEMA_ID = "svrqp.model/1"
@@ -97,14 +98,15 @@ def _check_shapes(document: dict[str, Any]) -> None:
     if document["training_data"] is not None and document["training_data"]["n_features"] != d:
         _fail("training_data.n_features", f"is {document['training_data']['n_features']}, expected {d} ({per_input})")
     model = document["model"]
-    if document["kind"] in ("epsilon_svr", "ls_svr"):
+    formula = registry.formula(document["kind"])
+    if formula == registry.KERNEL:
         for i, row in enumerate(model["support_vectors"]):
             _check_length(f"model.support_vectors[{i}]", row, d, per_input)
         _check_length("model.dual_coef", model["dual_coef"], len(model["support_vectors"]),
                       "one per support vector")
         if not model["fit_intercept"] and model["intercept"] != 0.0:
             _fail("model.intercept", "must be 0 when fit_intercept is false")
-    elif document["kind"] == "polynomial_ls":
+    elif formula == registry.LEGENDRE:
         if d != 1:
             _fail("inputs", f"a polynomial model has exactly one input, got {d}")
         _check_length("model.coef", model["coef"], model["degree"] + 1, "degree + 1 Legendre coefficients")

@@ -18,6 +18,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from svrqp import registry
 from svrqp.exceptions import ProblemError
 from svrqp.export.c_source import c_source, header_source
 from svrqp.export.safe_text import comment_text
@@ -86,7 +87,7 @@ def _table(document: dict[str, Any]) -> list[list[Any]]:
         return [["i", "sv_coef", *names]] + [
             [i, repr(beta), *(repr(v) for v in sv)]
             for i, (beta, sv) in enumerate(zip(model["dual_coef"], model["support_vectors"], strict=True), start=1)]
-    if document["kind"] == "polynomial_ls":
+    if registry.formula(document["kind"]) == registry.LEGENDRE:
         return [["m", "legendre_coef"]] + [[m, repr(c)] for m, c in enumerate(model["coef"])]
     return [["term", "coef"], ["intercept", repr(model["intercept"])]] + [
         [name, repr(c)] for name, c in zip(names, model["coef"], strict=True)]

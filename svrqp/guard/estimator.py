@@ -17,18 +17,18 @@ training domain (:mod:`svrqp.guard.domain`) break that premise: ``predict`` and
 from __future__ import annotations
 
 import warnings
-from numbers import Integral, Real
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
-from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from svrqp.exceptions import ExtrapolationWarning, ProblemError
 from svrqp.guard import conformal
 from svrqp.guard.domain import InputDomain, standardised
+from svrqp.parameters import HasMethods, Number, OneOf, check_parameters
 
 
 class Guarded(RegressorMixin, BaseEstimator):
@@ -68,16 +68,16 @@ class Guarded(RegressorMixin, BaseEstimator):
         Input names, when ``X`` was a DataFrame (the domain then names them; else ``x0``, ``x1``, ...).
     """
 
-    _parameter_constraints = {
-        "estimator": [HasMethods(["fit", "predict"])],
-        "coverage": [Interval(Real, 0.0, 1.0, closed="neither")],
-        "method": [StrOptions(set(conformal.METHODS))],
-        "n_splits": [Interval(Integral, 2, None, closed="left")],
-        "min_groups": [Interval(Integral, 2, None, closed="left")],
-        "domain_quantile": [Interval(Real, 0.0, 1.0, closed="right")],
+    _parameter_checks = {
+        "estimator": [HasMethods(("fit", "predict"))],
+        "coverage": [Number(0.0, 1.0)],
+        "method": [OneOf(frozenset(conformal.METHODS))],
+        "n_splits": [Number(2, closed="left", integer=True)],
+        "min_groups": [Number(2, closed="left", integer=True)],
+        "domain_quantile": [Number(0.0, 1.0, closed="right")],
     }
 
-    def __init__(self, estimator, coverage=0.9, method="absolute", n_splits=10, min_groups=3, domain_quantile=1.0):
+    def __init__(self, estimator, *, coverage=0.9, method="absolute", n_splits=10, min_groups=3, domain_quantile=1.0):
         self.estimator = estimator
         self.coverage = coverage
         self.method = method
@@ -92,10 +92,7 @@ class Guarded(RegressorMixin, BaseEstimator):
         if not is_regressor(self.estimator):
             raise ProblemError(f"estimator must be a regressor, got {type(self.estimator).__name__} "
                                "(scikit-learn's is_regressor is false for it)")
-        try:
-            self._validate_params()
-        except ValueError as err:
-            raise ProblemError(str(err)) from None
+        check_parameters(self, self._parameter_checks)
 
     def _inputs(self, X: ArrayLike, y: ArrayLike | None = None, *, fitting: bool):
         """Validate ``X`` (and ``y``) the scikit-learn way, then refuse non-finite rows by position.

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp import __version__
+from svrqp._version import __version__
 from svrqp.solvers import dual_ipm
 from svrqp.formulations.epsilon_svr_certificate import certificates, kernel_scale
 from svrqp.exceptions import SolverError, SvrqpError

@@ -102,3 +102,27 @@ def test_tune_ga_without_pygad_names_the_extra(tmp_path, monkeypatch, capsys):
     error = capsys.readouterr().err
     assert "pygad" in error and "pip install 'svrqp[dist]'" in error
     assert "Traceback" not in error
+
+
+#: What a command's --help must not load: the fitting and plotting stack (seconds of imports).
+FITTING_STACK = {"sklearn", "pandas", "matplotlib", "cvxpy", "qpsolvers"}
+
+
+@pytest.mark.parametrize("command", ["fit", "export", "verify", "simulate", "plot", "gap", "demo"])
+def test_command_help_loads_no_fitting_stack(command):
+    output, packages, commands = _run_cli(command, "--help")
+    assert any("--help" in line for line in output)
+    assert not packages & FITTING_STACK, packages & FITTING_STACK
+
+
+def test_light_help_texts_name_every_valid_value():
+    """The help texts are written without loading the estimators; they must still list every choice."""
+    from svrqp.cli._common import INTERVAL_HELP, SOLVER_HELP
+    from svrqp.cli.export import FORMAT_CHOICES
+    from svrqp.estimators.kernel import SOLVERS
+    from svrqp.export import FORMATS
+    from svrqp.guard.conformal import METHODS
+
+    assert all(f"'{solver}'" in SOLVER_HELP or f" {solver}" in SOLVER_HELP for solver in SOLVERS)
+    assert all(method in INTERVAL_HELP for method in METHODS)
+    assert FORMAT_CHOICES.split(", ") == list(FORMATS)

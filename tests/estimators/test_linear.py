@@ -6,19 +6,16 @@ estimator checks; the real FL_THERMAL measurements.
 
 from __future__ import annotations
 
-
 import numpy as np
 import pandas as pd
 import pytest
 from sklearn.exceptions import NotFittedError
 from sklearn.linear_model import LinearRegression
 from sklearn.utils.estimator_checks import parametrize_with_checks
-
 from support.paths import FL_THERMAL
-from svrqp.exceptions import ProblemError, SingularSystemError
-from svrqp.estimators import LinearLS, PolynomialLS, RecursiveLS, merge_models
-from svrqp.estimators.linear import latex_symbol, split_unit
 
+from svrqp.estimators import LinearLS, PolynomialLS, RecursiveLS, merge_models
+from svrqp.exceptions import ProblemError, SingularSystemError
 
 #: scikit-learn checks that feed PolynomialLS several input columns. PolynomialLS is S2 eq.
 #: (22), a polynomial in ONE variable, and rejects them with ProblemError by design; these
@@ -109,18 +106,6 @@ def test_formula_without_names_or_intercept(s0_summer_batch):
     formula = model.to_latex()
     assert formula.startswith(r"y = ") and r"\,x_0" in formula and r"\,x_1" in formula
     assert model.coefficient_table().unit.tolist() == ["", "", ""]
-
-
-@pytest.mark.parametrize("name, base, unit, symbol", [
-    ("T7_C", "T7", "°C", "T_7"),
-    ("t12(°C)", "t12", "°C", "t_{12}"),
-    ("ch1(um)", "ch1", "μm", "ch_1"),
-    ("x_mm", "x", "mm", "x"),
-    ("ambient_temp", "ambient_temp", "", r"\mathrm{ambient\_temp}"),
-])
-def test_units_and_symbols_from_column_names(name, base, unit, symbol):
-    assert split_unit(name) == (base, unit)
-    assert latex_symbol(name) == symbol
 
 
 def test_linear_ls_errors(s0_summer_batch):

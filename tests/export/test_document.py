@@ -70,7 +70,7 @@ def test_kernel_model_records_every_convention_and_coefficient():
 @pytest.mark.parametrize("make_case", [make for make in EXPORT_CASES if make is not svr_raw_s0],
                          ids=lambda make: make.__name__)
 def test_cross_check_is_within_the_numerical_contract(make_case):
-    """DESIGN §3: predictions within 1e-5·std(y) of the independent reference, on well-scaled cases.
+    """Predictions within 1e-5·std(y) of the independent reference, on well-scaled cases (docs/export.md).
 
     (``svr_raw_s0`` is left out: with C = 24833.5 on a Gram matrix of condition ~1e17, libsvm at
     tol = 1e-8 stops 2.6e-3·std(y) away; the next test checks that this deviation is reported.)

@@ -7,7 +7,7 @@ import pytest
 from sklearn.svm import SVR
 
 from svrqp import datasets
-from svrqp.bench import harness as bench
+from svrqp.bench import cases as bench
 from svrqp.solvers import dual_ipm
 from svrqp.solvers.dual_ipm.crossover import _bordered_solve
 from svrqp.exceptions import ProblemError

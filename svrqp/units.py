@@ -1,0 +1,80 @@
+"""Units carried in column names, written with one micro sign.
+
+The project names columns with their unit as a suffix (``T7_C``, ``error_um``, ``x_mm``); measured
+tables may instead write ``name(unit)`` (``t1(°C)``, ``ch1(um)``). This module is the one table of
+those suffixes and how each unit is written, used by the estimators' coefficient tables, the
+exported model documents and the simulators' plot labels.
+
+The micro sign is the Greek small letter mu, μ (U+03BC). The compatibility character MICRO SIGN
+(U+00B5), which looks the same, is read as μ wherever a unit is read (:func:`normalise_micro`), so
+a table typed with either key gives the same unit.
+"""
+
+from __future__ import annotations
+
+import re
+
+#: The micro sign of the project: GREEK SMALL LETTER MU (U+03BC).
+MICRO = "\N{GREEK SMALL LETTER MU}"
+
+#: Unit suffixes of the naming convention (``T7_C``) and how each unit is written.
+UNIT_SUFFIXES: dict[str, str] = {
+    "C": "°C", "K": "K", "um": f"{MICRO}m", "mm": "mm", "m": "m", "min": "min", "s": "s", "h": "h",
+    "rpm": "rpm", "urad": f"{MICRO}rad", "arcsec": "arcsec", "deg": "°",
+}
+
+_PARENTHESISED_UNIT = re.compile(r"^\s*(?P<base>.*?)\s*\((?P<unit>[^()]*)\)\s*$")
+_INDEXED_SYMBOL = re.compile(r"^(?P<letters>[A-Za-z]+)_?(?P<index>\d+)$")
+
+
+def normalise_micro(text: str) -> str:
+    """``text`` with every MICRO SIGN (U+00B5) written as the project's μ (U+03BC)."""
+    return text.replace("\N{MICRO SIGN}", MICRO)
+
+
+def split_unit(name: str) -> tuple[str, str]:
+    """Split a column name into (base name, unit).
+
+    ``"T7_C"`` → ``("T7", "°C")``, ``"ch1(um)"`` → ``("ch1", "μm")``, ``"speed"`` →
+    ``("speed", "")``. A parenthesised unit that is not a known suffix is kept as written (its
+    micro sign normalised); a ``_suffix`` is a unit only when it is one of :data:`UNIT_SUFFIXES`.
+    """
+    match = _PARENTHESISED_UNIT.match(name)
+    if match:
+        unit = match["unit"].strip()
+        return match["base"], normalise_micro(UNIT_SUFFIXES.get(unit, unit))
+    base, _, suffix = name.rpartition("_")
+    if base and suffix in UNIT_SUFFIXES:
+        return base, UNIT_SUFFIXES[suffix]
+    return name, ""
+
+
+def unit_from_name(name: str) -> str | None:
+    """The unit carried in a column name (``T7_C`` → ``°C``, ``ch1(um)`` → ``μm``), or None."""
+    return split_unit(name)[1] or None
+
+
+def ratio_unit(numerator: str, denominator: str) -> str:
+    """The unit of a coefficient of ``numerator`` per ``denominator`` (``μm/°C``; ``1/°C``)."""
+    if not denominator:
+        return numerator
+    return f"{numerator or '1'}/{denominator}"
+
+
+def latex_symbol(name: str) -> str:
+    """LaTeX symbol of a column: ``"T7_C"`` → ``T_7``, ``"t12(°C)"`` → ``t_{12}``,
+    ``"ambient"`` → ``\\mathrm{ambient}``."""
+    base, _ = split_unit(name)
+    match = _INDEXED_SYMBOL.match(base)
+    if match:
+        index = match["index"]
+        return f"{match['letters']}_{index}" if len(index) == 1 else f"{match['letters']}_{{{index}}}"
+    if len(base) == 1 and base.isalpha():
+        return base
+    return r"\mathrm{" + base.replace("_", r"\_") + "}"
+
+
+def axis_label(name: str) -> str:
+    """A column as an axis label: ``"time_min"`` → ``"time (min)"``; a name without a unit suffix as is."""
+    base, _, suffix = name.rpartition("_")
+    return f"{base} ({UNIT_SUFFIXES[suffix]})" if base and suffix in UNIT_SUFFIXES else name
