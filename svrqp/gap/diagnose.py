@@ -58,7 +58,7 @@ from svrqp.gap.candidates import (
     untestable_between_runs,
 )
 from svrqp.gap.figures import Series
-from svrqp.gap.gate import gap_detected, gate
+from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.inputs import input_use
 from svrqp.gap.kernel_transfer import LINEAR, FamilyErrors, same_family_errors
 from svrqp.gap.localise import localise
@@ -91,7 +91,7 @@ class _Findings:
     causes: list[Cause]
     verdict: Verdict
     errors_after: dict[str, np.ndarray]
-    residual_gate: object
+    residual_gate: GateResult | None
     remaining: list[str]
 
 
