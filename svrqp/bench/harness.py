@@ -49,7 +49,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError, SolverError
-from svrqp.formulations import epsilon_svr, ls_svr
+from svrqp.formulations import epsilon_svr, epsilon_svr_certificate, ls_svr
 from svrqp.kernels import gram
 from svrqp.solvers.qp_backends import BACKENDS, solve_qp
 from svrqp.solvers.linear import solve_linear_system
@@ -234,11 +234,10 @@ def beta_certificates(Kbeta: NDArray[np.float64], b: float, y: NDArray[np.float6
         ``primal_rel``, ``dual_rel`` (zero by construction) and ``gap_rel``, scaled as
         :meth:`QuadraticProgram.kkt_residuals` scales them.
     """
-    alpha, alpha_star = np.maximum(-beta, 0.0), np.maximum(beta, 0.0)
-    x = np.concatenate([alpha, alpha_star])
-    decision = Kbeta + b
-    z = np.concatenate([decision - y - epsilon, y - decision - epsilon])
-    z_plus = np.maximum(z, 0.0)
+    # b enters through the decision values Kβ + b, so r rounds as in the recorded benchmark results
+    point = epsilon_svr_certificate.multipliers(beta, 0.0, Kbeta + b, y, epsilon)
+    x = np.concatenate([point.alpha, point.alpha_star])
+    z_plus = np.maximum(point.z_box, 0.0)
     balance = float(abs(beta.sum()))
     primal = max(balance, float(np.max(np.maximum(x - C, 0.0), initial=0.0)))
     quadratic = float(beta @ Kbeta)  # x^T P x
@@ -353,7 +352,8 @@ def _run_dual_ipm(case: BenchCase, method: Method, profile: Profile) -> RunOutco
         beta, b, solved = fit.beta, fit.intercept, fit.crossover.exact or fit.ipm.converged
     elif method.formulation == "auto":
         build = 0.0
-        fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, tol=profile.tol, **parameters)
+        fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, parameters,
+                                             settings=dual_ipm.ExactSettings(tol=profile.tol))
         beta, b, solved = fit.beta, fit.intercept, fit.crossover.exact or fit.ipm.converged
     else:  # "low_rank": the factored problem only, an approximation whose error is reported
         factor = pivoted_cholesky(KernelColumns(case.X, **parameters),
@@ -415,8 +415,8 @@ def _run_ls_svr(case: BenchCase, method: Method, profile: Profile) -> RunOutcome
     K = case.gram()
     if method.backend == "cholesky":
         build = time.perf_counter() - start
-        alpha, b, info = ls_svr.solve_cholesky_schur(K, case.y, case.C)
-        residual_rel = info["residual_rel"]
+        alpha, b, solution = ls_svr.solve_cholesky_schur(K, case.y, case.C)
+        residual_rel = solution.residuals["primal_rel"]
     else:
         system = ls_svr.kkt_system(K, case.y, case.C)
         build = time.perf_counter() - start

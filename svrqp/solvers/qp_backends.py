@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Solution, require_certificates
+from svrqp.solution import Solution, SolverRecord, require_certificates
 
 #: Allowed slack between the requested ``tol`` and the relative certificates, because each
 #: backend measures its own stopping criterion in its own (scaled) norm.
@@ -380,10 +380,7 @@ def solve_qp(
     settings = {**settings, "tol": tol, "check_tol": check_tol}
     if "_pd_regularisation" in settings:  # what the added diagonal changed in the objective
         settings["_pd_objective_shift"] = 0.5 * settings["_pd_regularisation"] * float(x @ x)
-    solution = Solution(
-        x=x, y=y, z=z, z_box=z_box, objective=problem.objective(x), status=status,
-        residuals=problem.kkt_residuals(x, y, z, z_box), backend=backend, backend_version=backend_version(backend),
-        settings=settings, build_time=build_time, solve_time=solve_time, iterations=iterations,
-    )
+    record = SolverRecord(backend, backend_version(backend), settings, build_time, solve_time, iterations)
+    solution = Solution.of_qp(problem, (x, y, z, z_box), record)
     require_certificates(solution, problem, check_tol)
     return solution
