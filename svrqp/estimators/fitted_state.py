@@ -13,9 +13,9 @@ made pickles hundreds of times larger than scikit-learn's ``SVR``. What is pickl
 Within the process that fitted it, the model keeps ``problem_`` and ``solution_`` as they were
 built (when the path built them at all). After unpickling — or when the fit's path never formed
 the QP, as ``solver="auto"`` does not — ``problem_`` is rebuilt from the training data, and
-``solution_`` gets its point and multipliers back from :math:`(\\beta, b)` by
-:func:`svrqp.formulations.epsilon_svr_certificate.dual_qp_point`, its objective and certificates recomputed on that QP (so
-they certify the returned coefficients). A linear-kernel primal fit keeps its solution vectors
+``solution_`` gets its point and multipliers back from :math:`(\\beta, b)`
+(:func:`svrqp.formulations.epsilon_svr_residuals.model_on_qp`), its objective and certificates
+recomputed on that QP (so they certify the returned coefficients). A linear-kernel primal fit keeps its solution vectors
 (``O(n)`` numbers; the multipliers of that QP are not a function of the model alone).
 
 :class:`svrqp.LSSVR` (:class:`CompactSystemMixin`) keeps its solution (:math:`(b, \\alpha)`, ``O(n)``)

@@ -3,10 +3,11 @@
 The estimators are thin: ``fit`` builds the formulation object (kept as ``problem_``), hands it to
 :func:`svrqp.solvers.solve` (the certificate-checked result is kept as ``solution_``) and reads the
 model off the solution. ``EpsilonSVR(solver="dual_ipm")`` instead solves the dual with
-:func:`svrqp.solvers.dual_ipm.exact.solve_exact` (the structure-exploiting interior point and exact crossover)
-and certifies its answer on the same QP statement: the multipliers of that QP are read off the
-optimality conditions (:func:`svrqp.formulations.epsilon_svr_certificate.dual_qp_point`) and its
-residuals are checked like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
+:func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm` (the structure-exploiting interior point
+and exact crossover) and certifies its answer on the same QP statement: the multipliers of that
+QP are read off the optimality conditions
+(:func:`svrqp.formulations.epsilon_svr_certificate.multipliers`) and its residuals are checked
+like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
 :math:`\\beta_i = \\alpha_i^* - \\alpha_i` of the support vectors and the prediction is
 ``gram(X, support_vectors_) @ dual_coef_[0] + intercept_[0]``.
 """
@@ -149,7 +150,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         Largest relative primal residual, dual residual and duality gap accepted from the
         backend (``None``: 100·tol); a solution above it raises :class:`SolverError`. The same
         bound applies to the returned model's own certificate in the units of the data
-        (:func:`svrqp.formulations.epsilon_svr.model_certificate`).
+        (:func:`svrqp.formulations.epsilon_svr_certificate.model_certificate`).
     fallback : bool, default=True
         When the chosen solver fails or misses a certificate, solve again with the other exact
         path (``"dual_ipm"`` for a QP backend, Clarabel for ``"dual_ipm"``) and say so in

@@ -342,8 +342,8 @@ def returned_coefficients(beta: NDArray[np.float64], C: float,
     r"""The coefficients a model keeps: β projected onto the box :math:`[-C, C]`, those within
     ``sv_tolerance``·C of a bound set to it, those at or below :func:`zero_tolerance` set to 0.
 
-    The certificate (:func:`model_certificate`) is computed on these, so what is certified is
-    what predicts.
+    The certificate (:func:`~svrqp.formulations.epsilon_svr_certificate.model_certificate`) is
+    computed on these, so what is certified is what predicts.
     """
     beta = np.clip(np.asarray(beta, dtype=float), -C, C)
     beta = np.where(np.abs(beta) >= C * (1.0 - sv_tolerance), np.sign(beta) * C, beta)

@@ -19,7 +19,7 @@ size :math:`|F|`. Only kernel columns of support vectors are formed
 (:class:`svrqp.linalg.kernel_columns.KernelColumns`), never the n×n Gram matrix.
 
 The result is exact only when the crossover says so (``exact``); the caller certifies it on the
-stated QP (:mod:`svrqp.formulations.epsilon_svr_certificate`) and otherwise moves to another path.
+stated QP (:mod:`svrqp.formulations.epsilon_svr_residuals`) and otherwise moves to another path.
 """
 
 from __future__ import annotations
