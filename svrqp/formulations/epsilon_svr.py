@@ -85,6 +85,8 @@ from svrqp.exceptions import ProblemError
 from svrqp.formulations.epsilon_svr_certificate import (
     AT_LOWER,
     AT_UPPER,
+    FREE_NEGATIVE,
+    FREE_POSITIVE,
     ZERO,
     dual_qp_point,
     kkt_violation,
@@ -252,7 +254,7 @@ def intercept_from_residual(
 ) -> float:
     r""":func:`intercept_from_kkt` from the residuals :math:`r = y - K\beta` (no kernel matrix needed)."""
     state = states(beta, C, sv_tolerance, zero_tolerance(beta, C, sv_tolerance))
-    upper_free, lower_free = state == 1, state == -1
+    upper_free, lower_free = state == FREE_POSITIVE, state == FREE_NEGATIVE
     if upper_free.any() or lower_free.any():
         return float(np.mean(np.concatenate([r[upper_free] - epsilon, r[lower_free] + epsilon])))
     zero, at_upper, at_lower = state == ZERO, state == AT_UPPER, state == AT_LOWER
@@ -289,7 +291,7 @@ def polish(
     ``1 + max |y|``), in which case the caller keeps the solver's solution.
     """
     state = states(beta, C, sv_tolerance, zero_tolerance(beta, C, sv_tolerance))
-    upper, lower, free = state == AT_UPPER, state == AT_LOWER, np.abs(state) == 1
+    upper, lower, free = state == AT_UPPER, state == AT_LOWER, np.abs(state) == FREE_POSITIVE
     sign = np.sign(beta)
     for _ in range(max_refinements):
         if not free.any():
