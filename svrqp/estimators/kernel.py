@@ -260,12 +260,10 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         settings = DualSettings(formulation, self.tol, self.check_tol)
         if solver in (AUTO, SMO_CROSSOVER) and formulation != "primal":
             run = solve_auto if solver == AUTO else partial(solve_path, SMO_CROSSOVER)
-            beta, b, self.solution_ = run(self._training_gram(X) if self.kernel == "precomputed" else X, y, self.C,
-                                          self.epsilon, kernel_parameters=kernel_parameters, settings=settings)
-            self.problem_ = None  # never formed: rebuilt on demand (svrqp.estimators.fitted_state)
-            self.polished_ = self.solution_.settings["crossover_exact"]
-            return beta, b
-        if solver == DUAL_IPM:
+            # the QP is never formed: problem_ is rebuilt on demand (svrqp.estimators.fitted_state)
+            fit = run(self._training_gram(X) if self.kernel == "precomputed" else X, y, self.C, self.epsilon,
+                      kernel_parameters=kernel_parameters, settings=settings)
+        elif solver == DUAL_IPM:
             low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
             fit = solve_dual_ipm(self._training_gram(X), y, self.C, self.epsilon, settings,
                                  X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)

@@ -424,13 +424,13 @@ def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float, 
 
 
 class DualFit(NamedTuple):
-    """What :func:`solve_dual` returns."""
+    """What every certified dual fit returns (:func:`solve_dual`, ``solve_dual_ipm``, the ``auto`` paths)."""
 
     beta: NDArray[np.float64]  #: all n coefficients, alpha* - alpha (as returned: see returned_coefficients)
     intercept: float  #: the bias b from the KKT conditions
-    problem: QuadraticProgram  #: the QP that was solved (in the units of the data)
+    problem: QuadraticProgram | None  #: the QP that was solved, in the units of the data (None: never formed)
     solution: Solution  #: its certificate-checked solution, at the returned (beta, b)
-    polished: bool  #: whether polish() replaced the solver's coefficients
+    polished: bool  #: whether polish() or the crossover replaced the solver's coefficients
 
 
 def certified_dual_fit(dual: DualProblem, beta: NDArray[np.float64], record: SolverRecord, check_tol: float,

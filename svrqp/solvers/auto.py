@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from svrqp._version import __version__
 from svrqp.exceptions import SolverError, SvrqpError
-from svrqp.formulations.epsilon_svr import DualSettings
+from svrqp.formulations.epsilon_svr import DualFit, DualSettings
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
 from svrqp.kernels import gram
@@ -77,8 +77,12 @@ def _kernel_times(X: NDArray[np.float64], kernel_parameters: dict[str, Any], idx
 
 def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                kernel_parameters: dict[str, Any],
-               settings: DualSettings | None = None) -> tuple[NDArray[np.float64], float, Solution]:
-    """Run one exact path and certify its answer: ``(beta, b, solution)``.
+               settings: DualSettings | None = None) -> DualFit:
+    """Run one exact path and certify its answer.
+
+    Returns the :class:`~svrqp.formulations.epsilon_svr.DualFit` of every dual fit, without the
+    QP (``problem`` is ``None``: it is never formed); ``polished`` says whether the crossover
+    reached the exact optimum.
 
     Parameters
     ----------
@@ -116,15 +120,15 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     solution = Solution.of_qp(on_qp.qp, on_qp.point, record, extra_residuals=on_qp.certificate)
     require_certificates(solution, on_qp.qp, check_tol)
     require_model_certificate(solution.residuals, check_tol, path)
-    return beta, b, solution
+    return DualFit(beta, b, None, solution, bool(path_settings["crossover_exact"]))
 
 
 def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                kernel_parameters: dict[str, Any],
-               settings: DualSettings | None = None) -> tuple[NDArray[np.float64], float, Solution]:
+               settings: DualSettings | None = None) -> DualFit:
     """Try the paths of :data:`AUTO_ORDER` until one certifies (arguments as :func:`solve_path`).
 
-    ``solution.backend`` names the path that certified; ``solution.settings["rejected"]`` lists
+    ``fit.solution.backend`` names the path that certified; ``fit.solution.settings["rejected"]`` lists
     the paths tried before it and why they were rejected.
 
     Raises
@@ -135,12 +139,11 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     rejected: list[str] = []
     for path in AUTO_ORDER:
         try:
-            beta, b, solution = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters,
-                                           settings=settings)
+            fit = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters, settings=settings)
         except (SvrqpError, np.linalg.LinAlgError) as error:
             rejected.append(f"{path}: {error}")
             continue
-        solution.settings["rejected"] = rejected
-        return beta, b, solution
+        fit.solution.settings["rejected"] = rejected
+        return fit
     raise SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
                       + "; ".join(rejected), AUTO, "failed")
