@@ -85,7 +85,7 @@ def test_targets_in_micro_units(solver):
 def test_degree_20_polynomial_kernel(solver, coef0):
     """Entries up to 3^20: either a certified model at least as good as scikit-learn's, or SolverError."""
     X, y = sine_problem()
-    parameters = dict(C=1.0, epsilon=0.05, kernel="poly", degree=20, gamma=1.0, coef0=coef0)
+    parameters = {"C": 1.0, "epsilon": 0.05, "kernel": "poly", "degree": 20, "gamma": 1.0, "coef0": coef0}
     try:
         model = EpsilonSVR(solver=solver, **parameters).fit(X, y)
     except SolverError:
