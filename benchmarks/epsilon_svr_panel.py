@@ -6,7 +6,7 @@ same exactness — dual objective at most 1e-8 relative above libsvm's and predi
 
 Datasets (X and y standardised; RBF kernel; ε = 0.1):
 
-- ``friedman1``: :func:`svrqp.bench.harness.friedman1` (10 inputs, noise 1): most points are support vectors.
+- ``friedman1``: :func:`svrqp.bench.cases.friedman1` (10 inputs, noise 1): most points are support vectors.
 - ``sinc``: 5 inputs uniform on [-3, 3], :math:`y = \\operatorname{sinc}(\\lVert x\\rVert) + N(0, 0.1^2)`.
 - ``thermal_noisy``: 10 sensors :math:`20 + a(1 - e^{-t/\\tau})`, a ∈ [2, 10] °C, τ ∈ [20, 120] min,
   t uniform on 0–250 min, readings + N(0, 0.05²) °C;
@@ -32,7 +32,7 @@ import pandas as pd
 from sklearn.svm import SVR
 
 from svrqp import EpsilonSVR, datasets
-from svrqp.bench.harness import friedman1
+from svrqp.bench.cases import friedman1
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.kernels import gram
 

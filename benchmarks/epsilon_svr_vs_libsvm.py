@@ -24,8 +24,8 @@ from pathlib import Path
 
 from rich.progress import Progress
 
-from svrqp.bench.harness import BenchConfig, run_benchmark
 from svrqp.bench.report import write_outputs
+from svrqp.bench.run import BenchConfig, run_benchmark
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

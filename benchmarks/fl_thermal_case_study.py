@@ -52,7 +52,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp import datasets
-from svrqp.gap import GapReport, diagnose
+from svrqp.gap import GapQuestion, GapReport, diagnose
 from svrqp.gap.report import markdown_table
 from svrqp.estimators import LinearLS
 
@@ -212,9 +212,9 @@ def withhold_sensor(table: pd.DataFrame, is_train: np.ndarray, target: str, pair
     better, (weaker,), _ = split_pair(table[is_train], target, pair)
     withheld, kept = (better, [weaker]) if which == "better" else (weaker, [better])
     others = [s for s in TEMPERATURES if s not in pair]
-    report = diagnose(table, target=target, train="cycle in " + repr(list(TRAIN_CYCLES)), features=kept,
-                      candidates=others + [withheld, "speed_rpm"], order="time_min", group="cycle",
-                      model="mlr", seed=seed)
+    question = GapQuestion(target=target, train="cycle in " + repr(list(TRAIN_CYCLES)), features=kept,
+                           candidates=others + [withheld, "speed_rpm"], order="time_min", group="cycle", model="mlr")
+    report = diagnose(table, question, seed=seed)
     return WithheldRun(target=target, pair=list(pair), withheld=withheld, kept=kept, report=report,
                        refit=independent_refit(table, is_train, target, kept, report, "cycle", "time_min"),
                        back_raw_rmse=transfer_rmse(table, is_train, target, table[list(pair)].to_numpy(float)))
@@ -412,8 +412,9 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
     dropped, kept, alone = split_pair(table[is_train], channel, pair)
     others = [s for s in TEMPERATURES if s not in pair]
 
-    full = diagnose(table, target=channel, train=train_query, features=pair, candidates=others + ["speed_rpm"],
-                    order="time_min", group="cycle", model="mlr", seed=seed)
+    question = GapQuestion(target=channel, train=train_query, features=pair, candidates=others + ["speed_rpm"],
+                           order="time_min", group="cycle", model="mlr")
+    full = diagnose(table, question, seed=seed)
     runs = [withhold_sensor(table, is_train, r.channel, list(r.pair), seed) for r in choice.itertuples()]
     weaker_runs = [withhold_sensor(table, is_train, r.channel, list(r.pair), seed, "weaker")
                    for r in choice.itertuples()]
@@ -484,8 +485,9 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
 
 def run_miao(seed: int) -> tuple[list[str], dict]:
     table = datasets.load("miao2013").reset_index(drop=True)
-    report = diagnose(table, target="error_um", train="batch == 'x1'", features=MIAO_FEATURES,
-                      candidates=MIAO_CANDIDATES, order="time_min", group="batch", model="mlr", seed=seed)
+    question = GapQuestion(target="error_um", train="batch == 'x1'", features=MIAO_FEATURES,
+                           candidates=MIAO_CANDIDATES, order="time_min", group="batch", model="mlr")
+    report = diagnose(table, question, seed=seed)
     miao_figure(table, report, RESULTS / f"{STEM}_miao.png")
 
     # Truth: which simulated effect the real-row residual follows (R² after per-batch offsets).

@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gap_suite as gs  # benchmarks/ is not a package: imported from its folder
 
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 
 RESULTS = Path(__file__).resolve().parent / "results"
 CASES = {"short": (5, 480.0, 0), "half day": (10, 720.0, 8), "day": (10, 1440.0, 24)}
@@ -64,8 +64,9 @@ def run_one(name: str, jobs: int) -> dict:
     table, candidates = case_table(name)
     with threadpool_limits(1):  # threads come from n_jobs alone
         started = time.perf_counter()
-        report = diagnose(table, target="error_um", train="run < 1", features=list(FEATURES),
-                          candidates=candidates, order="time_min", group="run", n_jobs=jobs)
+        question = GapQuestion(target="error_um", train="run < 1", features=list(FEATURES),
+                               candidates=candidates, order="time_min", group="run")
+        report = diagnose(table, question, n_jobs=jobs)
         seconds = time.perf_counter() - started
     return {"case": name, "rows": len(table), "real rows": report.n_real, "candidates": len(candidates),
             "threads": jobs, "seconds": seconds,

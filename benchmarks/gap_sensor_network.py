@@ -54,7 +54,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 import svrqp
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 
 RESULTS = Path(__file__).resolve().parent / "results"
 RUN_MIN, STEP_MIN = 360.0, 2.0
@@ -140,7 +140,7 @@ def evaluate(mode: str, kind: str, scale: float, seed: int) -> dict:
     """Simulate, diagnose and score one scenario."""
     df, args, truth = case(mode, kind, scale, seed)
     started = time.perf_counter()
-    report = diagnose(df, **args)
+    report = diagnose(df, GapQuestion(**args))
     verdict = report.verdict.column
     return {"mode": mode, "kind": kind, "scale": scale, "seed": seed, "runs": int(df["run"].nunique()),
             "truth": truth, "verdict": verdict, "transform": report.verdict.transform,

@@ -93,7 +93,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 import svrqp
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.baseline import fit_baseline
 from svrqp.gap.prepare import prepare
 from svrqp.machine import ThermalConfig, simulate_thermal
@@ -478,11 +478,11 @@ def transfer_scenarios(design) -> list[Scenario]:
 def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
     """Run the diagnosis the way a user would on this scenario."""
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
-              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run",
-              "surrogates": surrogates}
+              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run"}
     if s.family.endswith("prediction"):
-        return diagnose(case.table, prediction="prediction_um", **common)
-    return diagnose(case.table, features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
+        return diagnose(case.table, GapQuestion(prediction="prediction_um", **common), surrogates=surrogates)
+    question = GapQuestion(features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
+    return diagnose(case.table, question, surrogates=surrogates)
 
 
 def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
@@ -572,8 +572,9 @@ def _oracle_shrink(s: Scenario, case: Case) -> float:
     else:
         y = table["error_um"].to_numpy()
         own = np.column_stack([np.ones(len(table)), table[[c for c in NODE_SENSORS if c != s.effect]].to_numpy()])
-        data = prepare(table, target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
-                       order=ORDER[s.family.split("/")[0]], features=[c for c in NODE_SENSORS if c != s.effect])
+        question = GapQuestion(target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
+                               order=ORDER[s.family.split("/")[0]], features=[c for c in NODE_SENSORS if c != s.effect])
+        data = prepare(table, question)
         before = fit_baseline(data, s.model).residual[data.is_real]
     D = np.column_stack([own, table["true_effect_um"].to_numpy()])
     runs = table["run"].to_numpy()
@@ -659,8 +660,8 @@ def timing_case() -> tuple[int, int, float]:
     case = case_for(s)
     candidates = ["bed_C", "T5_C", "T8_C", "T9_C", "speed_rpm", "axis_duty_pct", "T1_C", "T4_C"]
     started = time.perf_counter()
-    report = diagnose(case.table, target="error_um", train="run < 1", features=["T1_C", "T4_C", "nut_C"],
-                      candidates=candidates, order="time_min", group="run")
+    report = diagnose(case.table, GapQuestion(target="error_um", train="run < 1", features=["T1_C", "T4_C", "nut_C"],
+                                              candidates=candidates, order="time_min", group="run"))
     seconds = time.perf_counter() - started
     n_tests = 3 * len(candidates) - sum(c in report.features for c in candidates)
     return report.n_real, n_tests, seconds

@@ -29,9 +29,9 @@ from sklearn.model_selection import GridSearchCV, KFold
 from sklearn.svm import SVR
 from threadpoolctl import threadpool_limits
 
-from svrqp.bench.harness import friedman1
+from svrqp.bench.cases import friedman1
 from svrqp.bench.report import machine_info, markdown_table, package_versions
-from svrqp.tuning import grid_search
+from svrqp.tuning import Execution, grid_search
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -83,8 +83,8 @@ def timed(search: Callable[[], Any]) -> tuple[Any, dict[str, float]]:
 
 def run_svrqp(X: np.ndarray, y: np.ndarray, folds: KFold, warm_start: bool) -> pd.DataFrame:
     """Scores of ``grid_search(solver="dual_ipm")`` (every fit must succeed)."""
-    result = grid_search(X, y, C=C_GRID, gamma=GAMMA_GRID, epsilon=[EPSILON], cv=folds, solver="dual_ipm",
-                         warm_start=warm_start, backend="sequential")
+    result = grid_search(X, y, C=C_GRID, gamma=GAMMA_GRID, epsilon=[EPSILON], warm_start=warm_start,
+                         execution=Execution(cv=folds, solver="dual_ipm", backend="sequential"))
     if (result.table["failed_folds"] > 0).any():
         raise RuntimeError(f"svrqp had failed fits:\n{result.table[result.table['failed_folds'] > 0]}")
     return result.table[["C", "gamma", "mse"]]
@@ -155,7 +155,8 @@ def main() -> None:
     folds = KFold(FOLDS)
     scores, times = {}, {}
     with threadpool_limits(1):
-        grid_search(X[:50], y[:50], C=[1.0], gamma=[0.1], cv=2, solver="dual_ipm", backend="sequential")  # imports
+        grid_search(X[:50], y[:50], C=[1.0], gamma=[0.1],  # imports
+                    execution=Execution(cv=2, solver="dual_ipm", backend="sequential"))
         for name, warm_start in (("svrqp grid_search(dual_ipm, warm start)", True),
                                  ("svrqp grid_search(dual_ipm, cold)", False)):
             scores[name], times[name] = timed(lambda warm_start=warm_start: run_svrqp(X, y, folds, warm_start))

@@ -23,7 +23,8 @@ from sklearn.svm import LinearSVR
 from threadpoolctl import threadpool_limits
 
 from svrqp.solvers import dual_ipm
-from svrqp.bench.harness import beta_certificates, make_case
+from svrqp.bench.cases import make_case
+from svrqp.bench.outcomes import beta_certificates
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.exceptions import SolverError
 from svrqp.formulations import epsilon_svr

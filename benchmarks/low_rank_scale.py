@@ -32,7 +32,7 @@ from sklearn.svm import SVR
 from threadpoolctl import threadpool_limits
 
 from svrqp.solvers import dual_ipm
-from svrqp.bench.harness import GENERATORS, resolve_gamma
+from svrqp.bench.cases import GENERATORS, resolve_gamma
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.formulations.epsilon_svr import dual_objective
 from svrqp.formulations.low_rank import objective_error_bound, pivot_coefficients

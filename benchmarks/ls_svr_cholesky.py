@@ -28,7 +28,7 @@ from sklearn.metrics.pairwise import rbf_kernel
 from threadpoolctl import threadpool_limits
 
 from svrqp import LSSVR
-from svrqp.bench.harness import make_case
+from svrqp.bench.cases import make_case
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.formulations.ls_svr import solve_cholesky_schur
 from svrqp.kernels import gram

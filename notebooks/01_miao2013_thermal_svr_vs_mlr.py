@@ -132,7 +132,7 @@ pd.DataFrame(rows).set_index("solver")
 
 # %%
 search = tuning.grid_search(X1, y1, C=[100.0, 1000.0, 1e4, 24833.5], gamma=[0.01, 0.03, 0.125],
-                            epsilon=[epsilon], cv=5, backend="sequential")
+                            epsilon=[epsilon], execution=tuning.Execution(cv=5, backend="sequential"))
 print(f"5-fold CV: best {search.best_params}, CV MSE {search.best_mse:.3f} μm²")
 search.table.round(4)
 

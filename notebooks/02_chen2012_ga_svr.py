@@ -53,12 +53,13 @@ print(f"{len(train)} training and {len(test)} test samples; error range {data[ta
 #
 # The RBF width stays at scikit-learn's default `"scale"`, $\gamma = 1/(n_\text{features}\,\mathrm{Var}(X))$
 # — on standardised inputs $1/4$. Fitness is minus the 5-fold CV MSE on the training rows; the seed
-# makes the run reproducible. (`ga_search(..., gamma_range=(low, high))` would tune γ as a third
+# makes the run reproducible. (`ga_search(..., gamma=(low, high))` would tune γ as a third
 # gene, which S1 does not do.)
 
 # %%
 ga = tuning.ga_search(X_train, y_train, C_range=(0.1, 1e4), epsilon_range=(1e-3, 1.0),
-                      population=20, generations=15, seed=2012, cv=5, backend="sequential")
+                      genetic=tuning.Genetic(population=20, generations=15, seed=2012),
+                      execution=tuning.Execution(cv=5, backend="sequential"))
 print(f"best: C = {ga.best_params['C']:.4g}, ε = {ga.best_params['epsilon']:.4g} μm, γ = {ga.best_params['gamma']:.4g} "
       f"(fixed); CV MSE {ga.best_mse:.3f} μm² after {ga.n_fits} fits (S1: C = 28.112, ε = 0.072)")
 fig = tuning.plot_convergence(ga, target_unit="μm")

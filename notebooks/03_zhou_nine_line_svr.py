@@ -129,7 +129,8 @@ epsilon = 0.05
 svr_paper = EpsilonSVR(C=11.3137, epsilon=epsilon, gamma=gamma_from_sigma_s0(0.5946)).fit(u, delta_x)
 display(Math(svr_paper.problem_.to_latex()))
 search = tuning.grid_search(u, delta_x, C=[1.0, 11.3137, 100.0, 1000.0], gamma=[1.0, 2.83, 10.0, 30.0],
-                            epsilon=[epsilon], cv=KFold(5, shuffle=True, random_state=0), backend="sequential")
+                            epsilon=[epsilon], execution=tuning.Execution(cv=KFold(5, shuffle=True, random_state=0),
+                                                                          backend="sequential"))
 svr_cv = search.best_estimator().fit(u, delta_x)
 print(f"S2's parameters: {svr_paper.support_.size} support vectors (S2: 10), b = {svr_paper.intercept_[0]:.3f} μm "
       f"(S2: −0.118); CV choice: {search.best_params} (CV MSE {search.best_mse:.4f} μm²)")

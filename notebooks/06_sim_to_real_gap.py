@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp import datasets
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.estimators import LinearLS
 
 # svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
@@ -74,8 +74,9 @@ pd.DataFrame({"range of the ambient effect (Î¼m)": ambient, "MLR residual RMS (Î
 # In `where`, regions pooled over the real batches come first (`group` is None), then regions *within* a single batch (`group` names it, `share_of_run` is its part of that batch's squared error): pooled, the autumn drift hides the summer batch's start-up transient, which shows up as a region of `x2`. A region within one batch describes where that batch's error is; it is not a test.
 
 # %%
-report = diagnose(data, target=target, train="batch == 'x1'", features=features, candidates=candidates,
-                  order="time_min", group="batch", model="mlr", seed=0)
+question = GapQuestion(target=target, train="batch == 'x1'", features=features, candidates=candidates,
+                       order="time_min", group="batch", model="mlr")
+report = diagnose(data, question, seed=0)
 result = report.to_dict()
 
 
@@ -148,8 +149,7 @@ print(verdict_line(result["verdict"]))
 # batch never seen.
 
 # %%
-autumn = diagnose(data[data["batch"] != "x2"], target=target, train="batch == 'x1'", features=features,
-                  candidates=candidates, order="time_min", group="batch", seed=0).to_dict()
+autumn = diagnose(data[data["batch"] != "x2"], question, seed=0).to_dict()
 print(autumn["summary"])
 print("\nblocks:", autumn["blocks"])
 print("transfer:", rounded(autumn["transfer"]))
@@ -214,8 +214,7 @@ ax1.legend(loc="upper left", fontsize="small");
 # everywhere, not as the cause of a gap.
 
 # %%
-summer = diagnose(data[data["batch"] != "x3"], target=target, train="batch == 'x1'", features=features,
-                  candidates=candidates, order="time_min", group="batch", seed=0).to_dict()
+summer = diagnose(data[data["batch"] != "x3"], question, seed=0).to_dict()
 print(summer["summary"])
 print("\ngap:", rounded(summer["gap"]))
 print("verdict:", summer["verdict"]["reason"])

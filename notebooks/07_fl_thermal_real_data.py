@@ -38,7 +38,7 @@ from threadpoolctl import threadpool_limits
 
 from svrqp import EpsilonSVR, LSSVR, datasets, tuning
 from svrqp.compensate import residual_metrics
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.estimators import LinearLS
 
 # svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
@@ -92,7 +92,8 @@ print(f"train: {len(train)} samples up to {cut_min / 60:.1f} h (speeds {sorted(i
 # %%
 search = tuning.grid_search(X_train.to_numpy(), train[target].to_numpy(), model="lssvr",
                             C=[1.0, 10.0, 100.0], gamma=[0.005, 0.02, 0.1],
-                            cv=GroupKFold(3), groups=train["segment"].to_numpy(), backend="sequential")
+                            execution=tuning.Execution(cv=GroupKFold(3), groups=train["segment"].to_numpy(),
+                                                       backend="sequential"))
 print(f"grouped 3-fold CV: {search.best_params}, CV MSE {search.best_mse:.2f} μm² ({search.elapsed_s:.1f} s)")
 C, gamma = search.best_params["C"], search.best_params["gamma"]
 models = {
@@ -156,9 +157,10 @@ _spec.loader.exec_module(gap_fl_data)
 thinned["cycle"] = gap_fl_data.cycle_labels(thinned)
 cycles = thinned[thinned["cycle"].isin(gap_fl_data.TRAIN_CYCLES + gap_fl_data.ASSESS_CYCLES)]
 lean = ["t4_C", "t14_C"]
-diagnosis = diagnose(cycles, target=target, train=f"cycle in {list(gap_fl_data.TRAIN_CYCLES)}", features=lean,
-                     candidates=[t for t in temperatures if t not in lean] + ["speed_rpm"], order="time_min",
-                     group="cycle", model="mlr", seed=0).to_dict()
+question = GapQuestion(target=target, train=f"cycle in {list(gap_fl_data.TRAIN_CYCLES)}", features=lean,
+                       candidates=[t for t in temperatures if t not in lean] + ["speed_rpm"], order="time_min",
+                       group="cycle", model="mlr")
+diagnosis = diagnose(cycles, question, seed=0).to_dict()
 print(diagnosis["summary"])
 print("\ntransfer:", {k: round(v, 3) if isinstance(v, float) else v for k, v in diagnosis["transfer"].items()})
 print("\nverdict:", diagnosis["verdict"]["reason"])

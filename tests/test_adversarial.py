@@ -25,7 +25,7 @@ from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.kernels import gram
 from svrqp.solvers import available_backends
-from svrqp.tuning import grid_search
+from svrqp.tuning import Execution, grid_search
 
 SOLVERS = ["auto", "dual_ipm", *available_backends()]
 
@@ -153,7 +153,8 @@ def test_s0_parameters_fit_on_every_fold_with_the_default_backend(epsilon):
 
 def test_s0_parameters_score_every_cross_validation_fold():
     X, y = s0_training_batch()
-    result = grid_search(X, y, C=[24833.5], gamma=[0.125], epsilon=[0.1], cv=5, backend="sequential")
+    result = grid_search(X, y, C=[24833.5], gamma=[0.125], epsilon=[0.1],
+                         execution=Execution(cv=5, backend="sequential"))
     assert result.table["failed_folds"].tolist() == [0]
     assert np.all(np.isfinite(result.table["mse"]))
 

@@ -11,6 +11,7 @@ import pytest
 
 from svrqp.cli import main
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion
 from svrqp.gap.prepare import prepare
 from svrqp.query import QueryError, select_rows
 
@@ -103,5 +104,5 @@ def test_hostile_query_runs_nothing_in_gap(tmp_path, monkeypatch):
     frame = pd.DataFrame({"t": np.arange(60.0), "a_C": rng.normal(size=60), "b_C": rng.normal(size=60),
                           "error_um": rng.normal(size=60)})
     with pytest.raises(QueryError, match="forbidden token '@'"):
-        prepare(frame, target="error_um", train=HOSTILE, features="a_C", candidates=["b_C"])
+        prepare(frame, GapQuestion(target="error_um", train=HOSTILE, features="a_C", candidates=["b_C"]))
     assert not os.path.exists(tmp_path / "PWNED")

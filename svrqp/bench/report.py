@@ -1,4 +1,4 @@
-"""Outputs of the solver comparison harness: machine description, CSV, Markdown table, log-log plot.
+"""Outputs of the solver comparison: machine description, CSV, Markdown table, log-log plot.
 
 The Markdown report states what was measured and on what: CPU, cores, the BLAS libraries and
 the kernel (architecture) threadpoolctl reports for each, ``OPENBLAS_CORETYPE``, the threads
@@ -20,7 +20,9 @@ import pandas as pd
 # A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
 from matplotlib.figure import Figure
 
-from svrqp.bench.harness import PROFILES, BenchConfig, aggregate, ratios_to_reference
+from svrqp.bench.cases import PROFILES
+from svrqp.bench.evaluate import aggregate, ratios_to_reference
+from svrqp.bench.run import BenchConfig
 from svrqp.solvers.qp_backends import BACKENDS
 
 #: Packages whose versions every report records (backends are added from :data:`BACKENDS`).
@@ -108,7 +110,7 @@ LIMITATIONS = (
     "geometric means. Backends that need a positive definite P get a tiny diagonal "
     "(pd_regularisation) whose effect on the objective is the pd_objective_shift column. "
     "Methods that return only (beta, b) — libsvm and svrqp's dual_ipm — are certified on the "
-    "stacked dual with multipliers rebuilt from the model (svrqp.bench.harness.beta_certificates): this is "
+    "stacked dual with multipliers rebuilt from the model (svrqp.bench.outcomes.beta_certificates): this is "
     "the true primal-dual gap at that b. libsvm stops when its maximal violating pair is below tol, "
     "which leaves a relative gap of about 1e-6 to 5e-6 at tol = 1e-8 on these problems, so under "
     "the default profile it is flagged unsuccessful and charged the time limit in the aggregate; "

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from svrqp.bench.harness import GENERATORS, PROFILES, BenchConfig, run_benchmark
+from svrqp.bench.cases import GENERATORS, PROFILES
 from svrqp.exceptions import ProblemError
 from svrqp.solvers.qp_backends import available_backends
 
@@ -62,6 +62,7 @@ def bench(
 ) -> None:
     """Run every backend x formulation on generated SVR problems; write a CSV, a Markdown report and a plot."""
     from svrqp.bench.report import output_paths, write_outputs  # matplotlib: not needed for --help
+    from svrqp.bench.run import BenchConfig, run_benchmark  # the solvers: not needed for --help
 
     chosen_backends = tuple(available_backends()) if backends == "all" else _names(backends, "--backends")
     config = BenchConfig(

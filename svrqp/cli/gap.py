@@ -8,7 +8,7 @@
               --json OUT.json [--report OUT.html]
 
 ``--seed``, ``--surrogates`` and ``--force`` are additions: the seed of the surrogates and
-bootstrap, how the significance tests draw surrogates (:mod:`svrqp.gap.attribute`), and
+bootstrap, how the significance tests draw surrogates (:mod:`svrqp.gap.surrogate_tests`), and
 permission to overwrite existing output files.
 """
 
@@ -21,7 +21,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from svrqp.cli._common import read_table, split_columns
 from svrqp.exceptions import ProblemError
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.baseline import MODEL_KINDS
 
 REPORT_SUFFIXES = (".html", ".htm", ".md")
@@ -80,8 +80,7 @@ def gap(
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
     with Progress(*columns, transient=True) as progress:
         task = progress.add_task("gap diagnosis", total=1.0)
-        result = diagnose(
-            table,
+        question = GapQuestion(
             target=_one(target, table, "--target"),
             train=train,
             features=split_columns(features, table, "--features") or None,
@@ -90,6 +89,10 @@ def gap(
             order=_one(order, table, "--order"),
             group=_one(group, table, "--group"),
             model=model or "mlr",
+        )
+        result = diagnose(
+            table,
+            question,
             seed=seed,
             surrogates=surrogates,
             n_jobs=jobs,

@@ -8,6 +8,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -18,7 +19,8 @@ from svrqp.cli._common import SOLVER_HELP, read_table, split_columns
 from svrqp.exceptions import ProblemError
 
 if TYPE_CHECKING:
-    from svrqp.tuning.search import SearchResult
+    from svrqp.tuning.execution import Execution
+    from svrqp.tuning.result import SearchResult
 
 
 class Model(str, Enum):
@@ -124,43 +126,22 @@ def tune(
     force: bool = typer.Option(False, "--force", help="Overwrite existing --plot/--json files."),
 ) -> None:
     """Choose (C, ε, γ) by k-fold cross-validated MSE: a grid (S0, S2) or a genetic algorithm (S1)."""
-    from svrqp.tuning.search import (  # matplotlib: not for --help
-        ga_search,
-        grid_search,
-        plot_convergence,
-        plot_grid_scores,
-    )
+    from svrqp.tuning import Execution, plot_convergence, plot_grid_scores  # matplotlib: not for --help
 
     _writable(plot, force)
     _writable(json_path, force)
-    table = read_table(data)
-    names = split_columns(features, table, "--features", numeric=True)
-    if not names:
-        raise ProblemError("--features: give at least one column")
-    split_columns(target, table, "--target", numeric=True)
-    X, y = table[names].to_numpy(dtype=float), table[target].to_numpy(dtype=float)
+    X, y = _data(data, target, features)
     texts = {name: given or DEFAULTS[method][name] for name, given in (("C", C), ("gamma", gamma), ("epsilon", epsilon))}
     values = {name: [] if text == "scale" else _numbers(text, f"--{name}") for name, text in texts.items()}
     cv = KFold(folds, shuffle=True, random_state=seed) if shuffle else folds
-    common = dict(model=model.value, cv=cv, solver=solver, tol=tol, backend=backend.value, n_jobs=jobs,
-                  scheduler=scheduler)
     console = Console(stderr=True)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, console=console, transient=True) as progress:
         task = progress.add_task("generations" if method == Method.ga else "fold fits", total=None)
-
-        def advance(done: int, total: int) -> None:
-            progress.update(task, completed=done, total=total)
-
-        if method == Method.grid:
-            result = grid_search(X, y, C=values["C"], gamma=values["gamma"], epsilon=values["epsilon"],
-                                 progress=advance, **common)
-        else:
-            gammas = values["gamma"]  # none: 'scale'; one: fixed; two: a range to tune
-            result = ga_search(X, y, C_range=values["C"], gamma=gammas[0] if len(gammas) == 1 else "scale",
-                               gamma_range=gammas if len(gammas) > 1 else None,
-                               epsilon_range=values["epsilon"], population=population, generations=generations,
-                               seed=seed, progress=advance, **common)
+        execution = Execution(cv=cv, solver=solver, tol=tol, backend=backend.value, n_jobs=jobs, scheduler=scheduler,
+                              progress=lambda done, total: progress.update(task, completed=done, total=total))
+        genetic = {"population": population, "generations": generations, "seed": seed}
+        result = _search(method, model, X, y, values, genetic, execution)
     _print_result(Console(), result)
     if plot is not None:
         figure = plot_grid_scores(result, target_unit) if method == Method.grid else plot_convergence(result, target_unit)
@@ -169,6 +150,30 @@ def tune(
     if json_path is not None:
         json_path.write_text(json.dumps(_report(result, folds), indent=2))
         console.print(f"results written to {json_path}")
+
+
+def _data(data: Path, target: str, features: str) -> tuple[np.ndarray, np.ndarray]:
+    """The feature matrix and the target of the table ``data``."""
+    table = read_table(data)
+    names = split_columns(features, table, "--features", numeric=True)
+    if not names:
+        raise ProblemError("--features: give at least one column")
+    split_columns(target, table, "--target", numeric=True)
+    return table[names].to_numpy(dtype=float), table[target].to_numpy(dtype=float)
+
+
+def _search(method: Method, model: Model, X: np.ndarray, y: np.ndarray, values: dict[str, list[float]],
+            genetic: dict[str, int], execution: Execution) -> SearchResult:
+    """Run the grid or the GA on the values given for C, γ and ε (grid values, or GA ranges)."""
+    from svrqp.tuning import Genetic, ga_search, grid_search
+
+    if method == Method.grid:
+        return grid_search(X, y, C=values["C"], gamma=values["gamma"], epsilon=values["epsilon"], model=model.value,
+                           execution=execution)
+    gammas = values["gamma"]  # none: 'scale'; one: fixed; two: a range to tune
+    return ga_search(X, y, C_range=values["C"], epsilon_range=values["epsilon"],
+                     gamma=gammas[0] if len(gammas) == 1 else (gammas or "scale"), model=model.value,
+                     genetic=Genetic(**genetic), execution=execution)
 
 
 def register(app: typer.Typer) -> None:

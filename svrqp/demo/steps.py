@@ -31,7 +31,7 @@ from svrqp.compensate import CompensatedRun, compensate_recorded_run, improvemen
 from svrqp.estimators.kernel import DUAL_IPM, LSSVR, EpsilonSVR
 from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
-from svrqp.gap.diagnose import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.report import GapReport
 from svrqp.guard import Guarded
 from svrqp.guard.figures import interval_columns
@@ -39,7 +39,7 @@ from svrqp.kernels import gamma_from_sigma_s0, gamma_from_sigma_s4
 from svrqp.estimators.linear import LinearLS, PolynomialLS
 from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.machine.geometry import effect_components, measure_nine_line
-from svrqp.tuning.search import SearchResult, grid_search
+from svrqp.tuning import Execution, SearchResult, grid_search
 
 Progress = Callable[[int, int], None]
 
@@ -110,7 +110,7 @@ def s0_thermal(data: pd.DataFrame, *, quick: bool, n_jobs: int, features: list[s
     mlr = LinearLS().fit(X_train, y_train)
     grid = S0_GRID_QUICK if quick else S0_GRID
     search = grid_search(X_train, y_train, C=grid["C"], gamma=grid["gamma"], epsilon=[S0_EPSILON_UM],
-                         model="svr", cv=S0_FOLDS, n_jobs=n_jobs, progress=progress)
+                         model="svr", execution=Execution(cv=S0_FOLDS, n_jobs=n_jobs, progress=progress))
     svr = search.best_estimator().fit(X_train, y_train)
     # The bands of the figures. The calibration refits on folds of x1 at the tuned (large) C,
     # where the stock interior point can miss the certificate: the exact dual path certifies.
@@ -305,7 +305,7 @@ def s2_nine_line(readings: pd.DataFrame, truth: pd.DataFrame) -> S2Result:
     x = identified[["x_mm"]]
     delta_x_um = identified["delta_x_um"]
     search = grid_search(u, delta_x_um, C=S2_GRID["C"], gamma=S2_GRID["gamma"], epsilon=[S2_EPSILON_UM],
-                         model="svr", cv=5, backend="sequential")
+                         model="svr", execution=Execution(cv=5, backend="sequential"))
     svr = search.best_estimator().fit(u, delta_x_um)
     lsm = PolynomialLS(degree=S2_DEGREE).fit(x, delta_x_um)
     mse = {
@@ -328,6 +328,6 @@ GAP_REAL_BATCH = "x3"
 def gap_autumn(data: pd.DataFrame, progress: Callable[[str, float], None] | None = None) -> GapReport:
     """Why does the summer MLR on absolute temperatures (``miao2013``) fail in autumn? x1 → x3."""
     rows = data[data["batch"].isin([S0_TRAIN_BATCH, GAP_REAL_BATCH])]
-    return diagnose(rows, target=S0_TARGET, train=f"batch == '{S0_TRAIN_BATCH}'", features=S0_ABSOLUTE_FEATURES,
-                    candidates=GAP_CANDIDATES, order="time_min", group="batch", model="mlr", seed=0,
-                    progress=progress)
+    question = GapQuestion(target=S0_TARGET, train=f"batch == '{S0_TRAIN_BATCH}'", features=S0_ABSOLUTE_FEATURES,
+                           candidates=GAP_CANDIDATES, order="time_min", group="batch", model="mlr")
+    return diagnose(rows, question, seed=0, progress=progress)

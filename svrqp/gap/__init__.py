@@ -1,13 +1,14 @@
 """Sim-to-real gap diagnosis: where a model's error on real data concentrates, which
 unmodelled effect causes it, and how far it shrinks once that effect is added.
 
-Use :func:`diagnose` (the ``svrqp gap`` command runs it); the result is a
-:class:`GapReport` with ``to_json()`` (schema ``svrqp.gap/1``, shipped as
+Ask a :class:`GapQuestion` and pass it to :func:`diagnose` (the ``svrqp gap`` command runs
+it); the result is a :class:`GapReport` with ``to_json()`` (schema ``svrqp.gap/1``, shipped as
 ``gap.schema.json``), ``to_html(path)`` and ``to_markdown(path)``. The method is laid out in
 :mod:`svrqp.gap.diagnose`; each step has its own module.
 """
 
 from svrqp.gap.diagnose import diagnose
+from svrqp.gap.question import GapQuestion
 from svrqp.gap.report import GapReport, load_schema
 
-__all__ = ["GapReport", "diagnose", "load_schema"]
+__all__ = ["GapQuestion", "GapReport", "diagnose", "load_schema"]

@@ -37,9 +37,9 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
+from svrqp.estimators.linear import LinearLS
 from svrqp.exceptions import ProblemError
 from svrqp.gap.prepare import GapData
-from svrqp.estimators.linear import LinearLS
 
 MODEL_KINDS = ("mlr", "svr", "lssvr")
 """Model families a baseline can be fitted with."""
@@ -52,13 +52,16 @@ SVR_EPSILON = 0.05
 LSSVR_C = 10.0
 
 
-def make_model(kind: str) -> RegressorMixin:
+def make_model(kind: str, gamma: float | str = "scale") -> RegressorMixin:
     """An unfitted regressor of the given kind with the defaults documented above.
 
     Parameters
     ----------
     kind : {"mlr", "svr", "lssvr"}
         Model family.
+    gamma : float or "scale"
+        RBF width of a kernel model: ``"scale"`` for the baseline, or a number held fixed (the
+        transfer refits keep the baseline's, :mod:`svrqp.gap.kernel_transfer`).
 
     Returns
     -------
@@ -67,9 +70,9 @@ def make_model(kind: str) -> RegressorMixin:
     if kind == "mlr":
         return LinearLS(rank_deficient="lstsq")
     if kind == "svr":
-        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma="scale", solver="dual_ipm")
+        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma=gamma, solver="dual_ipm")
     elif kind == "lssvr":
-        core = LSSVR(C=LSSVR_C, gamma="scale")
+        core = LSSVR(C=LSSVR_C, gamma=gamma)
     else:
         raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
     return make_pipeline(StandardScaler(), TransformedTargetRegressor(regressor=core, transformer=StandardScaler()))
@@ -89,12 +92,16 @@ class Baseline:
         ``y - y_hat``.
     train_reference : ndarray, shape (n_train,)
         Out-of-sample residual on the train rows (see module docstring).
+    gamma : float or None
+        The RBF width :math:`\\gamma` the kernel baseline resolved on its standardised train
+        features (``"scale"``: :math:`1/(p\\,\\mathrm{Var})`); None for ``mlr`` and a prediction.
     """
 
     kind: str
     y_hat: np.ndarray
     residual: np.ndarray
     train_reference: np.ndarray
+    gamma: float | None = None
 
 
 def fit_baseline(data: GapData, kind: str = "mlr") -> Baseline:
@@ -118,13 +125,16 @@ def fit_baseline(data: GapData, kind: str = "mlr") -> Baseline:
         return Baseline("prediction", y_hat, residual, residual[train])
     if kind not in MODEL_KINDS:
         raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
-    y_hat = fit_predict(kind, data.X[train], data.y[train], data.X)
-    return Baseline(kind, y_hat, data.y - y_hat, train_reference_residual(data, kind))
+    model = clone(make_model(kind)).fit(data.X[train], data.y[train])
+    y_hat = np.asarray(model.predict(data.X), dtype=float).ravel()
+    gamma = None if kind == "mlr" else float(model[-1].regressor_.gamma_)
+    return Baseline(kind, y_hat, data.y - y_hat, train_reference_residual(data, kind), gamma)
 
 
-def fit_predict(kind: str, X_train: np.ndarray, y_train: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """Fit a model of ``kind`` on ``(X_train, y_train)`` and predict ``X``."""
-    model = clone(make_model(kind))
+def fit_predict(kind: str, X_train: np.ndarray, y_train: np.ndarray, X: np.ndarray,
+                gamma: float | str = "scale") -> np.ndarray:
+    """Fit a model of ``kind`` (RBF width ``gamma``) on ``(X_train, y_train)`` and predict ``X``."""
+    model = clone(make_model(kind, gamma))
     model.fit(X_train, y_train)
     return np.asarray(model.predict(X), dtype=float).ravel()
 

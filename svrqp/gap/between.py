@@ -173,7 +173,7 @@ class RunLevelBank:
 
     def tau(self, variant: int = 0) -> None:
         """No time constant."""
-        return None
+        return
 
     def out_of_sample_errors(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
                              groups: np.ndarray) -> np.ndarray:

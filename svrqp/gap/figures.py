@@ -6,6 +6,7 @@ import io
 from dataclasses import dataclass
 
 import numpy as np
+
 # A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
 from matplotlib.figure import Figure
 

@@ -46,7 +46,7 @@ Whiteness
     the residual test of system identification (Ljung, *System Identification*, §16.6).
     Measurement noise is often coloured, so a non-white residual alone is reported but does
     not decide anything; the decision on causes rests on the surrogate tests of
-    :mod:`svrqp.gap.attribute`, which keep the residual's autocorrelation.
+    :mod:`svrqp.gap.surrogate_tests`, which keep the residual's autocorrelation.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ from scipy import stats
 from svrqp.gap.attribute import ALPHA
 from svrqp.gap.blocks import lag1_autocorrelation
 from svrqp.gap.transforms import group_slices
+from svrqp.metrics import rms
 
 LJUNG_BOX_LAGS = 20
 """Largest lag :math:`H` of the Ljung–Box statistic (fewer for short groups)."""
@@ -171,8 +172,8 @@ def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_gro
     -------
     GateResult
     """
-    train_rmse = float(np.sqrt(np.mean(train**2)))
-    real_rmse = float(np.sqrt(np.mean(real**2)))
+    train_rmse = float(rms(train))
+    real_rmse = float(rms(real))
     return GateResult(
         train_rmse=train_rmse,
         real_rmse=real_rmse,

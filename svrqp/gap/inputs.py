@@ -15,7 +15,7 @@ For every model feature :math:`x_j` (features mode) and every candidate (``role`
   brings: the discrepancy model "offsets + :math:`x_j` (raw and smoothed)" under the blocked
   folds of the diagnosis (:class:`svrqp.gap.discrepancy.CrossValidatedDiscrepancy`), against
   the model's raw residual — the part of the discrepancy base
-  (:func:`svrqp.gap.diagnose.base_design`) that belongs to this input;
+  (:func:`svrqp.gap.base.base_design`) that belongs to this input;
 * the input's own part of it, beyond the offsets:
   :math:`1 - \mathrm{RMSE}_{cv}(\text{offsets} + x_j) / \mathrm{RMSE}_{cv}(\text{offsets})`.
   The offsets alone (one per run) can take much of a gap that is mostly a level per run —
@@ -35,6 +35,7 @@ import numpy as np
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transforms import smooth, standardised
+from svrqp.metrics import rms
 
 EXTRAPOLATING_SHARE = 0.5
 """An input outside its train range on at least this share of the real rows is extrapolated."""
@@ -102,8 +103,8 @@ def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.
         not a feature.
     """
     train, real = data.is_train, data.is_real
-    before = float(np.sqrt(np.mean(r**2)))
-    offsets_only = float(np.sqrt(np.mean(CrossValidatedDiscrepancy(r, offsets, folds).errors_base**2)))
+    before = float(rms(r))
+    offsets_only = float(rms(CrossValidatedDiscrepancy(r, offsets, folds).errors_base))
     uses = []
     columns = [(c, data.X[:, j], "input") for j, c in enumerate(data.features)]
     columns += [(c, data.C[:, j], "candidate") for j, c in enumerate(data.candidates) if c not in data.features]
@@ -114,7 +115,7 @@ def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.
         smoothed = smooth(x, data.groups)[real] if role == "input" else smooth(x[real], data.groups[real])
         own, varying = standardised(np.column_stack([x[real], smoothed]))
         own = own[:, varying]
-        after = float(np.sqrt(np.mean(CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base**2)))
+        after = float(rms(CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base))
         shrink = 1.0 - after / before if before > 0 else 0.0
         beyond = 1.0 - after / offsets_only if offsets_only > 0 else None
         outside = float(np.mean((x[real] < low) | (x[real] > high))) if seen.size else 1.0

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap.question import GapQuestion
 from svrqp.query import select_rows
 from svrqp.table_checks import check_numeric, check_present
 
@@ -127,21 +128,16 @@ def _as_list(names: str | list[str] | tuple[str, ...] | None) -> list[str]:
     return [str(name) if isinstance(name, str) else name for name in names]
 
 
-def prepare(
-    df: pd.DataFrame,
-    *,
-    target: str,
-    train: str | np.ndarray | pd.Series,
-    features: str | list[str] | None = None,
-    prediction: str | None = None,
-    candidates: str | list[str],
-    order: str | None = None,
-    group: str | None = None,
-) -> GapData:
-    """Validate the arguments of a diagnosis and arrange its rows.
+def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
+    """Validate the question of a diagnosis and arrange its rows.
 
-    Parameters are those of :func:`svrqp.gap.diagnose`; see the module docstring for how
-    missing values, short groups and bad input are handled.
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The measurements, one row per sample.
+    question : GapQuestion
+        What is asked (:class:`svrqp.gap.question.GapQuestion`); see the module docstring for
+        how missing values, short groups and bad input are handled.
 
     Returns
     -------
@@ -149,8 +145,51 @@ def prepare(
     """
     if not isinstance(df, pd.DataFrame):
         raise ProblemError("df: expected a pandas DataFrame")
-    features = _as_list(features)
-    candidates = _as_list(candidates)
+    features, candidates = _as_list(question.features), _as_list(question.candidates)
+    _check_columns(df, question, features, candidates)
+    # Needed on every row; candidates only on the real rows (module docstring).
+    every_row = [question.target, *features] + ([question.prediction] if question.prediction else [])
+    if question.order is not None:
+        every_row.append(question.order)
+    is_train = _train_mask(df, question.train)
+    keep = _complete_rows(df, every_row, candidates, is_train)
+    if question.group is not None:
+        keep &= df[question.group].notna().to_numpy()
+    table, is_train = df.loc[keep], is_train[keep]
+    codes, group_labels, long_enough = _group_codes(table, question.group, is_train)
+    table, codes, is_train = table.loc[long_enough], codes[long_enough], is_train[long_enough]
+    t_raw = _order_values(table, question.order, codes, len(group_labels))
+    sort = np.lexsort((t_raw, codes))
+    codes, t_raw, is_train = codes[sort], t_raw[sort], is_train[sort]
+    table = table.iloc[sort]
+    _check_order(codes, t_raw, group_labels, question)
+    _check_counts(is_train, question, features)
+
+    prediction = question.prediction
+    return GapData(
+        target=question.target,
+        y=table[question.target].astype(float).to_numpy(),
+        features=features,
+        X=table[features].astype(float).to_numpy().reshape(len(table), len(features)),
+        prediction_name=prediction,
+        prediction=table[prediction].astype(float).to_numpy() if prediction else None,
+        candidates=candidates,
+        C=table[candidates].astype(float).to_numpy(),
+        order_name=question.order if question.order is not None else ROW_ORDER_NAME,
+        t=t_raw,
+        group_name=question.group,
+        groups=codes,
+        group_labels=group_labels,
+        is_train=is_train,
+        row_index=table.index.to_numpy(),
+        n_dropped=int((~keep).sum()),
+        n_dropped_short_groups=int((~long_enough).sum()),
+    )
+
+
+def _check_columns(df: pd.DataFrame, question: GapQuestion, features: list[str], candidates: list[str]) -> None:
+    """Raise :class:`ProblemError` for a missing, misplaced or non-numeric column of the question."""
+    target, prediction, order, group = question.target, question.prediction, question.order, question.group
     if features and prediction is not None:
         raise ProblemError("give either features (a model is fitted) or prediction (a column), not both")
     if not features and prediction is None:
@@ -162,12 +201,9 @@ def prepare(
     check_present(df, [target], "target")
     check_present(df, features, "features")
     check_present(df, candidates, "candidates")
-    if prediction is not None:
-        check_present(df, [prediction], "prediction")
-    if order is not None:
-        check_present(df, [order], "order")
-    if group is not None:
-        check_present(df, [group], "group")
+    for name, role in ((prediction, "prediction"), (order, "order"), (group, "group")):
+        if name is not None:
+            check_present(df, [name], role)
     clash = sorted({target, prediction} & set(candidates) - {None})
     if clash:
         raise ProblemError(f"candidates: {clash} is the target or the prediction, not a candidate")
@@ -175,18 +211,16 @@ def prepare(
         raise ProblemError(f"features: the target {target!r} cannot be a feature")
     if order is not None and order in candidates:
         raise ProblemError(f"candidates: the order column {order!r} cannot be a candidate")
-    # Needed on every row; candidates only on the real rows (module docstring).
-    every_row = [target, *features] + ([prediction] if prediction else [])
     check_numeric(df, [target], "target")
     check_numeric(df, features, "features")
     check_numeric(df, candidates, "candidates")
-    if prediction is not None:
-        check_numeric(df, [prediction], "prediction")
-    if order is not None:
-        check_numeric(df, [order], "order")
-        every_row.append(order)
+    for name, role in ((prediction, "prediction"), (order, "order")):
+        if name is not None:
+            check_numeric(df, [name], role)
 
-    is_train = _train_mask(df, train)
+
+def _complete_rows(df: pd.DataFrame, every_row: list[str], candidates: list[str], is_train: np.ndarray) -> np.ndarray:
+    """Rows finite in every column they need (candidates on the real rows only); an empty column raises."""
     finite = np.isfinite(df[every_row].astype(float).to_numpy())
     candidate_finite = np.isfinite(df[candidates].astype(float).to_numpy())
     empty = [name for name, any_finite in zip(every_row, finite.any(axis=0), strict=True) if not any_finite]
@@ -194,79 +228,61 @@ def prepare(
         raise ProblemError(f"column(s) {empty} hold no finite value (every row would be dropped)")
     empty = [name for name, any_finite in zip(candidates, candidate_finite[~is_train].any(axis=0), strict=True)
              if not any_finite]
-    if empty and not is_train.all():  # with no real row at all, the train check below says so
+    if empty and not is_train.all():  # with no real row at all, _check_counts says so
         raise ProblemError(f"candidates: {empty} hold no finite value on the real rows (every real row would be "
                            "dropped); a candidate is read on the real rows")
-    keep = finite.all(axis=1) & (is_train | candidate_finite.all(axis=1))
-    if group is not None:
-        keep &= df[group].notna().to_numpy()
-    n_dropped = int((~keep).sum())
-    table = df.loc[keep]
-    is_train = is_train[keep]
+    return finite.all(axis=1) & (is_train | candidate_finite.all(axis=1))
 
+
+def _group_codes(table: pd.DataFrame, group: str | None,
+                 is_train: np.ndarray) -> tuple[np.ndarray, list[str], np.ndarray]:
+    """Group code of each kept row (0, 1, … in order of first appearance), the labels, and the rows
+    whose group (and, for a real row, the group's real part) has :data:`MIN_GROUP_ROWS` rows."""
     if group is not None:
-        labels = table[group].astype(str)
-        codes, uniques = pd.factorize(labels, sort=False)
+        codes, uniques = pd.factorize(table[group].astype(str), sort=False)
     else:
         codes, uniques = np.zeros(len(table), dtype=int), pd.Index(["all"])
     counts = np.bincount(codes, minlength=len(uniques))
     real_counts = np.bincount(codes[~is_train], minlength=len(uniques))
     # Transforms run on each group's real rows alone, so its real part needs the rows as well.
     long_enough = (counts[codes] >= MIN_GROUP_ROWS) & (is_train | (real_counts[codes] >= MIN_GROUP_ROWS))
-    n_short = int((~long_enough).sum())
-    table, codes, is_train = table.loc[long_enough], codes[long_enough], is_train[long_enough]
-    kept_groups = np.unique(codes)
+    kept_groups = np.unique(codes[long_enough])
     remap = np.full(len(uniques), -1)
     remap[kept_groups] = np.arange(kept_groups.size)
-    codes = remap[codes]
-    group_labels = [str(uniques[g]) for g in kept_groups]
+    return remap[codes], [str(uniques[g]) for g in kept_groups], long_enough
 
+
+def _order_values(table: pd.DataFrame, order: str | None, codes: np.ndarray, n_groups: int) -> np.ndarray:
+    """The order axis of each row: the ``order`` column, or the row position within its group."""
     if order is not None:
-        t_raw = table[order].astype(float).to_numpy()
-    else:
-        t_raw = np.zeros(len(table))
-        for g in range(len(group_labels)):
-            rows = codes == g
-            t_raw[rows] = np.arange(rows.sum(), dtype=float)
-    sort = np.lexsort((t_raw, codes))
-    codes, t_raw, is_train = codes[sort], t_raw[sort], is_train[sort]
-    table = table.iloc[sort]
-    same_group = codes[1:] == codes[:-1]
-    repeated = same_group & (np.diff(t_raw) <= 0)
+        return table[order].astype(float).to_numpy()
+    t_raw = np.zeros(len(table))
+    for g in range(n_groups):
+        rows = codes == g
+        t_raw[rows] = np.arange(rows.sum(), dtype=float)
+    return t_raw
+
+
+def _check_order(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[str], question: GapQuestion) -> None:
+    """Raise :class:`ProblemError` for a repeated order value within a group (sorted rows)."""
+    repeated = (codes[1:] == codes[:-1]) & (np.diff(t_raw) <= 0)
     if repeated.any():
         label = group_labels[codes[1:][repeated][0]]
         value = t_raw[1:][repeated][0]
-        hint = ("; if each run restarts the order axis, name the run column with group (--group)" if group is None
-                else "; each row of a group needs its own order value")
-        raise ProblemError(f"order: repeated value {value:g} of {order!r} within group {label!r}{hint}")
+        hint = ("; if each run restarts the order axis, name the run column with group (--group)"
+                if question.group is None else "; each row of a group needs its own order value")
+        raise ProblemError(f"order: repeated value {value:g} of {question.order!r} within group {label!r}{hint}")
 
+
+def _check_counts(is_train: np.ndarray, question: GapQuestion, features: list[str]) -> None:
+    """Raise :class:`ProblemError` unless both train and enough real rows are left."""
     n_train = int(is_train.sum())
     if n_train == 0:
-        raise ProblemError(f"train: the query {train!r} selects no row (after dropping incomplete rows)")
-    if n_train == len(table):
-        raise ProblemError(f"train: the query {train!r} selects every row; no real rows are left to assess")
-    n_real = len(table) - n_train
+        raise ProblemError(f"train: the query {question.train!r} selects no row (after dropping incomplete rows)")
+    if n_train == is_train.size:
+        raise ProblemError(f"train: the query {question.train!r} selects every row; no real rows are left to assess")
+    n_real = is_train.size - n_train
     if n_real < MIN_REAL_ROWS:
         raise ProblemError(f"train: only {n_real} real (non-train) rows; at least {MIN_REAL_ROWS} are needed")
     if features and n_train < len(features) + 2:
         raise ProblemError(f"train: {n_train} train rows are too few for {len(features)} features")
-
-    return GapData(
-        target=target,
-        y=table[target].astype(float).to_numpy(),
-        features=features,
-        X=table[features].astype(float).to_numpy().reshape(len(table), len(features)),
-        prediction_name=prediction,
-        prediction=table[prediction].astype(float).to_numpy() if prediction else None,
-        candidates=candidates,
-        C=table[candidates].astype(float).to_numpy(),
-        order_name=order if order is not None else ROW_ORDER_NAME,
-        t=t_raw,
-        group_name=group,
-        groups=codes,
-        group_labels=group_labels,
-        is_train=is_train,
-        row_index=table.index.to_numpy(),
-        n_dropped=n_dropped,
-        n_dropped_short_groups=n_short,
-    )

@@ -45,6 +45,7 @@ import numpy as np
 from svrqp.gap.baseline import Baseline, fit_predict, make_model
 from svrqp.gap.blocks import block_bootstrap, block_length
 from svrqp.gap.prepare import GapData
+from svrqp.metrics import rms
 
 N_BOOTSTRAP = 1000
 """Bootstrap resamples for the shrink interval."""
@@ -104,8 +105,8 @@ def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: n
     -------
     ShrinkEstimate
     """
-    before_rmse = float(np.sqrt(np.mean(r**2)))
-    after_rmse = float(np.sqrt(np.mean(after**2)))
+    before_rmse = float(rms(r))
+    after_rmse = float(rms(after))
     low, high = shrink_interval(r, after, groups, rng)
     shrink = 1 - after_rmse / before_rmse if before_rmse > 0 else 0.0
     return ShrinkEstimate(before_rmse, after_rmse, shrink, low, high, after)
@@ -121,7 +122,7 @@ def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float
     baseline : Baseline
         The baseline (its kind says which family to refit).
     effect : ndarray, shape (n, k)
-        The effect's columns on every row (:func:`svrqp.gap.attribute.effect_columns`).
+        The effect's columns on every row (:func:`svrqp.gap.candidates.effect_columns`).
 
     Returns
     -------
@@ -132,7 +133,7 @@ def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float
     if not np.isfinite(effect).all():
         return None
     train, real = data.is_train, data.is_real
-    before = float(np.sqrt(np.mean(baseline.residual[real] ** 2)))
+    before = float(rms(baseline.residual[real]))
     if baseline.kind == "prediction":
         gap = data.y - baseline.y_hat
         correction = make_model("mlr").fit(effect[train], gap[train]).predict(effect)
@@ -140,5 +141,5 @@ def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float
     else:
         X = np.column_stack([data.X, effect])
         after_residual = data.y - fit_predict(baseline.kind, X[train], data.y[train], X)
-    after = float(np.sqrt(np.mean(after_residual[real] ** 2)))
+    after = float(rms(after_residual[real]))
     return 1 - after / before if before > 0 else 0.0

@@ -53,7 +53,13 @@ from svrqp.gap.between import MIN_RUNS, is_run_level, run_level_columns
 from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, TransferFit
-from svrqp.gap.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
+from svrqp.gap.transforms import (
+    filter_coefficients,
+    group_slices,
+    lag,
+    lowpass_columns,
+    rate,
+)
 
 TRANSFORMS = ("level", "rate", "lag")
 """Transforms refitted for every candidate (a model feature: ``rate`` and ``lag`` only)."""
@@ -421,7 +427,7 @@ def _fixed(row: Ranked) -> Effect:
 
 def _better(row: Ranked, held: Ranked) -> bool:
     """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie)."""
-    shrink = lambda r: 1 - np.sqrt(max(1 - r.gain, 0.0))  # noqa: E731 — the gain as a shrink beyond the refit
+    shrink = lambda r: 1 - np.sqrt(max(1 - r.gain, 0.0))
     if abs(shrink(row) - shrink(held)) < SAME_FIT:
         return row.effect.parameters < held.effect.parameters
     return row.gain > held.gain

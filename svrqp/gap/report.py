@@ -48,7 +48,9 @@ class Cause:
     :mod:`svrqp.gap.transfer`; ``gain``, ``p_raw`` and ``p_value`` those of the transfer test.
     The ``within_*`` keys, ``p_within`` and ``shrink_beyond_base`` come from the discrepancy
     model fitted on the real rows themselves (:mod:`svrqp.gap.attribute`): what a per-run
-    recalibration would remove, never a transfer number.
+    recalibration would remove, never a transfer number. ``family`` names the model family the
+    transfer numbers were refitted with (:mod:`svrqp.gap.kernel_transfer`): the baseline's own, or
+    ``"linear"`` for the causes only the linear screen refitted.
     """
 
     column: str
@@ -75,6 +77,7 @@ class Cause:
     p_within: float | None = None
     within_shrink: float | None = None
     within_shrink_ci: tuple[float, float] | None = None
+    family: str = "linear"
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,7 @@ class Verdict:
     shrink_beyond_refit: float | None = None
     shrink_beyond_refit_ci: tuple[float, float] | None = None
     thin: bool = False
+    family: str | None = None
 
 
 @dataclass(frozen=True)
@@ -266,6 +270,9 @@ class GapReport:
                     "–" if c.within_shrink is None else f"{c.within_shrink:.0%}",
                     c.note or ("significant" if c.significant else "")]
                    for i, c in enumerate(self.causes)])
+        if (self.transfer or {}).get("family", "linear") != "linear":  # a kernel model: say which rows refit it
+            causes = ([*causes[0][:-1], "refitted family", "note"],
+                      [[*row[:-1], c.family, row[-1]] for row, c in zip(causes[1], self.causes, strict=True)])
         g = self.gap
         gap = (["train RMSE", "real RMSE", "ratio", "p (excess over train)", "noise RMSE", "p (excess over noise)",
                 "p (white residual)", "gap"],

@@ -1,4 +1,5 @@
-r"""What an effect buys on runs the fit never saw: the transfer numbers of DESIGN §4.
+r"""What an effect buys on runs the fit never saw: the transfer numbers of ``docs/gap.md``
+("What shrink means").
 
 Held-out units
     Every real row belongs to one *unit* that a fit never sees while it is scored: the
@@ -47,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from svrqp.gap.transforms import group_slices
+from svrqp.metrics import rms
 
 MIN_BLOCKS = 5
 """Fewest contiguous blocks a record without real runs is cut into."""
@@ -366,9 +368,9 @@ def transfer_shrink(before: np.ndarray, refit: np.ndarray, after: np.ndarray, re
     -------
     TransferShrink
     """
-    rms = [float(np.sqrt(np.mean(e**2))) for e in (before, refit, after)]
+    rmse = [float(rms(e)) for e in (before, refit, after)]
     ss = [unit_sums(e, real_units, n_units) for e in (before, refit, after)]
-    shrink = 1 - rms[2] / rms[0] if rms[0] > 0 else 0.0
-    beyond = 1 - rms[2] / rms[1] if rms[1] > 0 else 0.0
-    return TransferShrink(rms[0], rms[1], rms[2], shrink, beyond, ratio_interval(ss[2], ss[0], index),
+    shrink = 1 - rmse[2] / rmse[0] if rmse[0] > 0 else 0.0
+    beyond = 1 - rmse[2] / rmse[1] if rmse[1] > 0 else 0.0
+    return TransferShrink(rmse[0], rmse[1], rmse[2], shrink, beyond, ratio_interval(ss[2], ss[0], index),
                           ratio_interval(ss[2], ss[1], index))

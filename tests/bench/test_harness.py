@@ -1,4 +1,4 @@
-"""The solver comparison harness: rows, success flags, certificates, time limits, outputs, CLI."""
+"""The solver comparison: rows, success flags, certificates, time limits, outputs, CLI."""
 
 from __future__ import annotations
 
@@ -9,25 +9,22 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from svrqp.bench import harness as bench
-from svrqp.bench.harness import (
-    PROFILES,
+from svrqp.bench import runners
+from svrqp.bench.cases import PROFILES, BenchCase, make_case
+from svrqp.bench.evaluate import (
     ROW_COLUMNS,
-    BenchConfig,
-    Method,
     aggregate,
-    beta_certificates,
     evaluate,
     is_success,
-    make_case,
-    qp_outcome,
-    run_benchmark,
-    run_isolated,
+    ratios_to_reference,
     shifted_geometric_mean,
 )
+from svrqp.bench.outcomes import Method, QPPoint, beta_certificates, qp_outcome
 from svrqp.bench.report import write_outputs
+from svrqp.bench.run import BenchConfig, run_benchmark
+from svrqp.bench.runners import LOW_RANK_TOL, methods, run_isolated
 from svrqp.cli import app
-from svrqp.exceptions import SolverError
+from svrqp.exceptions import ProblemError, SolverError
 from svrqp.formulations import epsilon_svr
 from svrqp.solvers import solve_qp
 
@@ -48,7 +45,7 @@ def tiny_rows(tiny_config) -> pd.DataFrame:
 
 
 @pytest.fixture(scope="module")
-def thermal_case() -> bench.BenchCase:
+def thermal_case() -> BenchCase:
     """30 samples of the thermal set: small enough for the dense stacked QP and its certificates."""
     return make_case("thermal", 30, 3, C=10.0, epsilon=0.1)
 
@@ -85,8 +82,8 @@ def test_a_perturbed_solution_is_marked_failed(thermal_case):
     method = Method("epsilon_svr", "split", "clarabel")
 
     def row(x):
-        outcome = qp_outcome(thermal_case, "split", problem, x, solution.y, solution.z, solution.z_box,
-                             solution.status, K)
+        point = QPPoint("split", problem, x, solution.y, solution.z, solution.z_box)
+        outcome = qp_outcome(thermal_case, point, solution.status, K)
         return evaluate(outcome, method, thermal_case, None, DEFAULT)
 
     assert row(solution.x)["success"]
@@ -123,7 +120,7 @@ def test_solver_errors_become_failed_rows(thermal_case, monkeypatch):
     def failing_solve(*args, **kwargs):
         raise SolverError("backend 'clarabel' did not solve it (status: max_iter)", "clarabel", "max_iter")
 
-    monkeypatch.setattr(bench, "solve_qp", failing_solve)  # inherited by the forked child
+    monkeypatch.setattr(runners, "solve_qp", failing_solve)  # inherited by the forked child
     outcome = run_isolated(thermal_case, Method("epsilon_svr", "split", "clarabel"), DEFAULT, 30.0)
     assert outcome.status == "max_iter"
     assert "did not solve" in outcome.error
@@ -133,7 +130,7 @@ def test_solver_errors_become_failed_rows(thermal_case, monkeypatch):
 
 
 def test_other_exceptions_become_error_rows(thermal_case, monkeypatch):
-    monkeypatch.setattr(bench, "solve_qp", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(runners, "solve_qp", lambda *a, **k: 1 / 0)
     outcome = run_isolated(thermal_case, Method("epsilon_svr", "split", "osqp"), DEFAULT, 30.0)
     assert outcome.status == "error"
     assert "ZeroDivisionError" in outcome.error
@@ -201,7 +198,7 @@ def test_ratios_pick_the_fastest_exact_method():
         {**base, "method": "exact/a", "total_time_s": 1.0, "objective_gap_rel": -1e-12},
         {**base, "method": "exact/b", "total_time_s": 1.5, "objective_gap_rel": 0.0},
     ])
-    table = bench.ratios_to_reference(rows)
+    table = ratios_to_reference(rows)
     assert table.loc[0, "fastest_exact"] == "exact/a"
     assert table.loc[0, "ratio"] == pytest.approx(0.5)
 
@@ -218,10 +215,10 @@ def test_svrqp_exact_and_low_rank_methods_run_in_the_harness():
         assert rows.loc[exact, "approximation_error"] == 0.0
     for approximate in ("dual_ipm/low_rank", "clarabel/low_rank"):
         # The rank is capped at n/4 = 15 here, short of LOW_RANK_TOL: the error is reported, not hidden.
-        assert rows.loc[approximate, "approximation_error"] > bench.LOW_RANK_TOL
+        assert rows.loc[approximate, "approximation_error"] > LOW_RANK_TOL
         assert rows.loc[approximate, "success"]  # certified on the factored problem it solved
 
 
 def test_methods_reject_names_that_pair_with_nothing():
-    with pytest.raises(bench.ProblemError, match="pair with none"):
-        bench.methods(("split", "dense"), ("clarabel", "no_such_backend"), "rbf")
+    with pytest.raises(ProblemError, match="pair with none"):
+        methods(("split", "dense"), ("clarabel", "no_such_backend"), "rbf")

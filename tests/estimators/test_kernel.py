@@ -199,7 +199,7 @@ def test_dual_ipm_estimator_on_smooth_data_takes_the_low_rank_path_and_matches_l
     through a low-rank interior point and the exact crossover, and agrees with SVR(tol=1e-8)."""
     from sklearn.svm import SVR
 
-    from svrqp.bench import harness as bench
+    from svrqp.bench import cases as bench
 
     X, y = bench.thermal(1500, 10, seed=0)
     ours = EpsilonSVR(C=10.0, epsilon=0.1, solver="dual_ipm").fit(X, y)

@@ -94,7 +94,7 @@ def test_give_up_stops_early_only_when_the_tolerance_is_out_of_reach():
     """Friedman #1 (10 independent features, a slowly decaying RBF spectrum) cannot reach 3e-5 within
     n/8 columns: with give_up the factorisation stops at the first check instead of filling n/8.
     The smooth warm-up set reaches it: give_up changes nothing there."""
-    from svrqp.bench import harness as bench
+    from svrqp.bench import cases as bench
 
     X, _ = bench.friedman1(1000, 10, seed=0)
     columns = KernelColumns(X, gamma=bench.resolve_gamma("scale", X))

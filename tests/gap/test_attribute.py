@@ -21,18 +21,14 @@ from support.gap_problems import (
 )
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap import diagnose
-from svrqp.gap.attribute import (
-    CandidateBank,
-    SurrogateTest,
-    build_banks,
-    run_tests,
-)
+from svrqp.gap import GapQuestion, diagnose
+from svrqp.gap.base import base_design
 from svrqp.gap.baseline import fit_baseline
 from svrqp.gap.blocks import blocked_folds
-from svrqp.gap.diagnose import base_design
+from svrqp.gap.candidates import CandidateBank, build_banks
 from svrqp.gap.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.prepare import prepare
+from svrqp.gap.surrogate_tests import SurrogateTest, run_tests
 from svrqp.gap.transforms import tau_grid
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}
@@ -40,7 +36,7 @@ ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"],
 
 @pytest.fixture(scope="module")
 def air_lag_report():
-    return diagnose(air_lag_problem(), candidates=CANDIDATES, **ARGS)
+    return diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS))
 
 
 def test_air_lag_is_named_with_its_transform(air_lag_report):
@@ -63,7 +59,7 @@ def test_a_modelled_feature_can_carry_an_unmodelled_rate():
     """The rate acts on the train run as much as on the real ones: the real rows fit no worse than the
     train rows, so the one-sided gate finds no gap and names no cause; the rate of the modelled
     feature is still listed first as improving the model on held-out runs everywhere."""
-    report = diagnose(spindle_rate_problem(), candidates=[*CANDIDATES, "spindle_C"], **ARGS)
+    report = diagnose(spindle_rate_problem(), GapQuestion(candidates=[*CANDIDATES, "spindle_C"], **ARGS))
     assert not report.gap_detected and report.verdict.column is None
     top = report.causes[0]
     assert top.column == "spindle_C" and top.transform in {"rate", "lag"}  # a short lag is a smoothed rate
@@ -73,7 +69,7 @@ def test_a_modelled_feature_can_carry_an_unmodelled_rate():
 
 
 def test_null_problem_names_nothing():
-    report = diagnose(null_problem(), candidates=[*CANDIDATES, "spindle_C"], **ARGS)
+    report = diagnose(null_problem(), GapQuestion(candidates=[*CANDIDATES, "spindle_C"], **ARGS))
     assert report.verdict.column is None
     assert not any(c.significant for c in report.causes)
 
@@ -81,7 +77,7 @@ def test_null_problem_names_nothing():
 def test_identical_decoy_cannot_be_told_apart():
     df = air_lag_problem()
     df["air_copy_C"] = df["air_C"] + np.random.default_rng(0).normal(scale=0.002, size=len(df))
-    report = diagnose(df, candidates=["air_C", "air_copy_C", "nut_C"], **ARGS)
+    report = diagnose(df, GapQuestion(candidates=["air_C", "air_copy_C", "nut_C"], **ARGS))
     # Either transfers as well as the other (the acceptance rule of DESIGN §4): the best-transferring
     # one is named, and the other is said to do about as well.
     named, other = report.verdict.column, ({"air_C", "air_copy_C"} - {report.verdict.column}).pop()
@@ -95,7 +91,7 @@ def test_a_copy_that_decorrelates_is_not_ambiguous():
     # A second air reading with 1 K of its own noise: the paired loss test separates it.
     df = air_lag_problem()
     df["air_copy_C"] = df["air_C"] + np.random.default_rng(0).normal(scale=1.0, size=len(df))
-    report = diagnose(df, candidates=["air_C", "air_copy_C", "nut_C"], **ARGS)
+    report = diagnose(df, GapQuestion(candidates=["air_C", "air_copy_C", "nut_C"], **ARGS))
     assert report.verdict.column == "air_C"
     assert report.verdict.ambiguous_with == []
     copy = next(c for c in report.causes if c.column == "air_copy_C")
@@ -108,7 +104,7 @@ def test_a_reading_is_named_before_a_filtered_copy_of_it():
     lead-lag filter transfers almost as well; the reading itself transfers best, and when the
     conditional transfer tests separate neither, the tie is reported."""
     for seed in range(6):
-        report = diagnose(air_and_shell_problem(seed), candidates=["air_C", "shell_C", "nut_C"], **ARGS)
+        report = diagnose(air_and_shell_problem(seed), GapQuestion(candidates=["air_C", "shell_C", "nut_C"], **ARGS))
         assert report.verdict.column == "air_C"
         assert report.verdict.transform == "level"
         shell = next(c for c in report.causes if c.column == "shell_C")
@@ -136,16 +132,16 @@ def test_surrogate_p_value_is_small_for_a_real_effect_and_not_for_noise():
 
 def test_same_seed_gives_the_same_report():
     df = thermal_runs("air_level", b=1.0, runs=3, seed=7)
-    first = diagnose(df, candidates=CANDIDATES, seed=3, **ARGS).to_dict()
-    second = diagnose(df, candidates=CANDIDATES, seed=3, **ARGS).to_dict()
+    first = diagnose(df, GapQuestion(candidates=CANDIDATES, **ARGS), seed=3).to_dict()
+    second = diagnose(df, GapQuestion(candidates=CANDIDATES, **ARGS), seed=3).to_dict()
     first.pop("runtime_s"), second.pop("runtime_s")
     assert first == second
 
 
 def test_threads_do_not_change_the_report():
     # the shifts are drawn from one stream before the threads score them, and recorded in order
-    one = diagnose(air_lag_problem(), candidates=CANDIDATES, n_jobs=1, **ARGS).to_dict()
-    two = diagnose(air_lag_problem(), candidates=CANDIDATES, n_jobs=2, **ARGS).to_dict()
+    one = diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=1).to_dict()
+    two = diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=2).to_dict()
     one.pop("runtime_s"), two.pop("runtime_s")
     assert one == two
     assert one["verdict"]["column"] == "air_C"
@@ -153,7 +149,8 @@ def test_threads_do_not_change_the_report():
 
 def test_progress_names_each_stage_and_only_moves_forward():
     calls = []
-    diagnose(air_lag_problem(), candidates=CANDIDATES, progress=lambda stage, done: calls.append((stage, done)), **ARGS)
+    diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), progress=lambda stage,
+                                            done: calls.append((stage, done)))
     fractions = [done for _, done in calls]
     assert fractions == sorted(fractions) and 0.0 <= fractions[0] and fractions[-1] <= 1.0
     stages = " | ".join(stage for stage, _ in calls)
@@ -178,7 +175,7 @@ def test_an_exact_fit_leaves_no_error_and_raises_no_warning():
 @pytest.mark.parametrize("n_jobs", [0, 1.5, True])
 def test_a_bad_number_of_threads_is_refused_before_the_work(n_jobs):
     with pytest.raises(ProblemError, match="n_jobs"):
-        diagnose(thermal_runs("none", runs=2, seed=0), candidates=CANDIDATES, n_jobs=n_jobs, **ARGS)
+        diagnose(thermal_runs("none", runs=2, seed=0), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=n_jobs)
 
 
 def _p_value(r, x, groups, surrogates, seed=0):
@@ -212,7 +209,7 @@ def test_continuous_surrogates_keep_the_evidence_of_a_matching_shape():
 
 def test_unknown_surrogate_kind_is_named():
     with pytest.raises(ProblemError, match="surrogates must be one of"):
-        diagnose(thermal_runs("none", seed=3), candidates=CANDIDATES, surrogates="bootstrap", **ARGS)
+        diagnose(thermal_runs("none", seed=3), GapQuestion(candidates=CANDIDATES, **ARGS), surrogates="bootstrap")
 
 
 def _lag_p_value_of_a_reading_constant_within_passes(seed: int) -> float:
@@ -220,8 +217,8 @@ def _lag_p_value_of_a_reading_constant_within_passes(seed: int) -> float:
     profile that is the same in every pass (the geometric map missing from the prediction)."""
     df = axis_passes("none", runs=4, seed=seed)
     df["prediction_um"] = 0.0
-    data = prepare(df, target="error_um", train="run == 'p0'", prediction="prediction_um",
-                   candidates=AXIS_CANDIDATES, order="x_mm", group="run")
+    data = prepare(df, GapQuestion(target="error_um", train="run == 'p0'", prediction="prediction_um",
+                                   candidates=AXIS_CANDIDATES, order="x_mm", group="run"))
     baseline = fit_baseline(data, "mlr")
     real = data.is_real
     groups = data.groups[real]
@@ -258,7 +255,7 @@ def test_a_candidate_constant_on_the_real_rows_is_named_as_such():
     and its row of the causes table says why (it varies on the train run only)."""
     df = air_lag_problem()
     df["fixed_rpm"] = np.where(df["run"] == "r0", np.arange(len(df)) % 7 * 100.0, 4500.0)
-    report = diagnose(df, candidates=[*CANDIDATES, "fixed_rpm"], **ARGS)
+    report = diagnose(df, GapQuestion(candidates=[*CANDIDATES, "fixed_rpm"], **ARGS))
     fixed = next(c for c in report.causes if c.column == "fixed_rpm")
     assert fixed.note == "constant on the real rows (4500): it cannot explain the gap there"
     assert not fixed.significant and report.verdict.column == "air_C"

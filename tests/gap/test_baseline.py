@@ -7,6 +7,7 @@ from sklearn.linear_model import LinearRegression
 from sklearn.svm import SVR
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion
 from svrqp.gap.baseline import LSSVR_C, SVR_C, SVR_EPSILON, fit_baseline
 from svrqp.gap.prepare import prepare
 
@@ -16,8 +17,9 @@ FEATURES = ["spindle_C", "nut_C"]
 @pytest.fixture(scope="module")
 def data():
     """The air-lag problem, a two-feature model fitted on run r0 (240 rows)."""
-    return prepare(air_lag_problem(), target="error_um", train="run == 'r0'", features=FEATURES,
-                   candidates=[c for c in CANDIDATES if c not in FEATURES], order="time_min", group="run")
+    question = GapQuestion(target="error_um", train="run == 'r0'", features=FEATURES,
+                           candidates=[c for c in CANDIDATES if c not in FEATURES], order="time_min", group="run")
+    return prepare(air_lag_problem(), question)
 
 
 def standardised(data):

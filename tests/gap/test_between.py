@@ -7,8 +7,7 @@ from numpy.polynomial import legendre
 from scipy import stats
 from sklearn.linear_model import LinearRegression
 
-from svrqp.gap import diagnose
-from svrqp.gap.attribute import BetweenRunTest, effect_columns
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.between import (
     EVIDENCE_BETWEEN,
     MIN_RUNS,
@@ -20,7 +19,9 @@ from svrqp.gap.between import (
     within_share,
 )
 from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.candidates import effect_columns
 from svrqp.gap.prepare import prepare
+from svrqp.gap.surrogate_tests import BetweenRunTest
 
 ARGS = {"target": "error_um", "train": "run == 'p0'", "prediction": "prediction_um", "order": "x_mm", "group": "run"}
 
@@ -117,7 +118,7 @@ def test_one_extreme_run_cannot_carry_a_relation_past_the_floor():
 
 @pytest.fixture(scope="module")
 def scale_report():
-    return diagnose(axis_passes("scale", runs=7, seed=1), candidates=AXIS_CANDIDATES, **ARGS)
+    return diagnose(axis_passes("scale", runs=7, seed=1), GapQuestion(candidates=AXIS_CANDIDATES, **ARGS))
 
 
 def test_scale_expansion_is_named_between_runs(scale_report):
@@ -149,7 +150,7 @@ def test_scale_shrink_matches_the_true_effect_refitted_out_of_sample(scale_repor
 
 
 def test_with_three_real_runs_the_reading_is_reported_untestable():
-    report = diagnose(axis_passes("scale", runs=4, seed=0), candidates=AXIS_CANDIDATES, **ARGS)
+    report = diagnose(axis_passes("scale", runs=4, seed=0), GapQuestion(candidates=AXIS_CANDIDATES, **ARGS))
     assert report.verdict.column is None
     note = next(c.note for c in report.causes if c.column == "axis_C")
     assert f"needs at least {MIN_RUNS} real runs (3 here)" in note
@@ -157,13 +158,13 @@ def test_with_three_real_runs_the_reading_is_reported_untestable():
 
 def test_null_passes_name_nothing():
     for seed in range(3):
-        report = diagnose(axis_passes("none", runs=7, seed=seed), candidates=AXIS_CANDIDATES, **ARGS)
+        report = diagnose(axis_passes("none", runs=7, seed=seed), GapQuestion(candidates=AXIS_CANDIDATES, **ARGS))
         assert report.verdict.column is None
 
 
 def test_refit_columns_of_a_run_level_effect_are_the_block_on_every_row():
     df = axis_passes("scale", runs=5, seed=2)
-    data = prepare(df, candidates=AXIS_CANDIDATES, **ARGS)
+    data = prepare(df, GapQuestion(candidates=AXIS_CANDIDATES, **ARGS))
     block = effect_columns(data, "axis_C", "level", None, EVIDENCE_BETWEEN)
     assert block.shape == (len(df), 2 * PROFILE_DEGREE + 1)
     first = data.groups == 0

@@ -8,7 +8,7 @@ from support.gap_problems import CANDIDATES, air_lag_problem
 from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
-from svrqp.gap import diagnose
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.transforms import smooth
 
@@ -20,7 +20,7 @@ MIAO = {"target": "error_um", "train": "batch == 'x1'", "features": ["T7_C", "T9
 @pytest.fixture(scope="module")
 def miao():
     df = datasets.load("miao2013")
-    return df, diagnose(df, **MIAO)
+    return df, diagnose(df, GapQuestion(**MIAO))
 
 
 def test_ranges_are_those_of_the_train_and_real_rows(miao):
@@ -75,8 +75,8 @@ def test_recalibration_shrinks_equal_an_independent_fold_by_fold_refit(miao):
 
 
 def test_inputs_within_their_range_are_not_called_extrapolated():
-    report = diagnose(air_lag_problem(), target="error_um", train="run == 'r0'", features=["spindle_C"],
-                      candidates=CANDIDATES, order="time_min", group="run")
+    report = diagnose(air_lag_problem(), GapQuestion(target="error_um", train="run == 'r0'", features=["spindle_C"],
+                                                     candidates=CANDIDATES, order="time_min", group="run"))
     assert [u.column for u in report.inputs if u.role == "input"] == ["spindle_C"]
     assert "outside its train range" not in report.verdict.reason or report.inputs[0].extrapolated
 
@@ -84,8 +84,8 @@ def test_inputs_within_their_range_are_not_called_extrapolated():
 def test_prediction_mode_lists_the_candidates_only():
     df = air_lag_problem()
     df["prediction_um"] = 2.0 * df["spindle_C"]
-    report = diagnose(df, target="error_um", train="run == 'r0'", prediction="prediction_um",
-                      candidates=CANDIDATES, order="time_min", group="run")
+    report = diagnose(df, GapQuestion(target="error_um", train="run == 'r0'", prediction="prediction_um",
+                                      candidates=CANDIDATES, order="time_min", group="run"))
     assert [u.column for u in report.inputs] == CANDIDATES and {u.role for u in report.inputs} == {"candidate"}
 
 
@@ -108,7 +108,7 @@ def test_without_a_group_the_offset_is_worded_as_one_offset():
     """No --group (nor --order): the real rows are one group, so the base holds one offset, not one per group."""
     df = datasets.load("miao2013")
     args = {k: v for k, v in MIAO.items() if k not in ("group", "order")} | {"candidates": ["T1_C", "T8_C"]}
-    report = diagnose(df, **args)
+    report = diagnose(df, GapQuestion(**args))
     assert report.base.description.startswith("one offset and")
     assert "held-out blocks" in report.summary and "per group" not in report.verdict.reason
     assert report.blocks["kind"] == "blocks" and report.blocks["n"] >= 5
@@ -119,7 +119,7 @@ def test_a_recalibration_that_removes_nothing_is_said_so_not_printed_as_a_negati
     rows, but over so short an autumn stretch refitting it predicts nothing the offsets do not."""
     df = datasets.load("miao2013")
     df = df[(df["batch"] != "x3") | (df["time_min"] < 10)]
-    report = diagnose(df, **MIAO | {"candidates": ["T1_C", "T8_C"]})
+    report = diagnose(df, GapQuestion(**MIAO | {"candidates": ["T1_C", "T8_C"]}))
     ambient = next(u for u in report.inputs if u.column == "T9_C")
     assert ambient.extrapolated and ambient.beyond_offsets <= 0
     assert "recalibrating it removes nothing out of sample beyond what one offset per batch alone does" \
@@ -132,7 +132,7 @@ def test_a_refit_that_makes_the_error_larger_is_said_so():
     refit on the train rows makes the real-row error larger, and its reason says so in words. (Without
     --group: with it, only two real batches hold the transfer evidence and no verdict is named.)"""
     df = datasets.load("miao2013")
-    report = diagnose(df, **{k: v for k, v in MIAO.items() if k not in ("group", "order")})
+    report = diagnose(df, GapQuestion(**{k: v for k, v in MIAO.items() if k not in ("group", "order")}))
     assert report.verdict.column is not None
     assert report.verdict.refit_shrink < 0
     assert "makes the real-row error larger" in report.verdict.reason

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, first_order_lag
 
-from svrqp.gap import diagnose
-from svrqp.gap.attribute import effect_columns
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.baseline import fit_baseline
 from svrqp.gap.between import EVIDENCE_WITHIN
 from svrqp.gap.blocks import blocked_folds
+from svrqp.gap.candidates import effect_columns
 from svrqp.gap.discrepancy import nested_errors
 from svrqp.gap.prepare import prepare
 from svrqp.gap.quantify import estimate_shrink, refit_shrink, shrink_interval
@@ -71,8 +71,8 @@ def test_bootstrap_interval_of_identical_errors_is_a_point():
 
 def test_refit_shrink_equals_an_independent_least_squares_refit():
     df = air_lag_problem()
-    data = prepare(df, target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
-                   order="time_min", group="run")
+    data = prepare(df, GapQuestion(target="error_um", train="run == 'r0'", features=["spindle_C"],
+                                   candidates=CANDIDATES, order="time_min", group="run"))
     baseline = fit_baseline(data, "mlr")
     shrink = refit_shrink(data, baseline, effect_columns(data, "air_C", "lag", 60.0, EVIDENCE_WITHIN))
     # independent: lstsq with [1, spindle, air, lowpass(air) - air] per run via scipy's lfilter
@@ -95,8 +95,8 @@ def test_a_candidate_recorded_on_the_real_rows_only_is_diagnosed_but_not_refitte
     args = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"],
             "candidates": [c for c in CANDIDATES if c != "coolant_C"], "order": "time_min", "group": "run"}
     df = air_lag_problem()
-    full = diagnose(df, **args)
-    late = diagnose(df.assign(air_C=df["air_C"].where(df["run"] != "r0")), **args)
+    full = diagnose(df, GapQuestion(**args))
+    late = diagnose(df.assign(air_C=df["air_C"].where(df["run"] != "r0")), GapQuestion(**args))
     assert late.verdict.column == full.verdict.column == "air_C" and late.n_dropped == 0
     assert 0 < late.verdict.shrink <= 1 and late.verdict.shrink != full.verdict.shrink
     assert full.verdict.refit_shrink is not None and late.verdict.refit_shrink is None

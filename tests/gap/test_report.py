@@ -13,7 +13,7 @@ import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap import diagnose, load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
 from svrqp.gap.report import _finite, _num, share_text
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
@@ -23,13 +23,13 @@ ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"],
 @pytest.fixture(scope="module")
 def report():
     """Diagnosis of the air-lag problem (a verdict with a lag and a time constant)."""
-    return diagnose(air_lag_problem(), **ARGS)
+    return diagnose(air_lag_problem(), GapQuestion(**ARGS))
 
 
 @pytest.fixture(scope="module")
 def null_report():
     """Diagnosis of the null problem (no verdict)."""
-    return diagnose(null_problem(), **ARGS)
+    return diagnose(null_problem(), GapQuestion(**ARGS))
 
 
 @pytest.mark.parametrize("which", ["report", "null_report"])
@@ -126,7 +126,7 @@ def test_a_model_without_error_gives_a_valid_report_and_no_verdict(how):
     else:
         args = {k: v for k, v in ARGS.items() if k != "features"} | {"prediction": "prediction_um"}
         table = table.assign(prediction_um=table["error_um"])
-    result = diagnose(table, **args)
+    result = diagnose(table, GapQuestion(**args))
     jsonschema.validate(json.loads(result.to_json()), load_schema())
     assert result.verdict.column is None and result.causes == []
     assert "reproduces the real rows exactly" in result.verdict.reason
@@ -143,10 +143,10 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
 
     from svrqp.gap.baseline import fit_baseline
     from svrqp.gap.blocks import blocked_folds
-    from svrqp.gap.diagnose import base_design
+    from svrqp.gap.base import base_design
     from svrqp.gap.prepare import prepare
 
-    data = prepare(air_lag_problem(), **ARGS)
+    data = prepare(air_lag_problem(), GapQuestion(**ARGS))
     baseline = fit_baseline(data, "mlr")
     r, groups = baseline.residual[data.is_real], data.groups[data.is_real]
     fold_of = np.empty(r.size, dtype=int)
@@ -180,7 +180,7 @@ def test_units_are_read_off_column_names(name, unit, label):
 
 def test_a_target_without_a_unit_is_summarised_without_one():
     table = air_lag_problem().rename(columns={"error_um": "deviation"})
-    result = diagnose(table, **(ARGS | {"target": "deviation"}))
+    result = diagnose(table, GapQuestion(**ARGS | {"target": "deviation"}))
     assert "units of the column" not in result.summary and "RMS against" in result.summary
 
 
@@ -209,7 +209,7 @@ def test_the_inputs_table_covers_model_inputs_and_candidates(report, tmp_path):
     df = air_lag_problem()
     df["prediction_um"] = 2.0 * df["spindle_C"]
     args = {k: v for k, v in ARGS.items() if k != "features"}
-    in_prediction_mode = diagnose(df, prediction="prediction_um", **args)
+    in_prediction_mode = diagnose(df, GapQuestion(prediction="prediction_um", **args))
     assert {row[1] for row in in_prediction_mode.tables()["inputs"][1]} == {"candidate"}
 
 

@@ -21,11 +21,12 @@ import pandas as pd
 import pytest
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap import diagnose, load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
 
 
-def awkward_case(seed: int) -> tuple[pd.DataFrame, dict]:
-    """An awkward table and the keyword arguments of one diagnosis (module docstring)."""
+def awkward_case(seed: int) -> tuple[pd.DataFrame, dict, dict]:
+    """An awkward table, the fields of its :class:`GapQuestion` and the settings of one diagnosis
+    (module docstring)."""
     rng = np.random.default_rng(seed)
     parts = []
     grouped = rng.random() < 0.85  # without a group the clock runs on from run to run
@@ -51,17 +52,17 @@ def awkward_case(seed: int) -> tuple[pd.DataFrame, dict]:
     df["pred_um"] = scale * 2 * df["f1_C"]
     train = rng.choice(["run in (0, 'r0')", "time_min < 10", f"index < {rng.integers(0, n)}", "f1_C > 0",
                         "run not in (0, 'r0')"])
-    kwargs = {"target": "error_um", "train": str(train), "seed": seed,
+    kwargs = {"target": "error_um", "train": str(train),
               "candidates": list(rng.choice(["c1_C", "c2_C", "c3_C", "f1_C", "f2_C"], size=int(rng.integers(1, 5)),
                                             replace=False)),
-              "order": None if rng.random() < 0.2 else "time_min", "group": "run" if grouped else None,
-              "surrogates": str(rng.choice(["rotation", "continuous"]))}
+              "order": None if rng.random() < 0.2 else "time_min", "group": "run" if grouped else None}
+    surrogates = str(rng.choice(["rotation", "continuous"]))
     if rng.random() < 0.5:
         kwargs |= {"features": ["f1_C", "f2_C"][: int(rng.integers(1, 3))],
                    "model": str(rng.choice(["mlr", "lssvr", "svr"]))}
     else:
         kwargs["prediction"] = "pred_um"
-    return df, kwargs
+    return df, kwargs, {"seed": seed, "surrogates": surrogates}
 
 
 SEEDS = range(80)
@@ -69,11 +70,11 @@ SEEDS = range(80)
 
 def _outcome(seed: int):
     """The report of seed ``seed``'s case, or what it raised (warnings are errors)."""
-    df, kwargs = awkward_case(seed)
+    df, kwargs, settings = awkward_case(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         try:
-            return diagnose(df, **kwargs)
+            return diagnose(df, GapQuestion(**kwargs), **settings)
         except Exception as error:  # judged per seed by the test below
             return error
 

@@ -27,7 +27,7 @@ def test_withheld_sensor_or_one_that_transfers_as_well_is_named(network, mode, s
     transfers at least as well (the shrinks are the engine's, which tests/test_gap_transfer.py checks
     against independent refits). Seed 90019: the lag of bearing_C transfers 74 %, headstock_C 66 %."""
     df, args, _ = network.case(mode, "withheld", 1.0, seed)
-    report = network.diagnose(df, **args)
+    report = network.diagnose(df, network.GapQuestion(**args))
     shrink = {c.column: c.shrink for c in report.causes}
     named = report.verdict.column
     assert named is not None, report.verdict.reason

@@ -11,7 +11,7 @@ import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, extrapolation_problem, first_order_lag, null_problem
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap import diagnose, load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
 from svrqp.gap.transfer import MIN_BLOCKS, decorrelation_length
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}
@@ -34,7 +34,7 @@ def _logo_rmse(df: pd.DataFrame, design: list[np.ndarray], real: np.ndarray) -> 
 @pytest.fixture(scope="module")
 def air():
     df = air_lag_problem()
-    return df, diagnose(df, candidates=CANDIDATES, **ARGS)
+    return df, diagnose(df, GapQuestion(candidates=CANDIDATES, **ARGS))
 
 
 def test_level_shrink_equals_an_independent_leave_one_run_out_refit(air):
@@ -79,15 +79,16 @@ def test_real_rows_that_fit_better_than_the_train_rows_are_no_gap():
     df = air_lag_problem()
     train = df["run"] == "r0"
     df.loc[train, "error_um"] += np.random.default_rng(0).normal(scale=6.0, size=int(train.sum()))
-    report = diagnose(df, candidates=CANDIDATES, **ARGS)
+    report = diagnose(df, GapQuestion(candidates=CANDIDATES, **ARGS))
     assert report.gap.real_rmse < report.gap.train_rmse
     assert not report.gap_detected and report.verdict.column is None
     assert "no gap" in report.summary
 
 
 def test_a_model_used_outside_its_data_is_said_first_and_no_candidate_is_named():
-    report = diagnose(extrapolation_problem(), target="error_um", train="run == 'r0'", features=["x_C"],
-                      candidates=["air_C", "nut_C"], order="time_min", group="run")
+    question = GapQuestion(target="error_um", train="run == 'r0'", features=["x_C"], candidates=["air_C", "nut_C"],
+                           order="time_min", group="run")
+    report = diagnose(extrapolation_problem(), question)
     assert report.verdict.column is None
     second = report.summary.split(". ", 1)[1]
     assert second.startswith("The model is used outside its data (x_C")
@@ -99,8 +100,8 @@ def test_a_model_used_outside_its_data_is_said_first_and_no_candidate_is_named()
 def test_a_continuous_record_is_cut_into_contiguous_blocks_no_shorter_than_the_decorrelation_length():
     df = pd.concat([air_lag_problem(seed=5)] * 1, ignore_index=True)
     df["time_min"] = np.arange(len(df), dtype=float)  # one record, no runs
-    report = diagnose(df, target="error_um", train="time_min < 240", features=["spindle_C"],
-                      candidates=CANDIDATES, order="time_min")
+    report = diagnose(df, GapQuestion(target="error_um", train="time_min < 240", features=["spindle_C"],
+                                      candidates=CANDIDATES, order="time_min"))
     blocks = report.blocks
     assert blocks["kind"] == "blocks" and blocks["n"] >= MIN_BLOCKS
     assert not blocks["shorter_than_decorrelation"] and blocks["rows_per_block"] >= blocks["decorrelation_rows"]
@@ -111,8 +112,8 @@ def test_a_continuous_record_is_cut_into_contiguous_blocks_no_shorter_than_the_d
 def test_a_record_too_short_for_five_blocks_says_so_and_stays_schema_valid():
     df = null_problem().iloc[:300].copy()  # one train run and 60 real rows of a slow drift
     df["error_um"] += np.linspace(0, 20, len(df)) ** 2 / 20
-    report = diagnose(df, target="error_um", train="run == 'r0'", features=["spindle_C"], candidates=CANDIDATES,
-                      order="time_min", group="run")
+    report = diagnose(df, GapQuestion(target="error_um", train="run == 'r0'", features=["spindle_C"],
+                                      candidates=CANDIDATES, order="time_min", group="run"))
     assert report.blocks["n"] == MIN_BLOCKS and report.blocks["shorter_than_decorrelation"]
     assert "blocks shorter than the error's correlation" in report.summary
     assert "too short for 5 blocks" in report.verdict.reason
@@ -122,13 +123,13 @@ def test_a_record_too_short_for_five_blocks_says_so_and_stays_schema_valid():
 @pytest.mark.parametrize("train, message", [("run == run", "every row"), ("run == 'none'", "no row")])
 def test_groups_that_are_all_train_or_all_real_are_a_clear_error(train, message):
     with pytest.raises(ProblemError, match=message):
-        diagnose(air_lag_problem(), candidates=CANDIDATES, **ARGS | {"train": train})
+        diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS | {"train": train}))
 
 
 def test_groups_of_one_row_are_dropped_and_counted():
     df = air_lag_problem()
     df.loc[df.index[-5:], "run"] = [f"single{i}" for i in range(5)]
-    report = diagnose(df, candidates=CANDIDATES, **ARGS)
+    report = diagnose(df, GapQuestion(candidates=CANDIDATES, **ARGS))
     assert report.n_dropped_short_groups == 5 and report.transfer["units"] == 3
     report.to_dict()
 

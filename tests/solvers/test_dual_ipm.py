@@ -8,7 +8,7 @@ from sklearn.svm import SVR
 from support.problems import SVR_CASES, SVRCase, thermal_two_sensors
 
 from svrqp import datasets
-from svrqp.bench import harness as bench
+from svrqp.bench import cases as bench
 from svrqp.exceptions import ProblemError
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr import dual_objective

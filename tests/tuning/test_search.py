@@ -6,6 +6,8 @@ built so that one grid point is clearly best.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -16,6 +18,8 @@ from sklearn.svm import SVR
 from svrqp import LSSVR, EpsilonSVR
 from svrqp.exceptions import ProblemError
 from svrqp.tuning import (
+    Execution,
+    Genetic,
     SearchResult,
     ga_search,
     grid_search,
@@ -25,6 +29,8 @@ from svrqp.tuning import (
 
 #: Shuffled 5-fold CV: the sine set's folds must interpolate, not extrapolate.
 SHUFFLED_5_FOLD = KFold(5, shuffle=True, random_state=0)
+#: Those folds, every fit in this process.
+SERIAL = Execution(cv=SHUFFLED_5_FOLD, backend="sequential")
 
 
 @pytest.fixture
@@ -53,7 +59,7 @@ def _with_reference(ours: SearchResult, search: GridSearchCV, keys: list[str]) -
 
 def test_grid_search_picks_the_clearly_best_point(sine_wave):
     X, y = sine_wave
-    result = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="sequential")
+    result = grid_search(X, y, **SINE_GRID, execution=SERIAL)
     assert result.best_params == {"C": 100.0, "epsilon": 0.01, "gamma": 10.0}
     assert result.best_mse < 0.01 < result.table["mse"].iloc[1]
     assert len(result.table) == 12 and result.n_fits == 60
@@ -62,8 +68,7 @@ def test_grid_search_picks_the_clearly_best_point(sine_wave):
 
 def test_lssvr_grid_search_picks_the_clearly_best_point(sine_wave):
     X, y = sine_wave
-    result = grid_search(X, y, C=SINE_GRID["C"], gamma=SINE_GRID["gamma"], model="lssvr",
-                         cv=SHUFFLED_5_FOLD, backend="sequential")
+    result = grid_search(X, y, C=SINE_GRID["C"], gamma=SINE_GRID["gamma"], model="lssvr", execution=SERIAL)
     assert result.best_params == {"C": 100.0, "gamma": 10.0}
     assert list(result.table.columns[:2]) == ["C", "gamma"]
 
@@ -72,7 +77,7 @@ def test_grid_search_cv_works_on_epsilon_svr_and_equals_shared_gram_search():
     case = thermal_two_sensors()
     grid = {"C": [1.0, 100.0], "epsilon": [0.05, 0.2], "gamma": [0.1, 2.0]}
     reference = GridSearchCV(EpsilonSVR(), grid, cv=5, scoring="neg_mean_squared_error").fit(case.X, case.y)
-    ours = grid_search(case.X, case.y, **grid, cv=5, backend="sequential")
+    ours = grid_search(case.X, case.y, **grid, execution=Execution(cv=5, backend="sequential"))
     merged = _with_reference(ours, reference, ["C", "epsilon", "gamma"])
     np.testing.assert_allclose(merged["mse"], merged["reference_mse"], rtol=1e-9)
     assert ours.best_params == reference.best_params_
@@ -82,7 +87,7 @@ def test_grid_search_cv_works_on_lssvr_and_equals_shared_gram_search():
     case = thermal_two_sensors()
     grid = {"C": [0.5, 50.0], "gamma": [0.1, 2.0]}
     reference = GridSearchCV(LSSVR(), grid, cv=5, scoring="neg_mean_squared_error").fit(case.X, case.y)
-    ours = grid_search(case.X, case.y, **grid, model="lssvr", cv=5, backend="sequential")
+    ours = grid_search(case.X, case.y, **grid, model="lssvr", execution=Execution(cv=5, backend="sequential"))
     merged = _with_reference(ours, reference, ["C", "gamma"])
     np.testing.assert_allclose(merged["mse"], merged["reference_mse"], rtol=1e-9)
 
@@ -90,8 +95,9 @@ def test_grid_search_cv_works_on_lssvr_and_equals_shared_gram_search():
 def test_warm_start_along_c_does_not_change_the_scores():
     case = thermal_two_sensors()
     grid = {"C": [1.0, 10.0, 100.0], "epsilon": [0.2], "gamma": [0.5]}
-    cold = grid_search(case.X, case.y, **grid, solver="osqp", warm_start=False, backend="sequential")
-    warm = grid_search(case.X, case.y, **grid, solver="osqp", warm_start=True, backend="sequential")
+    osqp = Execution(solver="osqp", backend="sequential")
+    cold = grid_search(case.X, case.y, **grid, warm_start=False, execution=osqp)
+    warm = grid_search(case.X, case.y, **grid, warm_start=True, execution=osqp)
     np.testing.assert_allclose(warm.table["mse"], cold.table["mse"], rtol=1e-6)
 
 
@@ -104,7 +110,7 @@ def test_dual_ipm_grid_search_matches_libsvm_grid_search_cv():
     case = thermal_two_sensors()
     grid = {"C": [10.0, 100.0], "epsilon": [0.05, 0.2], "gamma": [0.1, 2.0]}
     reference = GridSearchCV(SVR(tol=1e-8), grid, cv=5, scoring="neg_mean_squared_error").fit(case.X, case.y)
-    ours = grid_search(case.X, case.y, **grid, cv=5, solver="dual_ipm", backend="sequential")
+    ours = grid_search(case.X, case.y, **grid, execution=Execution(cv=5, solver="dual_ipm", backend="sequential"))
     merged = _with_reference(ours, reference, ["C", "epsilon", "gamma"])
     delta = 1e-5 * case.y.std()
     bound = 2 * delta * np.sqrt(merged["reference_mse"]) + delta**2
@@ -117,14 +123,15 @@ def test_dual_ipm_warm_start_along_c_gives_the_cold_scores():
     and Σβ ≠ 0, which the crossover alone accepts; the warm start must reject it (cold = warm)."""
     case = diabetes()
     grid = {"C": [0.1, 1.0, 10.0], "epsilon": [0.05, 0.2], "gamma": [0.1]}
-    warm = grid_search(case.X, case.y, **grid, solver="dual_ipm", warm_start=True, backend="sequential")
-    cold = grid_search(case.X, case.y, **grid, solver="dual_ipm", warm_start=False, backend="sequential")
+    dual_ipm = Execution(solver="dual_ipm", backend="sequential")
+    warm = grid_search(case.X, case.y, **grid, warm_start=True, execution=dual_ipm)
+    cold = grid_search(case.X, case.y, **grid, warm_start=False, execution=dual_ipm)
     np.testing.assert_allclose(warm.table["mse"], cold.table["mse"], rtol=1e-9)
 
 
 def test_best_estimator_refits_with_the_best_parameters(sine_wave):
     X, y = sine_wave
-    result = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="sequential")
+    result = grid_search(X, y, **SINE_GRID, execution=SERIAL)
     model = result.best_estimator().fit(X, y)
     assert isinstance(model, EpsilonSVR)
     assert (model.C, model.epsilon, model.gamma) == (100.0, 0.01, 10.0)
@@ -133,10 +140,9 @@ def test_best_estimator_refits_with_the_best_parameters(sine_wave):
 
 def test_ga_with_a_fixed_seed_reproduces_its_search(sine_wave):
     X, y = sine_wave
-    settings = dict(population=8, generations=3, cv=SHUFFLED_5_FOLD, backend="sequential")
-    first = ga_search(X, y, seed=11, **settings)
-    again = ga_search(X, y, seed=11, **settings)
-    other = ga_search(X, y, seed=12, **settings)
+    first = ga_search(X, y, genetic=Genetic(population=8, generations=3, seed=11), execution=SERIAL)
+    again = ga_search(X, y, genetic=Genetic(population=8, generations=3, seed=11), execution=SERIAL)
+    other = ga_search(X, y, genetic=Genetic(population=8, generations=3, seed=12), execution=SERIAL)
     assert first.best_params == again.best_params
     pd.testing.assert_frame_equal(first.table, again.table)
     np.testing.assert_array_equal(first.convergence_mse, again.convergence_mse)
@@ -145,9 +151,8 @@ def test_ga_with_a_fixed_seed_reproduces_its_search(sine_wave):
 
 def test_ga_convergence_curve_and_search_space(sine_wave):
     X, y = sine_wave
-    ranges = {"C_range": (1.0, 1e3), "epsilon_range": (1e-3, 0.1), "gamma_range": (0.1, 100.0)}
-    result = ga_search(X, y, population=8, generations=4, seed=11, cv=SHUFFLED_5_FOLD, backend="sequential",
-                       **ranges)
+    ranges = {"C_range": (1.0, 1e3), "epsilon_range": (1e-3, 0.1), "gamma": (0.1, 100.0)}
+    result = ga_search(X, y, **ranges, genetic=Genetic(population=8, generations=4, seed=11), execution=SERIAL)
     curve = result.convergence_mse
     assert curve.shape == (5,)  # the initial population, then one entry per generation
     assert np.all(np.diff(curve) <= 0)  # one elite is kept: the best never gets worse
@@ -155,14 +160,14 @@ def test_ga_convergence_curve_and_search_space(sine_wave):
     for name, (low, high) in zip(("C", "epsilon", "gamma"), ranges.values()):
         assert result.table[name].between(low, high).all()
     # S1's un-tuned baseline (C=1, ε=0.5) must lose to the GA's choice.
-    baseline = grid_search(X, y, C=[1.0], epsilon=[0.5], gamma=[10.0], cv=SHUFFLED_5_FOLD, backend="sequential")
+    baseline = grid_search(X, y, C=[1.0], epsilon=[0.5], gamma=[10.0], execution=SERIAL)
     assert result.best_mse < baseline.best_mse
 
 
 def test_lssvr_ga_searches_c_and_gamma_only(sine_wave):
     X, y = sine_wave
-    result = ga_search(X, y, model="lssvr", population=6, generations=2, seed=1, cv=SHUFFLED_5_FOLD,
-                       backend="sequential", gamma_range=(0.1, 100.0))
+    result = ga_search(X, y, model="lssvr", gamma=(0.1, 100.0), genetic=Genetic(population=6, generations=2, seed=1),
+                       execution=SERIAL)
     assert set(result.best_params) == {"C", "gamma"}
     assert result.table["gamma"].nunique() > 1
     assert isinstance(result.best_estimator(), LSSVR)
@@ -170,7 +175,7 @@ def test_lssvr_ga_searches_c_and_gamma_only(sine_wave):
 
 def test_ga_tunes_c_and_epsilon_only_by_default_as_s1(sine_wave):
     X, y = sine_wave
-    result = ga_search(X, y, population=6, generations=2, seed=3, cv=SHUFFLED_5_FOLD, backend="sequential")
+    result = ga_search(X, y, genetic=Genetic(population=6, generations=2, seed=3), execution=SERIAL)
     assert result.table["C"].nunique() > 1 and result.table["epsilon"].nunique() > 1
     # γ stays at scikit-learn's "scale", computed here independently by scikit-learn itself.
     from sklearn.svm import SVR
@@ -179,27 +184,28 @@ def test_ga_tunes_c_and_epsilon_only_by_default_as_s1(sine_wave):
     assert result.table["gamma"].nunique() == 1
     assert result.table["gamma"].iloc[0] == pytest.approx(reference_gamma, rel=1e-12)
     assert result.best_params["gamma"] == pytest.approx(reference_gamma, rel=1e-12)
-    fixed = ga_search(X, y, gamma=10.0, population=6, generations=2, seed=3, cv=SHUFFLED_5_FOLD,
-                      backend="sequential")
+    fixed = ga_search(X, y, gamma=10.0, genetic=Genetic(population=6, generations=2, seed=3), execution=SERIAL)
     assert set(fixed.table["gamma"]) == {10.0}
-    with pytest.raises(ProblemError, match="gamma must be a positive number or 'scale'"):
-        ga_search(X, y, gamma=-1.0, population=4, generations=1)
-    with pytest.raises(ProblemError, match="gamma must be a positive number or 'scale'"):
-        ga_search(X, y, gamma="auto", population=4, generations=1)
+    for bad in (-1.0, "auto", None):
+        with pytest.raises(ProblemError, match="gamma must be a positive number, 'scale' or a"):
+            ga_search(X, y, gamma=bad, genetic=Genetic(population=4, generations=1))
 
 
 def test_dask_local_cluster_gives_the_serial_results(sine_wave):
     distributed = pytest.importorskip("distributed")
     X, y = sine_wave
-    serial_grid = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="sequential")
-    serial_ga = ga_search(X, y, population=6, generations=2, seed=5, cv=3, backend="sequential")
+    serial_grid = grid_search(X, y, **SINE_GRID, execution=SERIAL)
+    ga_settings = Genetic(population=6, generations=2, seed=5)
+    serial_ga = ga_search(X, y, genetic=ga_settings, execution=Execution(cv=3, backend="sequential"))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         reported = []
-        on_dask = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="dask",
-                              scheduler=cluster.scheduler_address, progress=lambda done, total: reported.append((done, total)))
+        on_dask = grid_search(X, y, **SINE_GRID, execution=Execution(
+            cv=SHUFFLED_5_FOLD, backend="dask", scheduler=cluster.scheduler_address,
+            progress=lambda done, total: reported.append((done, total))))
         with distributed.Client(cluster) as client:
-            ga_on_dask = ga_search(X, y, population=6, generations=2, seed=5, cv=3, backend="dask", scheduler=client)
+            on_client = Execution(cv=3, backend="dask", scheduler=client)
+            ga_on_dask = ga_search(X, y, genetic=ga_settings, execution=on_client)
     pd.testing.assert_frame_equal(on_dask.table, serial_grid.table)
     pd.testing.assert_frame_equal(ga_on_dask.table, serial_ga.table)
     assert reported[-1] == (30, 30)  # 6 (γ, ε) chains × 5 folds
@@ -207,8 +213,9 @@ def test_dask_local_cluster_gives_the_serial_results(sine_wave):
 
 def test_plots_label_their_axes_with_units(sine_wave, tmp_path):
     X, y = sine_wave
-    grid = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, backend="sequential")
-    ga = ga_search(X, y, population=4, generations=2, seed=0, cv=3, backend="sequential")
+    grid = grid_search(X, y, **SINE_GRID, execution=SERIAL)
+    ga = ga_search(X, y, genetic=Genetic(population=4, generations=2, seed=0),
+                   execution=Execution(cv=3, backend="sequential"))
     for figure in (plot_grid_scores(grid, "μm"), plot_convergence(ga, "μm")):
         axes = figure.axes[0]
         assert "μm²" in axes.get_ylabel() and axes.get_xlabel()
@@ -237,8 +244,9 @@ def test_plots_label_their_axes_with_units(sine_wave, tmp_path):
 )
 def test_grid_search_rejects_bad_ranges(sine_wave, arguments, message):
     X, y = sine_wave
+    searched, run = _split(arguments, Execution)
     with pytest.raises(ProblemError, match=message):
-        grid_search(X, y, **arguments)
+        grid_search(X, y, **searched, execution=Execution(**run))
 
 
 @pytest.mark.parametrize(
@@ -246,16 +254,27 @@ def test_grid_search_rejects_bad_ranges(sine_wave, arguments, message):
     [
         ({"C_range": (0.0, 10.0)}, "C range must satisfy 0 < low < high"),
         ({"C_range": (10.0, 1.0)}, "C range must satisfy 0 < low < high"),
-        ({"gamma_range": (1.0,)}, r"gamma range must be \(low, high\)"),
+        ({"gamma": (1.0,)}, r"gamma range must be \(low, high\)"),
+        ({"gamma": (1.0, 10.0, 100.0)}, r"gamma range must be \(low, high\)"),
         ({"epsilon_range": (0.0, 1.0)}, "epsilon range must satisfy"),
         ({"population": 1}, "population >= 2"),
+        ({"generations": 0}, "generations >= 1"),
         ({"mutation_probability": 1.5}, "mutation_probability must be in"),
+        ({"crossover_probability": -0.1}, "crossover_probability must be in"),
     ],
 )
 def test_ga_search_rejects_bad_ranges(sine_wave, arguments, message):
     X, y = sine_wave
+    searched, genetic = _split(arguments, Genetic)
     with pytest.raises(ProblemError, match=message):
-        ga_search(X, y, **arguments)
+        ga_search(X, y, **searched, genetic=Genetic(**genetic))
+
+
+def _split(arguments: dict, settings: type) -> tuple[dict, dict]:
+    """``arguments`` split into the searched keywords and the fields of the dataclass ``settings``."""
+    names = {field.name for field in dataclasses.fields(settings)}
+    return ({key: value for key, value in arguments.items() if key not in names},
+            {key: value for key, value in arguments.items() if key in names})
 
 
 def test_failed_fits_are_recorded_not_hidden(sine_wave, monkeypatch):
@@ -272,12 +291,13 @@ def test_failed_fits_are_recorded_not_hidden(sine_wave, monkeypatch):
 
     monkeypatch.setattr(solve_module, "solve_qp", failing_at_large_c)
     X, y = sine_wave
-    result = grid_search(X, y, **SINE_GRID, cv=SHUFFLED_5_FOLD, solver="clarabel", backend="sequential")
+    clarabel = Execution(cv=SHUFFLED_5_FOLD, solver="clarabel", backend="sequential")
+    result = grid_search(X, y, **SINE_GRID, execution=clarabel)
     failed = result.table[result.table["C"] == 100.0]
     assert np.isinf(failed["mse"]).all() and (failed["failed_folds"] == 5).all()
     assert result.best_params["C"] == 0.01
     with pytest.raises(SolverError, match="every candidate"):
-        grid_search(X, y, C=[100.0], gamma=[10.0], cv=SHUFFLED_5_FOLD, solver="clarabel", backend="sequential")
+        grid_search(X, y, C=[100.0], gamma=[10.0], execution=clarabel)
 
 
 @pytest.fixture
