@@ -18,6 +18,10 @@ from numpy.typing import NDArray
 from svrqp.exceptions import SolverError
 from svrqp.problems import QuadraticProgram
 
+#: Allowed slack between the requested ``tol`` and the relative certificates, because each
+#: backend measures its own stopping criterion in its own (scaled) norm.
+DEFAULT_CHECK_FACTOR = 100.0
+
 #: One vocabulary of statuses; every backend's outcome is mapped into it.
 STATUSES = ("optimal", "infeasible", "max_iter", "time_limit", "failed")
 
@@ -121,6 +125,11 @@ class Solution:
                    residuals={"primal": residual["residual"], "primal_rel": residual["residual_rel"]},
                    **vars(record))
 
+
+
+def check_limit(tol: float, check_tol: float | None) -> float:
+    """The largest relative certificate accepted: ``check_tol``, or ``DEFAULT_CHECK_FACTOR·tol`` when it is None."""
+    return DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
 
 
 def require_certificates(solution: Solution, problem: QuadraticProgram, check_tol: float) -> None:

@@ -96,7 +96,7 @@ from svrqp.formulations.epsilon_svr_certificate import (
     states,
 )
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Solution, SolverRecord, require_certificates
+from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
 
 Formulation = Literal["stacked", "split", "primal"]
 FORMULATIONS: tuple[str, ...] = ("stacked", "split", "primal")
@@ -401,11 +401,12 @@ class DualProblem:
 
 @dataclass(frozen=True)
 class DualSettings:
-    """How a dual is solved and certified (:func:`solve_dual`, :func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm`)."""
+    """How a dual is solved and certified (:func:`solve_dual`,
+    :func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm`, :func:`svrqp.solvers.auto.solve_auto`)."""
 
     formulation: str = "split"  #: the QP statement solved and certified on ("split" or "stacked")
     tol: float = 1e-8  #: requested accuracy
-    check_tol: float | None = None  #: largest relative certificate accepted (None: DEFAULT_CHECK_FACTOR·tol)
+    check_tol: float | None = None  #: largest relative certificate accepted (None: 100·tol, see check_limit)
 
 
 def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float, record: SolverRecord,
@@ -455,14 +456,11 @@ def solve_dual(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     :class:`~svrqp.exceptions.SolverError` names the backend. ``initvals`` is a solution of that
     QP (e.g. a previous ``DualFit.solution.x``).
     """
-    from svrqp.solvers.qp_backends import (  # the solver layer sits above the formulations
-        DEFAULT_CHECK_FACTOR,
-        solve_qp,
-    )
+    from svrqp.solvers.qp_backends import solve_qp  # the solver layer sits above the formulations
 
     check_parameters(y, C, epsilon)
     tol, formulation = settings.tol, settings.formulation
-    check_tol = DEFAULT_CHECK_FACTOR * tol if settings.check_tol is None else float(settings.check_tol)
+    check_tol = check_limit(tol, settings.check_tol)
     dual = DualProblem.of(formulation, K, y, C, epsilon)
     m, a, u = scaling = DualScaling.of(y, dual.C)
     K_scaled, y_scaled, C_scaled, epsilon_scaled = ((K if u == a else (u / a) * K), (y - m) / a, dual.C / u,

@@ -31,7 +31,7 @@ from svrqp.formulations.epsilon_svr import DualFit, DualSettings
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
 from svrqp.kernels import gram
-from svrqp.solution import Solution, SolverRecord, require_certificates
+from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
 from svrqp.solvers import dual_ipm
 from svrqp.solvers.dual_ipm.exact import ExactSettings
 from svrqp.solvers.warm_start import solve_warm_started
@@ -104,11 +104,9 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
         When a certificate of the stated QP or of the returned model exceeds ``check_tol``
         (an answer whose crossover did not settle is judged by its certificates like any other).
     """
-    from svrqp.solvers.qp_backends import DEFAULT_CHECK_FACTOR
-
     settings = DualSettings() if settings is None else settings
     tol = settings.tol
-    check_tol = DEFAULT_CHECK_FACTOR * tol if settings.check_tol is None else float(settings.check_tol)
+    check_tol = check_limit(tol, settings.check_tol)
     C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
     start = time.perf_counter()
     beta, b, Kbeta, path_settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)

@@ -34,11 +34,7 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Point, Solution, SolverRecord, require_certificates
-
-#: Allowed slack between the requested ``tol`` and the relative certificates, because each
-#: backend measures its own stopping criterion in its own (scaled) norm.
-DEFAULT_CHECK_FACTOR = 100.0
+from svrqp.solution import Point, Solution, SolverRecord, check_limit, require_certificates
 
 #: Tiny diagonal added for backends that need a positive definite P (Goldfarb–Idnani in
 #: quadprog): relative to max |P_ii|. Its effect on the objective is reported in ``settings``.
@@ -355,7 +351,7 @@ def solve_qp(
         Requested accuracy, mapped onto the backend's own tolerances.
     check_tol
         Largest relative primal residual, dual residual and duality gap accepted; defaults to
-        ``DEFAULT_CHECK_FACTOR * tol``.
+        :data:`~svrqp.solution.DEFAULT_CHECK_FACTOR` ``* tol`` (:func:`~svrqp.solution.check_limit`).
     initvals
         Warm start for backends that accept one.
     options
@@ -372,7 +368,7 @@ def solve_qp(
     """
     if not np.isfinite(tol) or tol <= 0:
         raise ProblemError(f"tol must be a positive number, got {tol!r}")
-    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
+    check_tol = check_limit(tol, check_tol)
     spec = require_backend(backend)
     twice = sorted(set(options or {}) & set(settings))
     if twice:

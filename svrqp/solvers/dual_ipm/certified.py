@@ -22,13 +22,12 @@ from svrqp.formulations.epsilon_svr import (
     DualSettings,
     certified_dual_fit,
 )
-from svrqp.solution import SolverRecord
+from svrqp.solution import SolverRecord, check_limit
 from svrqp.solvers.dual_ipm.exact import (
     ExactSettings,
     solve_exact,
     solve_exact_from_data,
 )
-from svrqp.solvers.qp_backends import DEFAULT_CHECK_FACTOR
 
 #: The backend name of a ``dual_ipm`` solution (``EpsilonSVR(solver=DUAL_IPM)``).
 DUAL_IPM = "dual_ipm"
@@ -58,7 +57,7 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
         raise ProblemError(f"solver={DUAL_IPM!r} solves a kernel dual: formulation must be one of "
                            f"{DUAL_FORMULATIONS}, got {settings.formulation!r}")
     tol = settings.tol
-    check_tol = DEFAULT_CHECK_FACTOR * tol if settings.check_tol is None else float(settings.check_tol)
+    check_tol = check_limit(tol, settings.check_tol)
     start = time.perf_counter()
     dual = DualProblem.of(settings.formulation, K, y, C, epsilon)  # a float C: an int would overflow int8 states
     build_time = time.perf_counter() - start

@@ -244,7 +244,8 @@ def _predictor_corrector(newton: _NewtonSystem) -> tuple[_Direction, float]:
     r"""Mehrotra's step: the affine direction sets the centring :math:`\sigma\mu`, the corrector
     adds it and the second-order term; returns the direction and its damped length."""
     point = newton.point
-    s, w_s, a, w_a, z_s, u_s, z_a, u_a = point.s, point.w_s, point.a, point.w_a, point.z_s, point.u_s, point.z_a, point.u_a
+    s, w_s, a, w_a = point.s, point.w_s, point.a, point.w_a
+    z_s, u_s, z_a, u_a = point.z_s, point.u_s, point.z_a, point.u_a
     affine = newton.direction(-s * z_s, -w_s * u_s, -a * z_a, -w_a * u_a)
     alpha = _step_length(point, affine)
     ds, da, _, dz_s, du_s, dz_a, du_a = affine
