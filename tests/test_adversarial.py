@@ -24,7 +24,7 @@ from svrqp.estimators import kernel as estimators
 from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.kernels import gram
-from svrqp.solvers import available_backends
+from svrqp.solvers import available_backends, dual_qp
 from svrqp.tuning import Execution, grid_search
 
 SOLVERS = ["auto", "dual_ipm", *available_backends()]
@@ -165,7 +165,7 @@ def test_failed_backend_falls_back_to_the_exact_path_and_says_so(monkeypatch):
     def failing(*args, **kwargs):
         raise SolverError("backend 'clarabel' stalled", "clarabel", "max_iter")
 
-    monkeypatch.setattr(epsilon_svr, "solve_dual", failing)
+    monkeypatch.setattr(dual_qp, "solve_dual", failing)
     model = EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="clarabel").fit(X, y)
     assert model.solver_ == "dual_ipm" and "stalled" in model.fallback_reason_
     reference = SVR(C=10.0, epsilon=0.05, gamma=1.0, tol=1e-8).fit(X, y)

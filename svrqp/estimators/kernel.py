@@ -28,13 +28,13 @@ from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
 from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate, ls_svr
-from svrqp.formulations.epsilon_svr import DualSettings
 from svrqp.kernels import gram
 from svrqp.problems import check_psd
 from svrqp.solution import Solution, require_certificates
-from svrqp.solvers import dual_ipm
+from svrqp.solvers import dual_ipm, dual_qp
 from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
 from svrqp.solvers.dual_ipm.certified import DUAL_FORMULATIONS, DUAL_IPM, solve_dual_ipm
+from svrqp.solvers.dual_qp import DualSettings
 from svrqp.solvers.linear import solve_linear_system
 from svrqp.solvers.qp_backends import BACKENDS, solve_qp
 from svrqp.table_checks import check_magnitude, check_numeric_array
@@ -273,7 +273,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
                                    f"{DUAL_FORMULATIONS}, got 'primal'")
             return self._solve_primal(X, y, PRIMAL_AUTO_BACKEND if solver == AUTO else solver)
         else:
-            fit = epsilon_svr.solve_dual(self._training_gram(X), y, self.C, self.epsilon, solver, settings)
+            fit = dual_qp.solve_dual(self._training_gram(X), y, self.C, self.epsilon, solver, settings)
         _, _, self.problem_, self.solution_, self.polished_ = fit
         return fit.beta, fit.intercept
 

@@ -27,13 +27,13 @@ from numpy.typing import NDArray
 
 from svrqp._version import __version__
 from svrqp.exceptions import SolverError, SvrqpError
-from svrqp.formulations.epsilon_svr import DualFit, DualSettings
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
 from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
 from svrqp.solvers import dual_ipm
 from svrqp.solvers.dual_ipm.exact import ExactSettings
+from svrqp.solvers.dual_qp import DualFit, DualSettings
 from svrqp.solvers.warm_start import solve_warm_started
 
 #: ``EpsilonSVR(solver=AUTO)``: choose the path (module docstring).
@@ -80,7 +80,7 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
                settings: DualSettings | None = None) -> DualFit:
     """Run one exact path and certify its answer.
 
-    Returns the :class:`~svrqp.formulations.epsilon_svr.DualFit` of every dual fit, without the
+    Returns the :class:`~svrqp.solvers.dual_qp.DualFit` of every dual fit, without the
     QP (``problem`` is ``None``: it is never formed); ``polished`` says whether the crossover
     reached the exact optimum.
 

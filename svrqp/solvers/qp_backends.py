@@ -34,7 +34,13 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Point, Solution, SolverRecord, check_limit, require_certificates
+from svrqp.solution import (
+    Point,
+    Solution,
+    SolverRecord,
+    check_limit,
+    require_certificates,
+)
 
 #: Tiny diagonal added for backends that need a positive definite P (Goldfarb–Idnani in
 #: quadprog): relative to max |P_ii|. Its effect on the objective is reported in ``settings``.

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from svrqp.estimators.kernel import DUAL_IPM
 from svrqp.exceptions import SolverError
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
-from svrqp.solvers import dual_ipm
+from svrqp.solvers import dual_ipm, dual_qp
 
 #: Backends whose qpsolvers adapter uses ``initvals`` (first-order and augmented-Lagrangian
 #: methods); interior-point backends ignore a warm start, so it is not passed to them.
@@ -53,8 +53,8 @@ def fit_epsilon_svr(
     if solver == DUAL_IPM:
         beta, b = _exact_dual_along_c(K, y, float(C), float(epsilon), tol, previous)
         return beta, b, (beta, float(C))
-    beta, b, _, solution, _ = epsilon_svr.solve_dual(K, y, C, epsilon, solver, epsilon_svr.DualSettings(tol=tol),
-                                                     initvals=previous)
+    beta, b, _, solution, _ = dual_qp.solve_dual(K, y, C, epsilon, solver, dual_qp.DualSettings(tol=tol),
+                                                 initvals=previous)
     beta = np.where(epsilon_svr.support_mask(beta, C), beta, 0.0)
     return beta, b, solution.x
 

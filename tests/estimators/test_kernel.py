@@ -19,10 +19,10 @@ from support.epsilon_svr_reference import (
 from support.problems import SVR_CASES, thermal_two_sensors
 
 from svrqp import LSSVR, EpsilonSVR, ProblemError, SolverError, SvrqpError
-from svrqp.formulations.epsilon_svr import DualSettings
 from svrqp.formulations.epsilon_svr_certificate import dual_qp_point, multipliers
 from svrqp.kernels import gram
 from svrqp.solvers.dual_ipm.certified import solve_dual_ipm
+from svrqp.solvers.dual_qp import DualSettings
 
 X_OK = np.linspace(0.0, 1.0, 20)[:, None]
 Y_OK = np.sin(6.0 * X_OK[:, 0])

@@ -2,8 +2,8 @@
 
 :func:`solve_dual_ipm` is what ``EpsilonSVR(solver="dual_ipm")`` runs: the interior point and
 the crossover find :math:`(\\beta, b)`, and the same rounding and certificate as a QP backend's
-answer (:func:`svrqp.formulations.epsilon_svr.certified_dual_fit`) turn it into a
-:class:`~svrqp.formulations.epsilon_svr.DualFit` on the split or stacked QP.
+answer (:func:`svrqp.solvers.dual_qp.certified_dual_fit`) turn it into a
+:class:`~svrqp.solvers.dual_qp.DualFit` on the split or stacked QP.
 """
 
 from __future__ import annotations
@@ -16,18 +16,13 @@ from numpy.typing import NDArray
 
 from svrqp._version import __version__
 from svrqp.exceptions import ProblemError
-from svrqp.formulations.epsilon_svr import (
-    DualFit,
-    DualProblem,
-    DualSettings,
-    certified_dual_fit,
-)
 from svrqp.solution import SolverRecord, check_limit
 from svrqp.solvers.dual_ipm.exact import (
     ExactSettings,
     solve_exact,
     solve_exact_from_data,
 )
+from svrqp.solvers.dual_qp import DualFit, DualProblem, DualSettings, certified_dual_fit
 
 #: The backend name of a ``dual_ipm`` solution (``EpsilonSVR(solver=DUAL_IPM)``).
 DUAL_IPM = "dual_ipm"
@@ -46,8 +41,8 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
     temperatures), and ``K`` is used on its dense fallback. Otherwise
     :func:`~svrqp.solvers.dual_ipm.exact.solve_exact` runs on ``K``.
 
-    Returns the same :class:`~svrqp.formulations.epsilon_svr.DualFit` as
-    :func:`~svrqp.formulations.epsilon_svr.solve_dual` (``polished`` says whether the crossover
+    Returns the same :class:`~svrqp.solvers.dual_qp.DualFit` as
+    :func:`~svrqp.solvers.dual_qp.solve_dual` (``polished`` says whether the crossover
     reached the exact optimum), certified the same way on the returned coefficients. Raises
     :class:`~svrqp.exceptions.SolverError` when a relative certificate exceeds
     ``settings.check_tol`` (default ``100·tol``).
