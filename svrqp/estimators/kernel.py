@@ -1,11 +1,12 @@
 """scikit-learn regressors over the explicit formulations: :class:`EpsilonSVR` and :class:`LSSVR`.
 
-The estimators are thin: ``fit`` builds the formulation object (kept as ``problem_``), hands it to
-:func:`svrqp.solvers.solve` (the certificate-checked result is kept as ``solution_``) and reads the
-model off the solution. ``EpsilonSVR(solver="dual_ipm")`` instead solves the dual with
+The estimators are thin: ``fit`` hands the data to one solve path and reads the model off its
+certificate-checked result (kept as ``solution_``, the QP as ``problem_``): the paths of
+:mod:`svrqp.solvers.auto`, :func:`svrqp.solvers.dual_qp.solve_dual` (a stock QP backend),
 :func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm` (the structure-exploiting interior point
-and exact crossover) and certifies its answer on the same QP statement: the multipliers of that
-QP are read off the optimality conditions
+and exact crossover), :func:`svrqp.solvers.qp_backends.solve_qp` on the linear primal, and
+LS-SVR's Cholesky or LU. Every ε-SVR answer is certified on the stated QP: the multipliers of
+that QP are read off the optimality conditions
 (:func:`svrqp.formulations.epsilon_svr_certificate.multipliers`) and its residuals are checked
 like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
 :math:`\\beta_i = \\alpha_i^* - \\alpha_i` of the support vectors and the prediction is
