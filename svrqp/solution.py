@@ -1,8 +1,10 @@
 """The outcome of every solve: a certificate-checked :class:`Solution`.
 
-Every solver path (the qpsolvers backends and cvxpy, the LU of a linear system, the exact
-ε-SVR paths) returns one; :func:`require_certificates` is the one check that a QP solution
-meets its relative primal residual, dual residual and duality gap.
+Every solver path (the qpsolvers backends and cvxpy, the LU and Cholesky solves of a linear
+system, the exact ε-SVR paths) returns one, built by :meth:`Solution.of_qp` or
+:meth:`Solution.of_linear_system` from the point and a :class:`SolverRecord` (who solved it and
+how); :func:`require_certificates` is the one check that a QP solution meets its relative primal
+residual, dual residual and duality gap.
 """
 
 from __future__ import annotations
@@ -16,8 +18,28 @@ from numpy.typing import NDArray
 from svrqp.exceptions import SolverError
 from svrqp.problems import QuadraticProgram
 
+#: Allowed slack between the requested ``tol`` and the relative certificates, because each
+#: backend measures its own stopping criterion in its own (scaled) norm.
+DEFAULT_CHECK_FACTOR = 100.0
+
 #: One vocabulary of statuses; every backend's outcome is mapped into it.
 STATUSES = ("optimal", "infeasible", "max_iter", "time_limit", "failed")
+
+#: A QP point and its multipliers ``(x, y, z, z_box)`` (``None`` where undefined).
+Point = tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None,
+              NDArray[np.float64] | None]
+
+
+@dataclass(frozen=True)
+class SolverRecord:
+    """Who solved a problem and how: the fields of :class:`Solution` that are not the point."""
+
+    backend: str
+    backend_version: str
+    settings: dict[str, Any] = field(default_factory=dict)
+    build_time: float = 0.0
+    solve_time: float = 0.0
+    iterations: int | None = None
 
 
 @dataclass
@@ -75,6 +97,39 @@ class Solution:
         """True when every relative certificate is at most ``eps``."""
         return all(value <= eps for key, value in self.residuals.items() if key.endswith("_rel"))
 
+    @property
+    def record(self) -> SolverRecord:
+        """Who solved it and how (everything but the point, the objective and the certificates)."""
+        return SolverRecord(self.backend, self.backend_version, self.settings, self.build_time, self.solve_time,
+                            self.iterations)
+
+    @classmethod
+    def of_qp(cls, problem: QuadraticProgram, point: Point, record: SolverRecord, *,
+              extra_residuals: dict[str, float] | None = None) -> Solution:
+        """The optimal solution ``point`` of ``problem``: its objective and KKT residuals evaluated
+        on ``problem`` (:meth:`QuadraticProgram.kkt_residuals`), ``extra_residuals`` added.
+
+        Not checked: :func:`require_certificates` is the caller's next step.
+        """
+        residuals = problem.kkt_residuals(*point)
+        residuals.update(extra_residuals or {})
+        x, y, z, z_box = point
+        return cls(x=x, y=y, z=z, z_box=z_box, objective=problem.objective(x), status="optimal",
+                   residuals=residuals, **vars(record))
+
+    @classmethod
+    def of_linear_system(cls, x: NDArray[np.float64], residual: dict[str, float], record: SolverRecord) -> Solution:
+        """The solution ``x`` of a linear system, certified by its residual
+        (``{"residual", "residual_rel"}`` as :meth:`svrqp.problems.LinearSystem.residual` returns)."""
+        return cls(x=x, y=None, z=None, z_box=None, objective=0.0, status="optimal",
+                   residuals={"primal": residual["residual"], "primal_rel": residual["residual_rel"]},
+                   **vars(record))
+
+
+
+def check_limit(tol: float, check_tol: float | None) -> float:
+    """The largest relative certificate accepted: ``check_tol``, or ``DEFAULT_CHECK_FACTOR·tol`` when it is None."""
+    return DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
 
 
 def require_certificates(solution: Solution, problem: QuadraticProgram, check_tol: float) -> None:

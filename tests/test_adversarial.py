@@ -11,20 +11,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from support.benchmark_modules import load_benchmark
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sklearn.kernel_ridge import KernelRidge
 from sklearn.model_selection import KFold
 from sklearn.svm import SVR
+from support.benchmark_modules import load_benchmark
 
 from svrqp import LSSVR, EpsilonSVR, datasets
+from svrqp.estimators import LinearLS, RecursiveLS
 from svrqp.estimators import kernel as estimators
 from svrqp.exceptions import SolverError, SvrqpError
-from svrqp.formulations import epsilon_svr
+from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.kernels import gram
-from svrqp.estimators import LinearLS, RecursiveLS
-from svrqp.solvers import available_backends
+from svrqp.solvers import available_backends, dual_qp
 from svrqp.tuning import Execution, grid_search
 
 SOLVERS = ["auto", "dual_ipm", *available_backends()]
@@ -85,7 +85,7 @@ def test_targets_in_micro_units(solver):
 def test_degree_20_polynomial_kernel(solver, coef0):
     """Entries up to 3^20: either a certified model at least as good as scikit-learn's, or SolverError."""
     X, y = sine_problem()
-    parameters = dict(C=1.0, epsilon=0.05, kernel="poly", degree=20, gamma=1.0, coef0=coef0)
+    parameters = {"C": 1.0, "epsilon": 0.05, "kernel": "poly", "degree": 20, "gamma": 1.0, "coef0": coef0}
     try:
         model = EpsilonSVR(solver=solver, **parameters).fit(X, y)
     except SolverError:
@@ -165,7 +165,7 @@ def test_failed_backend_falls_back_to_the_exact_path_and_says_so(monkeypatch):
     def failing(*args, **kwargs):
         raise SolverError("backend 'clarabel' stalled", "clarabel", "max_iter")
 
-    monkeypatch.setattr(epsilon_svr, "solve_dual", failing)
+    monkeypatch.setattr(dual_qp, "solve_dual", failing)
     model = EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="clarabel").fit(X, y)
     assert model.solver_ == "dual_ipm" and "stalled" in model.fallback_reason_
     reference = SVR(C=10.0, epsilon=0.05, gamma=1.0, tol=1e-8).fit(X, y)
@@ -198,7 +198,7 @@ def test_certificate_sees_a_dropped_support_vector():
     dropped[np.argmin(np.where(beta != 0, np.abs(beta), np.inf))] = 0.0
     for coefficients, passes in ((beta, True), (dropped, False)):
         b = epsilon_svr.intercept_from_kkt(K, y, coefficients, 1e7, 0.05)
-        certificate = epsilon_svr.model_certificate(y, coefficients, K @ coefficients, b, 1e7, 0.05, 1.0)
+        certificate = epsilon_svr_certificate.model_certificate(y, coefficients, K @ coefficients, b, 1e7, 0.05, 1.0)
         assert bool(max(certificate.values()) <= 1e-6) is passes
 
 

@@ -47,7 +47,10 @@ def test_unknown_names_list_the_valid_ones():
 
 def test_tuning_and_gap_use_the_registry_names():
     from svrqp.gap.baseline import MODEL_KINDS
-    from svrqp.tuning.search import MODELS as TUNED
+    from svrqp.tuning.checks import check_model
 
     assert registry.baselines() == MODEL_KINDS and registry.baselines()[0] == registry.DEFAULT_BASELINE
-    assert registry.tunable() == TUNED
+    for name in registry.tunable():
+        check_model(name)
+    with pytest.raises(ProblemError, match="model must be one of"):
+        check_model("mlr")

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp.bench.cases import BenchCase
-from svrqp.formulations import epsilon_svr
+from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.problems import QuadraticProgram
 
 
@@ -90,11 +90,10 @@ def beta_certificates(Kbeta: NDArray[np.float64], b: float, y: NDArray[np.float6
         ``primal_rel``, ``dual_rel`` (zero by construction) and ``gap_rel``, scaled as
         :meth:`QuadraticProgram.kkt_residuals` scales them.
     """
-    alpha, alpha_star = np.maximum(-beta, 0.0), np.maximum(beta, 0.0)
-    x = np.concatenate([alpha, alpha_star])
-    decision = Kbeta + b
-    z = np.concatenate([decision - y - epsilon, y - decision - epsilon])
-    z_plus = np.maximum(z, 0.0)
+    # b enters through the decision values Kβ + b, so r rounds as in the recorded benchmark results
+    point = epsilon_svr_certificate.multipliers(beta, 0.0, Kbeta + b, y, epsilon)
+    x = np.concatenate([point.alpha, point.alpha_star])
+    z_plus = np.maximum(point.z_box, 0.0)
     balance = float(abs(beta.sum()))
     primal = max(balance, float(np.max(np.maximum(x - C, 0.0), initial=0.0)))
     quadratic = float(beta @ Kbeta)  # x^T P x

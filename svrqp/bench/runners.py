@@ -90,7 +90,8 @@ def _run_dual_ipm(case: BenchCase, method: Method, profile: Profile) -> RunOutco
         beta, b, solved = fit.beta, fit.intercept, fit.crossover.exact or fit.ipm.converged
     elif method.formulation == "auto":
         build = 0.0
-        fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, tol=profile.tol, **parameters)
+        fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, parameters,
+                                             settings=dual_ipm.ExactSettings(tol=profile.tol))
         beta, b, solved = fit.beta, fit.intercept, fit.crossover.exact or fit.ipm.converged
     else:  # "low_rank": the factored problem only, an approximation whose error is reported
         factor = pivoted_cholesky(KernelColumns(case.X, **parameters),
@@ -143,8 +144,8 @@ def _run_ls_svr(case: BenchCase, method: Method, profile: Profile) -> RunOutcome
     K = case.gram()
     if method.backend == "cholesky":
         build = time.perf_counter() - start
-        alpha, b, info = ls_svr.solve_cholesky_schur(K, case.y, case.C)
-        residual_rel = info["residual_rel"]
+        alpha, b, solution = ls_svr.solve_cholesky_schur(K, case.y, case.C)
+        residual_rel = solution.residuals["primal_rel"]
     else:
         system = ls_svr.kkt_system(K, case.y, case.C)
         build = time.perf_counter() - start

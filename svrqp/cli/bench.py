@@ -9,7 +9,6 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from svrqp.bench.cases import GENERATORS, PROFILES
 from svrqp.exceptions import ProblemError
-from svrqp.solvers.qp_backends import available_backends
 
 
 def _names(text: str, option: str) -> tuple[str, ...]:
@@ -63,6 +62,8 @@ def bench(
     """Run every backend x formulation on generated SVR problems; write a CSV, a Markdown report and a plot."""
     from svrqp.bench.report import output_paths, write_outputs  # matplotlib: not needed for --help
     from svrqp.bench.run import BenchConfig, run_benchmark  # the solvers: not needed for --help
+
+    from svrqp.solvers.qp_backends import available_backends  # imported when the command runs: `--help` stays quick
 
     chosen_backends = tuple(available_backends()) if backends == "all" else _names(backends, "--backends")
     config = BenchConfig(

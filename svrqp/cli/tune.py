@@ -13,7 +13,6 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
-from sklearn.model_selection import KFold
 
 from svrqp.cli._common import SOLVER_HELP, read_table, split_columns
 from svrqp.exceptions import ProblemError
@@ -126,6 +125,8 @@ def tune(
     force: bool = typer.Option(False, "--force", help="Overwrite existing --plot/--json files."),
 ) -> None:
     """Choose (C, ε, γ) by k-fold cross-validated MSE: a grid (S0, S2) or a genetic algorithm (S1)."""
+    from sklearn.model_selection import KFold  # imported when the command runs: `--help` stays quick
+
     from svrqp.tuning import Execution, plot_convergence, plot_grid_scores  # matplotlib: not for --help
 
     _writable(plot, force)

@@ -13,9 +13,9 @@ made pickles hundreds of times larger than scikit-learn's ``SVR``. What is pickl
 Within the process that fitted it, the model keeps ``problem_`` and ``solution_`` as they were
 built (when the path built them at all). After unpickling — or when the fit's path never formed
 the QP, as ``solver="auto"`` does not — ``problem_`` is rebuilt from the training data, and
-``solution_`` gets its point and multipliers back from :math:`(\\beta, b)` by
-:func:`svrqp.estimators.kernel.dual_qp_point`, its objective and certificates recomputed on that QP (so
-they certify the returned coefficients). A linear-kernel primal fit keeps its solution vectors
+``solution_`` gets its point and multipliers back from :math:`(\\beta, b)`
+(:func:`svrqp.formulations.epsilon_svr_residuals.model_on_qp`), its objective and certificates
+recomputed on that QP (so they certify the returned coefficients). A linear-kernel primal fit keeps its solution vectors
 (``O(n)`` numbers; the multipliers of that QP are not a function of the model alone).
 
 :class:`svrqp.LSSVR` (:class:`CompactSystemMixin`) keeps its solution (:math:`(b, \\alpha)`, ``O(n)``)
@@ -32,10 +32,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.formulations.epsilon_svr_certificate import certificates, kernel_scale
 from svrqp.formulations import epsilon_svr, ls_svr
+from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
 from svrqp.kernels import gram
 from svrqp.problems import LinearSystem, QuadraticProgram
+from svrqp.solution import Solution
 
 #: Attributes held only in memory (dropped from pickles, rebuilt on demand).
 _CACHES = ("_problem", "_solution")
@@ -59,18 +60,18 @@ class CompactFitMixin:
         self._problem = value
 
     @property
-    def solution_(self):
+    def solution_(self) -> Solution:
         """The certificate-checked :class:`svrqp.solution.Solution` (vectors rebuilt when not held)."""
         if self.__dict__.get("_solution") is None:
             self._solution = self._rebuilt_solution()
         return self._solution
 
     @solution_.setter
-    def solution_(self, value) -> None:
+    def solution_(self, value: Solution) -> None:
         self._solution = value
         self._solution_record = value
 
-    def _rebuilt_solution(self):
+    def _rebuilt_solution(self) -> Solution:
         record = self._fit_record()
         if record["formulation"] == "primal":
             return self._solution_record  # pickled with its vectors
@@ -78,11 +79,10 @@ class CompactFitMixin:
         beta = np.zeros(y.size)
         beta[self.support_] = self.dual_coef_[0]
         Kbeta = self._kernel(X, X[self.support_]) @ self.dual_coef_[0]
-        residuals, objective, (x, y_eq, z_box), _ = certificates(  # X is the Gram matrix when precomputed
-            record["formulation"], y, record["C"], record["epsilon"], beta, float(self.intercept_[0]), Kbeta,
-            kernel_scale(X, record["kernel"]))
-        return dataclasses.replace(self._solution_record, x=x, y=y_eq, z=None, z_box=z_box, residuals=residuals,
-                                   objective=objective)
+        # X is the Gram matrix when the kernel is precomputed
+        on_qp = model_on_qp(record["formulation"], y, record["C"], record["epsilon"], beta, float(self.intercept_[0]),
+                            Kbeta, kernel_scale(X, record["kernel"]))
+        return Solution.of_qp(on_qp.qp, on_qp.point, self._solution_record.record, extra_residuals=on_qp.certificate)
 
     def _keep_fit_data(self, X: NDArray[np.float64], y: NDArray[np.float64], formulation: str) -> None:
         """Store what rebuilding ``problem_`` and ``solution_`` needs (call at the end of ``fit``)."""

@@ -1,11 +1,14 @@
 """scikit-learn regressors over the explicit formulations: :class:`EpsilonSVR` and :class:`LSSVR`.
 
-The estimators are thin: ``fit`` builds the formulation object (kept as ``problem_``), hands it to
-:func:`svrqp.solvers.solve` (the certificate-checked result is kept as ``solution_``) and reads the
-model off the solution. ``EpsilonSVR(solver="dual_ipm")`` instead solves the dual with
-:func:`svrqp.solvers.dual_ipm.exact.solve_exact` (the structure-exploiting interior point and exact crossover)
-and certifies its answer on the same QP statement: the multipliers of that QP are read off the
-optimality conditions (:func:`dual_qp_point`) and its residuals are checked like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
+The estimators are thin: ``fit`` hands the data to one solve path and reads the model off its
+certificate-checked result (kept as ``solution_``, the QP as ``problem_``): the paths of
+:mod:`svrqp.solvers.auto`, :func:`svrqp.solvers.dual_qp.solve_dual` (a stock QP backend),
+:func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm` (the structure-exploiting interior point
+and exact crossover), :func:`svrqp.solvers.qp_backends.solve_qp` on the linear primal, and
+LS-SVR's Cholesky or LU. Every ε-SVR answer is certified on the stated QP: the multipliers of
+that QP are read off the optimality conditions
+(:func:`svrqp.formulations.epsilon_svr_certificate.multipliers`) and its residuals are checked
+like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
 :math:`\\beta_i = \\alpha_i^* - \\alpha_i` of the support vectors and the prediction is
 ``gram(X, support_vectors_) @ dual_coef_[0] + intercept_[0]``.
 """
@@ -13,43 +16,36 @@ optimality conditions (:func:`dual_qp_point`) and its residuals are checked like
 from __future__ import annotations
 
 import dataclasses
-import time
 from functools import partial
-from importlib.metadata import version
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from svrqp._version import __version__
-from svrqp.solvers import dual_ipm
+from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
 from svrqp.export import describe
 from svrqp.export.mixin import ExportMixin
-from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
-from svrqp.formulations import epsilon_svr, ls_svr
-from svrqp.formulations.epsilon_svr import dual_qp_point  # noqa: F401  (re-exported)
+from svrqp.formulations import epsilon_svr, epsilon_svr_certificate, ls_svr
 from svrqp.kernels import gram
 from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
 from svrqp.problems import check_psd
-from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
-from svrqp.solvers.qp_backends import BACKENDS, DEFAULT_CHECK_FACTOR, solve_qp
 from svrqp.solution import Solution, require_certificates
+from svrqp.solvers import dual_ipm, dual_qp
+from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
+from svrqp.solvers.dual_ipm.certified import DUAL_FORMULATIONS, DUAL_IPM, solve_dual_ipm
+from svrqp.solvers.dual_qp import DualSettings
 from svrqp.solvers.linear import solve_linear_system
+from svrqp.solvers.qp_backends import BACKENDS, solve_qp
 from svrqp.table_checks import check_magnitude, check_numeric_array
 
-#: ``EpsilonSVR(solver=DUAL_IPM)``: svrqp's own interior point with exact crossover (:mod:`svrqp.solvers.dual_ipm`).
-DUAL_IPM = "dual_ipm"
 #: Every value ``EpsilonSVR.solver`` accepts: the automatic choice, svrqp's exact paths and the QP backends.
 SOLVERS: tuple[str, ...] = (AUTO, SMO_CROSSOVER, DUAL_IPM, *BACKENDS)
 #: ``solver="auto"`` on the linear primal QP (a sparse QP with no kernel matrix: a stock backend).
 PRIMAL_AUTO_BACKEND = "clarabel"
 #: Where a failed ``dual_ipm`` fit falls back to (a failed QP backend falls back to ``dual_ipm``).
 FALLBACK_SOLVER = "clarabel"
-#: The QP statements a ``dual_ipm`` solution is certified on (the primal has no kernel matrix).
-DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 
 #: What the kernel parameters of both models accept (:mod:`svrqp.parameters`).
 _KERNEL_CHECKS = {
@@ -58,48 +54,6 @@ _KERNEL_CHECKS = {
     "degree": [Number(1, closed="left", integer=True)],
     "coef0": [Number()],
 }
-
-
-def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-                   formulation: str = "split", tol: float = 1e-8, check_tol: float | None = None,
-                   X: NDArray[np.float64] | None = None,
-                   kernel_parameters: dict[str, Any] | None = None) -> epsilon_svr.DualFit:
-    """Solve the ε-SVR dual with :mod:`svrqp.solvers.dual_ipm` and certify it on the QP ``formulation``.
-
-    With the inputs ``X`` and the ``kernel_parameters`` of K (an RBF or polynomial kernel),
-    :func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data` runs: a low-rank interior point guides the exact
-    crossover when the kernel's numerical rank is low (smooth data such as temperatures), and
-    ``K`` is used on its dense fallback. Otherwise :func:`svrqp.solvers.dual_ipm.exact.solve_exact` runs on ``K``.
-
-    Returns the same :class:`~svrqp.formulations.epsilon_svr.DualFit` as
-    :func:`~svrqp.formulations.epsilon_svr.solve_dual` (``polished`` says whether the crossover
-    reached the exact optimum), certified the same way on the returned coefficients
-    (:func:`~svrqp.formulations.epsilon_svr.certified_dual_fit`). Raises :class:`SolverError`
-    when a relative certificate exceeds ``check_tol`` (default ``100·tol``).
-    """
-    if formulation not in DUAL_FORMULATIONS:
-        raise ProblemError(f"solver={DUAL_IPM!r} solves a kernel dual: formulation must be one of "
-                           f"{DUAL_FORMULATIONS}, got {formulation!r}")
-    C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
-    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
-    start = time.perf_counter()
-    problem = epsilon_svr.build(formulation, y, C, epsilon, K=K)
-    build_time = time.perf_counter() - start
-    if X is None:
-        fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
-    else:
-        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, tol=tol, K=K, **(kernel_parameters or {}))
-    record = Solution(
-        x=fit.beta, y=None, z=None, z_box=None, objective=float("nan"), status="optimal", residuals={},
-        backend=DUAL_IPM, backend_version=f"svrqp {__version__}",
-        settings={"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
-                  "ipm_converged": fit.ipm.converged, "crossover_steps": fit.crossover.steps,
-                  "crossover_exact": fit.crossover.exact,
-                  "low_rank_path": fit.low_rank},
-        build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations,
-    )
-    return epsilon_svr.certified_dual_fit(problem, formulation, K, y, fit.beta, epsilon, check_tol, DUAL_IPM,
-                                          record, fit.crossover.exact)
 
 
 class _KernelModel(RegressorMixin, BaseEstimator):
@@ -198,7 +152,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         Largest relative primal residual, dual residual and duality gap accepted from the
         backend (``None``: 100·tol); a solution above it raises :class:`SolverError`. The same
         bound applies to the returned model's own certificate in the units of the data
-        (:func:`svrqp.formulations.epsilon_svr.model_certificate`).
+        (:func:`svrqp.formulations.epsilon_svr_certificate.model_certificate`).
     fallback : bool, default=True
         When the chosen solver fails or misses a certificate, solve again with the other exact
         path (``"dual_ipm"`` for a QP backend, Clarabel for ``"dual_ipm"``) and say so in
@@ -309,29 +263,25 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
                formulation: str) -> tuple[NDArray[np.float64], float]:
         """Certified (β, b) from one solver; sets ``problem_``, ``solution_`` and ``polished_``."""
         kernel_parameters = {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
+        settings = DualSettings(formulation, self.tol, self.check_tol)
         if solver in (AUTO, SMO_CROSSOVER) and formulation != "primal":
             run = solve_auto if solver == AUTO else partial(solve_path, SMO_CROSSOVER)
-            beta, b, self.solution_ = run(self._training_gram(X) if self.kernel == "precomputed" else X, y, self.C,
-                                          self.epsilon, kernel_parameters=kernel_parameters, formulation=formulation,
-                                          tol=self.tol, check_tol=self.check_tol)
-            self.problem_ = None  # never formed: rebuilt on demand (svrqp.estimators.fitted_state)
-            self.polished_ = self.solution_.settings["crossover_exact"]
-            return beta, b
-        if solver == DUAL_IPM:
+            # the QP is never formed: problem_ is rebuilt on demand (svrqp.estimators.fitted_state)
+            fit = run(self._training_gram(X) if self.kernel == "precomputed" else X, y, self.C, self.epsilon,
+                      kernel_parameters=kernel_parameters, settings=settings)
+        elif solver == DUAL_IPM:
             low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
-            fit = solve_dual_ipm(
-                self._training_gram(X), y, self.C, self.epsilon, formulation=formulation, tol=self.tol,
-                check_tol=self.check_tol, X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)
+            fit = solve_dual_ipm(self._training_gram(X), y, self.C, self.epsilon, settings,
+                                 X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)
         elif formulation == "primal":
             if solver == SMO_CROSSOVER:
                 raise ProblemError(f"solver={SMO_CROSSOVER!r} solves a kernel dual: formulation must be one of "
                                    f"{DUAL_FORMULATIONS}, got 'primal'")
             return self._solve_primal(X, y, PRIMAL_AUTO_BACKEND if solver == AUTO else solver)
         else:
-            fit = epsilon_svr.solve_dual(self._training_gram(X), y, self.C, self.epsilon, formulation=formulation,
-                                         backend=solver, tol=self.tol, check_tol=self.check_tol)
+            fit = dual_qp.solve_dual(self._training_gram(X), y, self.C, self.epsilon, solver, settings)
         _, _, self.problem_, self.solution_, self.polished_ = fit
-        return fit.beta, fit.b
+        return fit.beta, fit.intercept
 
     def _solve_primal(self, X: NDArray[np.float64], y: NDArray[np.float64],
                       solver: str) -> tuple[NDArray[np.float64], float]:
@@ -350,10 +300,8 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         x, z = a * record.x, a * record.z
         x[X.shape[1]] += m
         z_box = None if record.z_box is None else a * record.z_box
-        self.solution_ = dataclasses.replace(
-            record, x=x, z=z, z_box=z_box, objective=self.problem_.objective(x),
-            residuals=self.problem_.kkt_residuals(x, record.y, z, z_box),
-            settings={**record.settings, "scaling": scaling._asdict()})
+        self.solution_ = Solution.of_qp(self.problem_, (x, record.y, z, z_box), dataclasses.replace(
+            record.record, settings={**record.settings, "scaling": scaling._asdict()}))
         require_certificates(self.solution_, self.problem_, record.settings["check_tol"])
         beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
         # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
@@ -365,10 +313,10 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.coef_ = self.solution_.x[:X.shape[1]].copy()
         K_beta = X @ (X.T @ beta)
         b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, self.epsilon)
-        certificate = epsilon_svr.model_certificate(y, beta, K_beta, b, C, self.epsilon,
-                                                    float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0)))
+        certificate = epsilon_svr_certificate.model_certificate(
+            y, beta, K_beta, b, C, self.epsilon, float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0)))
         self.solution_.residuals.update(certificate)
-        epsilon_svr.require_model_certificate(certificate, self.solution_.settings["check_tol"], solver)
+        epsilon_svr_certificate.require_model_certificate(certificate, self.solution_.settings["check_tol"], solver)
         return beta, b
 
 
@@ -439,19 +387,10 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
             x = self.solution_.x
             alpha, b = (x[1:], float(x[0])) if self.fit_intercept else (x, 0.0)
         else:
-            start = time.perf_counter()
             # A Gram matrix of our own is not needed afterwards (problem_ is rebuilt from X on demand):
             # factor it in place; a precomputed kernel is the caller's array and is left alone.
-            alpha, b, info = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept,
-                                                         overwrite_K=self.kernel != "precomputed")
-            self.solution_ = Solution(
-                x=np.concatenate([[b], alpha]), y=None, z=None, z_box=None, objective=0.0,
-                status="optimal",
-                residuals={"primal": info["residual"], "primal_rel": info["residual_rel"]},
-                backend="cholesky", backend_version=f"scipy {version('scipy')}",
-                settings={"fit_intercept": self.fit_intercept},
-                solve_time=info["solve_time"], build_time=time.perf_counter() - start - info["solve_time"],
-            )
+            alpha, b, self.solution_ = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept,
+                                                                   overwrite_K=self.kernel != "precomputed")
         if not (np.all(np.isfinite(alpha)) and np.isfinite(b)):
             raise SolverError("LS-SVR system gave non-finite coefficients", self.solver, "failed")
         self.support_ = np.arange(X.shape[0])

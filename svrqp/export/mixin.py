@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, ClassVar
-
-from numpy.typing import ArrayLike
 
 
 def export_model(
@@ -14,14 +11,8 @@ def export_model(
     path: str | Path,
     format: str | None = None,
     *,
-    X: ArrayLike | None = None,
-    y: ArrayLike | None = None,
-    feature_names: Sequence[str] | None = None,
-    feature_units: Sequence[str | None] | None = None,
-    target_name: str | None = None,
-    target_unit: str | None = None,
-    probes: ArrayLike | None = None,
     overwrite: bool = False,
+    **document: Any,
 ) -> list[Path]:
     """Export a fitted model (an estimator or a ``Pipeline(StandardScaler, estimator)``).
 
@@ -33,11 +24,12 @@ def export_model(
         Output file (``.json``, ``.csv``, ``.c``) or, for C, a directory.
     format
         ``"json"``, ``"csv"`` or ``"c"``; default: from the suffix of ``path``.
-    X, y, feature_names, feature_units, target_name, target_unit, probes
-        See :func:`svrqp.export.document.build_document`; pass the training data ``X, y`` to
-        record its hash and the scikit-learn cross-check.
     overwrite
         Replace existing files (default: refuse with ``FileExistsError``).
+    **document
+        The keyword arguments of :func:`svrqp.export.document.build_document`, forwarded
+        unchanged: ``X``, ``y`` (the training data: its hash and the scikit-learn cross-check),
+        ``feature_names``, ``feature_units``, ``target_name``, ``target_unit``, ``probes``.
 
     Returns
     -------
@@ -47,9 +39,7 @@ def export_model(
     from svrqp.export.document import build_document
     from svrqp.export.writers import write
 
-    document = build_document(model, X, y, feature_names=feature_names, feature_units=feature_units,
-                              target_name=target_name, target_unit=target_unit, probes=probes)
-    return write(document, path, format, overwrite=overwrite)
+    return write(build_document(model, **document), path, format, overwrite=overwrite)
 
 
 class ExportMixin:

@@ -74,13 +74,23 @@ to the SVR dual).
 
 from __future__ import annotations
 
-from typing import Any, Literal, NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from svrqp.exceptions import ProblemError, SolverError
+from svrqp.exceptions import ProblemError
+from svrqp.formulations.epsilon_svr_certificate import (
+    AT_LOWER,
+    AT_UPPER,
+    FREE_NEGATIVE,
+    FREE_POSITIVE,
+    ZERO,
+    kkt_violation,
+    multipliers,
+    states,
+)
 from svrqp.problems import QuadraticProgram
 
 Formulation = Literal["stacked", "split", "primal"]
@@ -238,14 +248,11 @@ def intercept_from_residual(
     sv_tolerance: float = SV_TOLERANCE,
 ) -> float:
     r""":func:`intercept_from_kkt` from the residuals :math:`r = y - K\beta` (no kernel matrix needed)."""
-    small, bound = zero_tolerance(beta, C, sv_tolerance), sv_tolerance * C
-    upper_free = (beta > small) & (beta < C - bound)
-    lower_free = (beta < -small) & (beta > -C + bound)
+    state = states(beta, C, sv_tolerance, zero_tolerance(beta, C, sv_tolerance))
+    upper_free, lower_free = state == FREE_POSITIVE, state == FREE_NEGATIVE
     if upper_free.any() or lower_free.any():
         return float(np.mean(np.concatenate([r[upper_free] - epsilon, r[lower_free] + epsilon])))
-    zero = np.abs(beta) <= small
-    at_upper = beta >= C - bound
-    at_lower = beta <= -C + bound
+    zero, at_upper, at_lower = state == ZERO, state == AT_UPPER, state == AT_LOWER
     low = np.concatenate([r[zero] - epsilon, r[at_lower] + epsilon])
     high = np.concatenate([r[zero] + epsilon, r[at_upper] - epsilon])
     low_bound = low.max() if low.size else -np.inf
@@ -278,10 +285,8 @@ def polish(
     polished point violates a KKT condition by more than ``kkt_tolerance`` (relative to
     ``1 + max |y|``), in which case the caller keeps the solver's solution.
     """
-    small, bound = zero_tolerance(beta, C, sv_tolerance), sv_tolerance * C
-    upper = beta >= C - bound
-    lower = beta <= -C + bound
-    free = ~upper & ~lower & (np.abs(beta) > small)
+    state = states(beta, C, sv_tolerance, zero_tolerance(beta, C, sv_tolerance))
+    upper, lower, free = state == AT_UPPER, state == AT_LOWER, np.abs(state) == FREE_POSITIVE
     sign = np.sign(beta)
     for _ in range(max_refinements):
         if not free.any():
@@ -309,14 +314,11 @@ def polish(
     else:
         return None
     b = solution[m]
-    r = y - K @ polished - b  # residual of the fit at each training point
+    residual = multipliers(polished, b, K @ polished, y, epsilon).residual
+    final = np.where(upper, AT_UPPER, np.where(lower, AT_LOWER, np.where(free, sign, ZERO))).astype(np.int8)
     slack = kkt_tolerance * (1.0 + float(np.max(np.abs(y))))
-    zero = ~free & ~upper & ~lower
-    feasible = (
-        np.all(np.abs(r[zero]) <= epsilon + slack)
-        and np.all(r[upper] >= epsilon - slack)
-        and np.all(r[lower] <= -epsilon + slack)
-    )
+    # the free points sit on their tube edge by construction: the sets fixed by the guess are checked
+    feasible = np.all(kkt_violation(residual, final, epsilon)[~free] <= slack)
     return polished if feasible else None
 
 
@@ -332,104 +334,18 @@ def dual_objective(
     return float(0.5 * beta @ (K @ beta) - y @ beta + epsilon * np.abs(beta).sum())
 
 
-def dual_qp_point(formulation: str, K: NDArray[np.float64], y: NDArray[np.float64], beta: NDArray[np.float64],
-                  b: float, epsilon: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    r"""The primal point and multipliers ``(x, y_eq, z_box)`` of a dual QP at the ε-SVR solution ``(β, b)``.
-
-    With :math:`\alpha = \max(-\beta, 0)`, :math:`\alpha^* = \max(\beta, 0)` and the residual
-    :math:`r = y - K\beta - b`, the stationarity rows of the QPs of this module (qpsolvers' signs)
-    hold with
-
-    * split, :math:`x = [\beta; \alpha; \alpha^*]`: equality multipliers :math:`[r;\ b]`, box
-      multipliers :math:`[0;\ -\varepsilon - r;\ r - \varepsilon]`;
-    * stacked, :math:`x = [\alpha; \alpha^*]`: equality multiplier :math:`b`, box multipliers
-      :math:`[-\varepsilon - r;\ r - \varepsilon]`.
-
-    The box multipliers have the signs the bounds need exactly when :math:`(\beta, b)` satisfies
-    the ε-SVR KKT conditions, so the QP's residuals certify the solution independently of how
-    it was found.
-    """
-    r = y - K @ beta - b
-    alpha, alpha_star = np.maximum(-beta, 0.0), np.maximum(beta, 0.0)
-    box = np.concatenate([-epsilon - r, r - epsilon])
-    if formulation == "split":
-        return np.concatenate([beta, alpha, alpha_star]), np.append(r, b), np.concatenate([np.zeros_like(beta), box])
-    if formulation == "stacked":
-        return np.concatenate([alpha, alpha_star]), np.array([b]), box
-    raise ProblemError(f"formulation must be one of ('split', 'stacked'), got {formulation!r}")
-
-
 def returned_coefficients(beta: NDArray[np.float64], C: float,
                           sv_tolerance: float = SV_TOLERANCE) -> NDArray[np.float64]:
     r"""The coefficients a model keeps: β projected onto the box :math:`[-C, C]`, those within
     ``sv_tolerance``·C of a bound set to it, those at or below :func:`zero_tolerance` set to 0.
 
-    The certificate (:func:`model_certificate`) is computed on these, so what is certified is
-    what predicts.
+    The certificate (:func:`~svrqp.formulations.epsilon_svr_certificate.model_certificate`) is
+    computed on these, so what is certified is what predicts.
     """
     beta = np.clip(np.asarray(beta, dtype=float), -C, C)
     beta = np.where(np.abs(beta) >= C * (1.0 - sv_tolerance), np.sign(beta) * C, beta)
     beta[np.abs(beta) <= zero_tolerance(beta, C, sv_tolerance)] = 0.0
     return beta
-
-
-#: Rounding allowance of :func:`model_certificate`, in units of the float64 machine epsilon.
-ROUNDING_ULPS = 64.0
-
-
-def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64], K_beta: NDArray[np.float64], b: float,
-                      C: float, epsilon: float, kernel_scale: float) -> dict[str, float]:
-    r"""How far a returned model :math:`(\beta, b)` is from the ε-SVR optimality conditions, in the
-    units of the problem (not of C).
-
-    With :math:`r = y - K\beta - b`, :math:`k = \max_i K_{ii}` (``kernel_scale``) and
-    :math:`s_y = \operatorname{std}(y)` (:math:`\max|y|` or 1 for a constant ``y``):
-
-    .. math::
-
-        \text{box} = \max_i (|\beta_i| - C)^+ / C, \qquad
-        \text{balance} = k\,\lvert \mathbf 1^\top\beta \rvert / s_y, \qquad
-        \text{kkt} = \max_i v_i / s_y,
-
-    where :math:`v_i` is the violation, in units of y, of the conditions of S0 eq. 6 at point i:
-    :math:`|r_i| \le \varepsilon` where :math:`\beta_i = 0`; :math:`r_i \ge \varepsilon` where
-    :math:`\beta_i > 0` and :math:`r_i \le \varepsilon` where :math:`\beta_i < C` (mirrored for
-    :math:`\beta_i < 0`). A condition of a non-zero coefficient counts at most what moving that
-    coefficient to 0 or to its bound would change in the predictions (:math:`|\beta_i| k` or
-    :math:`(C - |\beta_i|) k`), so a coefficient that is merely tiny or merely near its bound is
-    not a violation, while a dropped support vector (:math:`\beta_i = 0` outside the tube) is.
-    A model with every value at most δ is optimal for targets within about δ·s_y of y.
-    """
-    beta = np.asarray(beta, dtype=float)
-    r = y - K_beta - b
-    spread = float(np.std(y))
-    s_y = spread if spread > 0 else (float(np.max(np.abs(y))) or 1.0)
-    k = kernel_scale if kernel_scale > 0 else 1.0
-    magnitude = np.abs(beta)
-    sign = np.sign(beta)
-    signed_r = sign * r  # > epsilon: outside the tube on the coefficient's side
-    inside = np.maximum(np.abs(r) - epsilon, 0.0)
-    below = np.minimum(np.maximum(epsilon - signed_r, 0.0), magnitude * k)
-    above = np.minimum(np.maximum(signed_r - epsilon, 0.0), np.maximum(C - magnitude, 0.0) * k)
-    violation = np.where(beta == 0.0, inside, np.maximum(below, above))
-    l1 = float(magnitude.sum())
-    rounding = ROUNDING_ULPS * np.finfo(float).eps * (float(np.max(np.abs(y), initial=0.0)) + abs(b) + k * l1)
-    return {
-        "box_rel": float(np.max(np.maximum(magnitude - C, 0.0), initial=0.0)) / C,
-        "balance_rel": max(k * abs(float(beta.sum())) - rounding, 0.0) / s_y,
-        "kkt_rel": max(float(np.max(violation, initial=0.0)) - rounding, 0.0) / s_y,
-    }
-
-
-def require_model_certificate(certificate: dict[str, float], check_tol: float, backend: str) -> None:
-    """Raise :class:`~svrqp.exceptions.SolverError` naming ``backend`` when a value of
-    :func:`model_certificate` exceeds ``check_tol`` (NaN included)."""
-    failed = [key for key, value in certificate.items() if not value <= check_tol]
-    if failed:
-        worst = failed[0]
-        raise SolverError(f"backend {backend!r} returned a model that misses the ε-SVR optimality conditions: "
-                          f"its {worst[:-4]} certificate is {certificate[worst]:.2e} (relative) > {check_tol:.1e}",
-                          backend, "inaccurate")
 
 
 class DualScaling(NamedTuple):
@@ -457,101 +373,6 @@ class DualScaling(NamedTuple):
         spread = float(np.std(y))
         a = spread if spread > 0 else 1.0
         return cls(float(np.mean(y)), a, min(float(C), a))
-
-
-def _certified_solution(problem: QuadraticProgram, formulation: str, K: NDArray[np.float64],
-                        y: NDArray[np.float64], beta: NDArray[np.float64], b: float, epsilon: float,
-                        check_tol: float, backend: str, record: Any) -> Any:
-    """The :class:`~svrqp.solution.Solution` of ``problem`` at the returned model, its QP residuals
-    and its :func:`model_certificate` checked; ``record`` (a Solution of the scaled QP) gives
-    the backend's settings, times and iterations."""
-    from svrqp.solution import Solution, require_certificates
-
-    C = float(problem.ub[0])
-    x, y_eq, z_box = dual_qp_point(formulation, K, y, beta, b, epsilon)
-    residuals = problem.kkt_residuals(x, y_eq, None, z_box)
-    residuals.update(model_certificate(y, beta, K @ beta, b, C, epsilon, float(np.max(np.diagonal(K), initial=0.0))))
-    solution = Solution(x=x, y=y_eq, z=None, z_box=z_box, objective=problem.objective(x), status="optimal",
-                        residuals=residuals, backend=backend, backend_version=record.backend_version,
-                        settings=record.settings, build_time=record.build_time, solve_time=record.solve_time,
-                        iterations=record.iterations)
-    require_certificates(solution, problem, check_tol)
-    require_model_certificate({key: residuals[key] for key in ("box_rel", "balance_rel", "kkt_rel")},
-                              check_tol, backend)
-    return solution
-
-
-class DualFit(NamedTuple):
-    """What :func:`solve_dual` returns."""
-
-    beta: NDArray[np.float64]  #: all n coefficients, alpha* - alpha (as returned: see returned_coefficients)
-    b: float  #: the bias from the KKT conditions
-    problem: QuadraticProgram  #: the QP that was solved (in the units of the data)
-    solution: Any  #: its certificate-checked svrqp.solution.Solution, at the returned (beta, b)
-    polished: bool  #: whether polish() replaced the solver's coefficients
-
-
-def certified_dual_fit(problem: QuadraticProgram, formulation: str, K: NDArray[np.float64],
-                       y: NDArray[np.float64], beta: NDArray[np.float64], epsilon: float, check_tol: float,
-                       backend: str, record: Any, polished: bool) -> DualFit:
-    r"""Round β to the coefficients a model keeps (:func:`returned_coefficients`), read b off
-    the KKT conditions and certify both on ``problem`` (:func:`_certified_solution`)."""
-    C = float(problem.ub[0])
-    beta = returned_coefficients(beta, C)
-    b = intercept_from_kkt(K, y, beta, C, epsilon)
-    solution = _certified_solution(problem, formulation, K, y, beta, b, epsilon, check_tol, backend, record)
-    return DualFit(beta, b, problem, solution, polished)
-
-
-def solve_dual(
-    K: NDArray[np.float64],
-    y: NDArray[np.float64],
-    C: float,
-    epsilon: float,
-    *,
-    formulation: str = "split",
-    backend: str = "clarabel",
-    tol: float = 1e-8,
-    check_tol: float | None = None,
-    initvals: NDArray[np.float64] | None = None,
-) -> DualFit:
-    r"""Build a dual QP, solve it in well-scaled units, polish it, and read off :math:`\beta` and ``b``.
-
-    The one sequence every dual fit goes through (the estimators and the tuning loops). The
-    backend solves the QP of :class:`DualScaling` (its settings record the scaling under
-    ``"scaling"``); the coefficients are mapped back, rounded to what the model keeps, and
-    certified on the QP in the units of the data (``problem``, also returned): its relative
-    residuals and :func:`model_certificate` must be at most ``check_tol`` (default 100·tol),
-    otherwise :class:`~svrqp.exceptions.SolverError` names the backend. ``initvals`` is a
-    solution of that QP (e.g. a previous ``DualFit.solution.x``).
-    """
-    from svrqp.solvers.qp_backends import (  # the solver layer sits above the formulations
-        DEFAULT_CHECK_FACTOR,
-        solve_qp,
-    )
-
-    check_parameters(y, C, epsilon)
-    C, epsilon = float(C), float(epsilon)
-    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
-    problem = build(formulation, y, C, epsilon, K=K)
-    m, a, u = scaling = DualScaling.of(y, C)
-    K_scaled, y_scaled, C_scaled, epsilon_scaled = (K if u == a else (u / a) * K), (y - m) / a, C / u, epsilon / a
-    scaled = build(formulation, y_scaled, C_scaled, epsilon_scaled, K=K_scaled)
-    record = solve_qp(scaled, backend, tol=tol, check_tol=check_tol,
-                      initvals=None if initvals is None else np.asarray(initvals, dtype=float) / u)
-    record.settings["scaling"] = scaling._asdict()
-    beta_scaled = beta_from_solution(formulation, y.shape[0], record.x)
-    polished = polish(K_scaled, y_scaled, beta_scaled, C_scaled, epsilon_scaled)
-    if polished is None:
-        # The exact crossover of svrqp.solvers.dual_ipm: polish guesses the active sets once, the
-        # crossover corrects them (coefficients a few 1e-6·C inside a bound, for instance).
-        from svrqp.solvers.dual_ipm.crossover import crossover
-
-        exact = crossover(lambda idx: K_scaled[:, idx], y_scaled, C_scaled, epsilon_scaled, beta_scaled)
-        polished = exact.beta if exact.exact else None
-    beta = u * (beta_scaled if polished is None else polished)
-    return certified_dual_fit(problem, formulation, K, y, beta, epsilon, check_tol, backend, record,
-                              polished is not None)
 
 
 def support_mask(beta: NDArray[np.float64], C: float, sv_tolerance: float = SV_TOLERANCE) -> NDArray[np.bool_]:

@@ -1,79 +1,178 @@
-r"""Certificates of an ε-SVR dual QP at :math:`(\beta, b)` from :math:`K\beta` alone, P never formed.
+r"""The ε-SVR optimality conditions at a model :math:`(\beta, b)`: stated once, checked by everyone.
 
-The QPs of :mod:`svrqp.formulations.epsilon_svr` touch the kernel only through :math:`Px`:
+**Conditions** (the KKT conditions of the dual, S0 eq. 6, in the stacked variables
+:math:`[\alpha; \alpha^*]` of :mod:`svrqp.formulations.epsilon_svr`). With
+:math:`\beta = \alpha^* - \alpha` and the residual :math:`r = y - K\beta - b\mathbf 1`, the
+multipliers of the stacked QP are reconstructed from the model alone (:func:`multipliers`):
 
-* split, :math:`x = [\beta; \alpha; \alpha^*]`: :math:`Px = [K\beta;\ 0;\ 0]`;
-* stacked, :math:`x = [\alpha; \alpha^*]`: :math:`Px = [-K\beta;\ K\beta]`.
+.. math::
 
-So the stated QP's residuals (:meth:`svrqp.problems.QuadraticProgram.kkt_residuals`, the same
-code every backend's answer goes through) and objective are evaluated on a copy of the QP whose
-kernel block is empty and whose ``P`` answers :math:`Px` with the product above: :math:`K\beta`
-comes from the kernel columns of the support vectors only (:math:`O(n\,n_{SV})` kernel entries
-instead of the :math:`O(n^2)` of building P). The point and multipliers are those of
-:func:`svrqp.formulations.epsilon_svr.dual_qp_point`, and the returned model's own certificate
-in the units of the data (:func:`svrqp.formulations.epsilon_svr.model_certificate`) is added.
+    \alpha = \max(-\beta, 0), \qquad \alpha^* = \max(\beta, 0), \qquad \lambda = b, \qquad
+    z_\alpha = -\varepsilon\mathbf 1 - r, \qquad z_{\alpha^*} = r - \varepsilon\mathbf 1,
+
+where :math:`\lambda` multiplies :math:`\mathbf 1^\top(\alpha^* - \alpha) = 0` and
+:math:`z_{box} = [z_\alpha; z_{\alpha^*}]` the box (qpsolvers' sign: negative on an active lower
+bound, positive on an active upper one). Stationarity holds with them by construction; what
+remains is :math:`\mathbf 1^\top\beta = 0`, :math:`|\beta_i| \le C` and, per point, a sign
+condition on :math:`z_{box}` that depends on the state of :math:`\beta_i` (:func:`states`):
+
+.. math::
+
+    \beta_i = 0 &\Rightarrow |r_i| \le \varepsilon, \qquad
+    0 < \pm\beta_i < C \Rightarrow r_i = \pm\varepsilon, \\
+    \beta_i = C &\Rightarrow r_i \ge \varepsilon, \qquad\quad
+    \beta_i = -C \Rightarrow r_i \le -\varepsilon .
+
+:func:`kkt_violation` is how far each point is from its condition, in the units of y. The
+returned model's own certificate (:func:`model_certificate`) weighs these violations by what
+moving a coefficient would change in the predictions; :func:`dual_qp_point` writes the
+multipliers in the variables of each dual QP, so the stated QP's residuals certify a model however
+it was found.
 """
 
 from __future__ import annotations
 
-import copy
-from typing import Any
+from typing import NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from svrqp.exceptions import ProblemError
-from svrqp.formulations import epsilon_svr
-from svrqp.kernels import gram_diagonal
-from svrqp.problems import QuadraticProgram
+from svrqp.exceptions import ProblemError, SolverError
+
+#: The state of a coefficient (:func:`states`): at :math:`-C`, free negative, zero, free positive, at :math:`+C`.
+AT_LOWER, FREE_NEGATIVE, ZERO, FREE_POSITIVE, AT_UPPER = -2, -1, 0, 1, 2
+
+#: The keys of :func:`model_certificate`.
+MODEL_CERTIFICATES: tuple[str, ...] = ("box_rel", "balance_rel", "kkt_rel")
+
+#: Rounding allowance of :func:`model_certificate`, in units of the float64 machine epsilon.
+ROUNDING_ULPS = 64.0
 
 
-class KnownProduct:
-    """A stand-in for a matrix whose product with one vector is already known (``M @ vector``).
+def states(beta: NDArray[np.float64], C: float, bound_tol: float, zero_tol: float | None = None) -> NDArray[np.int8]:
+    r"""The state of each coefficient: -2 at :math:`-C`, -1 free negative, 0 zero, 1 free positive, 2 at :math:`+C`.
 
-    Any other operand raises :class:`ProblemError`, so a stale product can never be used.
+    :math:`|\beta_i| \le` ``zero_tol`` (default ``bound_tol``·C) is zero;
+    :math:`|\beta_i| \ge C(1 - \text{bound\_tol})` is at its bound (``bound_tol = 0``: exactly
+    0 and exactly :math:`\pm C`).
     """
-
-    def __init__(self, vector: NDArray[np.float64], product: NDArray[np.float64]) -> None:
-        self.vector, self.product = vector, product
-        self.shape = (product.size, vector.size)
-
-    def __matmul__(self, other: Any) -> NDArray[np.float64]:
-        if other is not self.vector and not np.array_equal(other, self.vector):
-            raise ProblemError("KnownProduct only knows its product with the vector it was built for")
-        return self.product
+    result = np.sign(beta).astype(np.int8)
+    result[np.abs(beta) <= (bound_tol * C if zero_tol is None else zero_tol)] = ZERO
+    result[beta >= C * (1 - bound_tol)] = AT_UPPER
+    result[beta <= -C * (1 - bound_tol)] = AT_LOWER
+    return result
 
 
-def kernel_free_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
-    """The QP of ``formulation`` with an empty kernel block: q, A, b and the box as stated, P all zero."""
-    if formulation not in ("split", "stacked"):
-        raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
-    n = y.size
-    empty = sp.csc_matrix((n, n)) if formulation == "split" else np.zeros((n, n))
-    return epsilon_svr.build(formulation, y, C, epsilon, K=empty)
+class Multipliers(NamedTuple):
+    """The stacked dual's point and multipliers at a model (module docstring)."""
+
+    alpha: NDArray[np.float64]  #: max(-beta, 0)
+    alpha_star: NDArray[np.float64]  #: max(beta, 0)
+    lam: float  #: the equality multiplier, b
+    z_box: NDArray[np.float64]  #: [z_alpha; z_alpha*] = [-epsilon - r; r - epsilon]
+    residual: NDArray[np.float64]  #: r = y - K beta - b
 
 
-def kernel_scale(X: NDArray[np.float64], kernel_parameters: dict[str, Any]) -> float:
-    """:math:`\\max_i K_{ii}` without forming K (``X`` is the Gram matrix for ``"precomputed"``)."""
-    if kernel_parameters["kernel"] == "precomputed":
-        return float(np.max(np.diagonal(X), initial=0.0))
-    return float(np.max(gram_diagonal(np.asarray(X, dtype=float), **kernel_parameters), initial=0.0))
+def multipliers(beta: NDArray[np.float64], b: float, Kbeta: NDArray[np.float64], y: NDArray[np.float64],
+                epsilon: float) -> Multipliers:
+    r"""The reconstructed point and multipliers of the stacked dual at :math:`(\beta, b)` (module docstring).
 
-
-def certificates(formulation: str, y: NDArray[np.float64], C: float, epsilon: float, beta: NDArray[np.float64],
-                 b: float, Kbeta: NDArray[np.float64], scale: float
-                 ) -> tuple[dict[str, float], float, tuple, QuadraticProgram]:
-    """``(residuals, objective, (x, y_eq, z_box), qp)`` of the stated dual QP at :math:`(\\beta, b)`.
-
-    ``residuals`` is what :meth:`QuadraticProgram.kkt_residuals` returns for the full QP, with
-    :func:`~svrqp.formulations.epsilon_svr.model_certificate` (``scale`` is :math:`\\max_i K_{ii}`,
-    :func:`kernel_scale`) added; ``qp`` is the kernel-free copy they were evaluated on.
+    ``Kbeta`` is :math:`K\beta` on the training inputs (computed by the caller, from whatever
+    kernel access it has).
     """
-    x, y_eq, z_box = epsilon_svr.dual_qp_point(formulation, KnownProduct(beta, Kbeta), y, beta, b, epsilon)
-    Px = np.concatenate([Kbeta, np.zeros(2 * y.size)]) if formulation == "split" else np.concatenate([-Kbeta, Kbeta])
-    view = copy.copy(kernel_free_qp(formulation, y, C, epsilon))
-    view.P = KnownProduct(x, Px)
-    residuals = view.kkt_residuals(x, y_eq, None, z_box)
-    residuals.update(epsilon_svr.model_certificate(y, beta, Kbeta, b, C, epsilon, scale))
-    return residuals, view.objective(x), (x, y_eq, z_box), view
+    r = y - Kbeta - b
+    return Multipliers(np.maximum(-beta, 0.0), np.maximum(beta, 0.0), b, np.concatenate([-epsilon - r, r - epsilon]), r)
+
+
+def kkt_violation(residual: NDArray[np.float64], state: NDArray[np.int8], epsilon: float) -> NDArray[np.float64]:
+    r"""How far each point is from its condition (module docstring), in the units of y.
+
+    :math:`|r_i| - \varepsilon` for a zero, :math:`|r_i - \varepsilon s_i|` for a free coefficient
+    of sign :math:`s_i`, :math:`\varepsilon - r_i` at :math:`+C` and :math:`r_i + \varepsilon` at
+    :math:`-C`; a point meets its condition when its value is at most 0 (a slack for rounding is
+    the caller's). ``residual`` is :math:`r` (``Multipliers.residual``), ``state`` from :func:`states`.
+    """
+    free = np.abs(residual - epsilon * np.clip(state, FREE_NEGATIVE, FREE_POSITIVE))
+    return np.select([state == ZERO, state == AT_UPPER, state == AT_LOWER],
+                     [np.abs(residual) - epsilon, epsilon - residual, residual + epsilon], free)
+
+
+def dual_qp_point(formulation: str, point: Multipliers
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    r"""The primal point and multipliers ``(x, y_eq, z_box)`` of a dual QP at the model of ``point``.
+
+    In the variables of the QPs of :mod:`svrqp.formulations.epsilon_svr` (qpsolvers' signs):
+
+    * split, :math:`x = [\beta; \alpha; \alpha^*]`: equality multipliers :math:`[r;\ b]`, box
+      multipliers :math:`[0;\ -\varepsilon - r;\ r - \varepsilon]`;
+    * stacked, :math:`x = [\alpha; \alpha^*]`: equality multiplier :math:`b`, box multipliers
+      :math:`[-\varepsilon - r;\ r - \varepsilon]`.
+
+    The box multipliers have the signs the bounds need exactly when :math:`(\beta, b)` satisfies
+    the ε-SVR KKT conditions, so the QP's residuals certify the model independently of how it
+    was found.
+    """
+    alpha, alpha_star, b, z_box, r = point
+    if formulation == "split":
+        beta = alpha_star - alpha
+        return np.concatenate([beta, alpha, alpha_star]), np.append(r, b), np.concatenate([np.zeros_like(beta), z_box])
+    if formulation == "stacked":
+        return np.concatenate([alpha, alpha_star]), np.array([b]), z_box
+    raise ProblemError(f"formulation must be one of ('split', 'stacked'), got {formulation!r}")
+
+
+def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64], K_beta: NDArray[np.float64], b: float,
+                      C: float, epsilon: float, kernel_scale: float) -> dict[str, float]:
+    r"""How far a returned model :math:`(\beta, b)` is from the ε-SVR optimality conditions, in the
+    units of the problem (not of C).
+
+    With :math:`r = y - K\beta - b`, :math:`k = \max_i K_{ii}` (``kernel_scale``) and
+    :math:`s_y = \operatorname{std}(y)` (:math:`\max|y|` or 1 for a constant ``y``):
+
+    .. math::
+
+        \text{box} = \max_i (|\beta_i| - C)^+ / C, \qquad
+        \text{balance} = k\,\lvert \mathbf 1^\top\beta \rvert / s_y, \qquad
+        \text{kkt} = \max_i v_i / s_y,
+
+    where :math:`v_i` is the violation, in units of y, of the conditions of S0 eq. 6 at point i
+    (module docstring): :math:`|r_i| \le \varepsilon` where :math:`\beta_i = 0`;
+    :math:`r_i \ge \varepsilon` where :math:`\beta_i > 0` and :math:`r_i \le \varepsilon` where
+    :math:`\beta_i < C` (mirrored for :math:`\beta_i < 0`). A condition of a non-zero
+    coefficient counts at most what moving that coefficient to 0 or to its bound would change in
+    the predictions (:math:`|\beta_i| k` or :math:`(C - |\beta_i|) k`), so a coefficient that is
+    merely tiny or merely near its bound is not a violation, while a dropped support vector
+    (:math:`\beta_i = 0` outside the tube) is. A model with every value at most δ is optimal for
+    targets within about δ·s_y of y.
+    """
+    beta = np.asarray(beta, dtype=float)
+    r = multipliers(beta, b, K_beta, y, epsilon).residual
+    spread = float(np.std(y))
+    s_y = spread if spread > 0 else (float(np.max(np.abs(y))) or 1.0)
+    k = kernel_scale if kernel_scale > 0 else 1.0
+    magnitude = np.abs(beta)
+    sign = np.sign(beta)
+    signed_r = sign * r  # > epsilon: outside the tube on the coefficient's side
+    inside = np.maximum(np.abs(r) - epsilon, 0.0)
+    below = np.minimum(np.maximum(epsilon - signed_r, 0.0), magnitude * k)
+    above = np.minimum(np.maximum(signed_r - epsilon, 0.0), np.maximum(C - magnitude, 0.0) * k)
+    violation = np.where(beta == 0.0, inside, np.maximum(below, above))
+    l1 = float(magnitude.sum())
+    rounding = ROUNDING_ULPS * np.finfo(float).eps * (float(np.max(np.abs(y), initial=0.0)) + abs(b) + k * l1)
+    return {
+        "box_rel": float(np.max(np.maximum(magnitude - C, 0.0), initial=0.0)) / C,
+        "balance_rel": max(k * abs(float(beta.sum())) - rounding, 0.0) / s_y,
+        "kkt_rel": max(float(np.max(violation, initial=0.0)) - rounding, 0.0) / s_y,
+    }
+
+
+def require_model_certificate(certificate: dict[str, float], check_tol: float, backend: str) -> None:
+    """Raise :class:`~svrqp.exceptions.SolverError` naming ``backend`` when a value of
+    :func:`model_certificate` in ``certificate`` (other keys are ignored) exceeds ``check_tol``
+    (NaN included)."""
+    failed = [key for key in MODEL_CERTIFICATES if not certificate[key] <= check_tol]
+    if failed:
+        worst = failed[0]
+        raise SolverError(f"backend {backend!r} returned a model that misses the ε-SVR optimality conditions: "
+                          f"its {worst[:-4]} certificate is {certificate[worst]:.2e} (relative) > {check_tol:.1e}",
+                          backend, "inaccurate")

@@ -35,7 +35,6 @@ with :math:`LL^\top` differ by :math:`\tfrac12\beta^\top E\beta \le \tfrac12 \lV
 
 from __future__ import annotations
 
-
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
@@ -43,10 +42,8 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations.epsilon_svr import DUAL_STATEMENT, check_parameters
-from svrqp.problems import QuadraticProgram
-
-
 from svrqp.linalg.pivoted_cholesky import LowRankFactor
+from svrqp.problems import QuadraticProgram
 
 
 def dual_low_rank(L: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:

@@ -36,6 +36,8 @@ regularisation :math:`1/C` (scikit-learn's ``KernelRidge(alpha=1/C)``).
 from __future__ import annotations
 
 import time
+from importlib.metadata import version
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -43,6 +45,15 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError, SingularSystemError
 from svrqp.problems import LinearSystem
+from svrqp.solution import Solution, SolverRecord
+
+
+class LSSVRFit(NamedTuple):
+    """What :func:`solve_cholesky_schur` returns."""
+
+    alpha: NDArray[np.float64]  #: the coefficients of S4 eq. 7
+    intercept: float  #: the bias b (0 without the bias row)
+    solution: Solution  #: x = [b; alpha], certified by the residual of the full system of S4 eq. 5
 
 
 def _add_to_diagonal(M: NDArray[np.float64], value: float) -> None:
@@ -79,7 +90,7 @@ def kkt_system(K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_int
 def solve_cholesky_schur(
     K: NDArray[np.float64], y: NDArray[np.float64], C: float, fit_intercept: bool = True, *,
     overwrite_K: bool = False,
-) -> tuple[NDArray[np.float64], float, dict[str, float]]:
+) -> LSSVRFit:
     r"""Solve the LS-SVR system by one in-place Cholesky of :math:`\Omega + I/C` and the Schur complement.
 
     Parameters
@@ -97,9 +108,10 @@ def solve_cholesky_schur(
 
     Returns
     -------
-    alpha, b, info
-        Coefficients, bias, and ``{"residual", "residual_rel", "solve_time"}`` of the full
-        system (the certificate of this solution).
+    LSSVRFit
+        Coefficients, bias, and the :class:`~svrqp.solution.Solution` ``x = [b; alpha]`` whose
+        residuals (``primal``, ``primal_rel``) are those of the full system (the certificate of
+        this solution), backend ``"cholesky"``.
     """
     if not np.isfinite(C) or C <= 0:
         raise ProblemError(f"C must be a finite positive number, got {C!r}")
@@ -129,4 +141,8 @@ def solve_cholesky_schur(
     Mx = np.concatenate([[alpha.sum() if fit_intercept else 0.0], H_alpha + b])
     residual = float(np.max(np.abs(Mx - np.concatenate([[0.0], y]))))
     scale = 1.0 + max(float(np.max(np.abs(Mx))), float(np.max(np.abs(y))))
-    return alpha, b, {"residual": residual, "residual_rel": residual / scale, "solve_time": solve_time}
+    record = SolverRecord("cholesky", f"scipy {version('scipy')}", {"fit_intercept": fit_intercept},
+                          solve_time=solve_time)
+    solution = Solution.of_linear_system(np.concatenate([[b], alpha]), {"residual": residual,
+                                                                        "residual_rel": residual / scale}, record)
+    return LSSVRFit(alpha, b, solution)

@@ -78,7 +78,6 @@ import scipy.linalg
 from svrqp.exceptions import ProblemError, SingularSystemError
 from svrqp.formulations.least_squares import check_finite_matrix, solve_normal_equations
 
-
 #: Largest condition number of the equilibrated information matrix :math:`\sum x_i x_i^\top`
 #: from which the recursion is started (about half of the double-precision digits survive).
 START_CONDITION = 1e8

@@ -116,14 +116,25 @@ def conformal_quantile(scores: NDArray[np.float64], coverage: float) -> float:
     return float(regressor.predict_int(np.zeros(1), sigmas=np.ones(1), confidence=coverage)[0, 1])
 
 
-def calibrate(estimator, X, y: NDArray[np.float64], Z: NDArray[np.float64], groups: NDArray | None, *,
-              coverage: float, method: str, n_splits: int, min_groups: int) -> Calibration:
+@dataclass(frozen=True)
+class Settings:
+    """How a calibration runs: the target coverage, the score (``method``) and the folds."""
+
+    coverage: float
+    method: str
+    n_splits: int
+    min_groups: int
+
+
+def calibrate(estimator, X, y: NDArray[np.float64], Z: NDArray[np.float64], groups: NDArray | None,
+              settings: Settings) -> Calibration:
     """Out-of-fold residuals → scores → conformal quantile (see the module docstring)."""
-    name, splits, labels = folds(len(y), groups, n_splits, min_groups)
+    name, splits, labels = folds(len(y), groups, settings.n_splits, settings.min_groups)
     residuals = y - out_of_fold_predictions(estimator, X, y, splits)
     coef, intercept = (None, None)
     scores = np.abs(residuals)
-    if method == "normalized":
+    if settings.method == "normalized":
         coef, intercept = fit_difficulty(Z, residuals)
         scores = scores / difficulty(Z, coef, intercept)
-    return Calibration(name, len(splits), labels, np.sort(scores), conformal_quantile(scores, coverage), coef, intercept)
+    return Calibration(name, len(splits), labels, np.sort(scores), conformal_quantile(scores, settings.coverage),
+                       coef, intercept)

@@ -143,9 +143,8 @@ class Guarded(RegressorMixin, BaseEstimator):
         self.domain_ = InputDomain.fit(X_raw, names, self.domain_quantile)
         Z = standardised(X_raw, self.domain_.mean, self.domain_.scale)
         inner = self._model_input(X_raw)
-        self.calibration_ = conformal.calibrate(self.estimator, inner, y, Z, groups, coverage=self.coverage,
-                                                method=self.method, n_splits=self.n_splits,
-                                                min_groups=self.min_groups)
+        settings = conformal.Settings(self.coverage, self.method, self.n_splits, self.min_groups)
+        self.calibration_ = conformal.calibrate(self.estimator, inner, y, Z, groups, settings)
         self.estimator_ = clone(self.estimator).fit(inner, y)
         return self
 

@@ -22,7 +22,6 @@ from svrqp.kernels import (
     right_factor,
 )
 
-
 #: Kernel entries formed at once by :meth:`KernelColumns.products`: a 2 MB block stays in cache and
 #: its memory is reused (a large block is a fresh allocation whose page faults cost more than the
 #: kernel itself: 2.5× slower at 4000 × 3550 entries, measured).

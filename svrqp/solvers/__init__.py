@@ -22,7 +22,13 @@ from svrqp.exceptions import ProblemError
 from svrqp.problems import LinearSystem, QuadraticProgram
 from svrqp.solution import Solution
 from svrqp.solvers.linear import solve_linear_system
-from svrqp.solvers.qp_backends import BACKENDS, available_backends, backend_version, require_backend, solve_qp
+from svrqp.solvers.qp_backends import (
+    BACKENDS,
+    available_backends,
+    backend_version,
+    require_backend,
+    solve_qp,
+)
 
 __all__ = ["BACKENDS", "Solution", "available_backends", "backend_version", "require_backend", "solve",
            "solve_linear_system", "solve_qp"]

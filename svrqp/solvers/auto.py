@@ -10,7 +10,7 @@ r"""``EpsilonSVR(solver="auto")``: the fastest exact path for the problem, certi
    reduced n×n system (or a low-rank factor) and the same crossover, when the first path does not
    reach the exact optimum (the crossover did not settle, or its certificate misses ``check_tol``).
 
-Each answer is certified on the QP of ``formulation`` (:mod:`svrqp.formulations.epsilon_svr_certificate`): the
+Each answer is certified on the QP of ``formulation`` (:mod:`svrqp.formulations.epsilon_svr_residuals`): the
 relative primal residual, dual residual and duality gap must be at most ``check_tol``. When no
 path certifies, :class:`SolverError` names every path tried and why it was rejected — never an
 uncertified answer.
@@ -26,26 +26,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp._version import __version__
-from svrqp.solvers import dual_ipm
-from svrqp.formulations.epsilon_svr_certificate import certificates, kernel_scale
 from svrqp.exceptions import SolverError, SvrqpError
+from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
+from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
 from svrqp.kernels import gram
-from svrqp.formulations.epsilon_svr import require_model_certificate
-from svrqp.solution import Solution, require_certificates
+from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
+from svrqp.solvers import dual_ipm
+from svrqp.solvers.dual_ipm.exact import ExactSettings
+from svrqp.solvers.dual_qp import DualFit, DualSettings
 from svrqp.solvers.warm_start import solve_warm_started
 
 #: ``EpsilonSVR(solver=AUTO)``: choose the path (module docstring).
 AUTO = "auto"
 #: ``EpsilonSVR(solver=SMO_CROSSOVER)``: the loose-SMO warm start and exact crossover alone.
 SMO_CROSSOVER = "smo_crossover"
-#: The keys of :func:`~svrqp.formulations.epsilon_svr.model_certificate`.
-MODEL_CERTIFICATES: tuple[str, ...] = ("box_rel", "balance_rel", "kkt_rel")
 #: The paths ``auto`` tries, in order.
 AUTO_ORDER: tuple[str, ...] = (SMO_CROSSOVER, "dual_ipm")
 
 
 def _smo_crossover(X, y, C, epsilon, kernel_parameters, tol):
-    fit = solve_warm_started(X, y, C, epsilon, **kernel_parameters)
+    fit = solve_warm_started(X, y, C, epsilon, kernel_parameters)
     settings = {"smo_iterations": fit.smo_iterations, "crossover_steps": fit.crossover_steps,
                 "crossover_exact": fit.exact}
     return fit.beta, fit.intercept, fit.Kbeta, settings, fit.times_s
@@ -55,7 +55,7 @@ def _dual_ipm(X, y, C, epsilon, kernel_parameters, tol):
     if kernel_parameters["kernel"] == "precomputed":
         fit = dual_ipm.solve_exact(X, y, C, epsilon, tol=tol)
     else:
-        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, tol=tol, **kernel_parameters)
+        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, kernel_parameters, settings=ExactSettings(tol=tol))
     support = np.flatnonzero(fit.beta)
     Kbeta = _kernel_times(X, kernel_parameters, support, fit.beta[support])
     settings = {"ipm_iterations": fit.ipm.iterations, "ipm_converged": fit.ipm.converged,
@@ -76,9 +76,13 @@ def _kernel_times(X: NDArray[np.float64], kernel_parameters: dict[str, Any], idx
 
 
 def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-               kernel_parameters: dict[str, Any], formulation: str = "split", tol: float = 1e-8,
-               check_tol: float | None = None) -> tuple[NDArray[np.float64], float, Solution]:
-    """Run one exact path and certify its answer: ``(beta, b, solution)``.
+               kernel_parameters: dict[str, Any],
+               settings: DualSettings | None = None) -> DualFit:
+    """Run one exact path and certify its answer.
+
+    Returns the :class:`~svrqp.solvers.dual_qp.DualFit` of every dual fit, without the
+    QP (``problem`` is ``None``: it is never formed); ``polished`` says whether the crossover
+    reached the exact optimum.
 
     Parameters
     ----------
@@ -89,10 +93,10 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
         ``"precomputed"``).
     kernel_parameters
         ``kernel``, ``gamma``, ``degree``, ``coef0`` as in :func:`svrqp.kernels.gram`.
-    formulation
-        The dual QP the answer is certified on (``"split"`` or ``"stacked"``).
-    tol, check_tol
-        Requested accuracy, and the largest relative certificate accepted (default ``100·tol``).
+    settings
+        The dual QP the answer is certified on (``"split"`` or ``"stacked"``), the requested
+        accuracy and the largest relative certificate accepted (``None``: ``DualSettings()``,
+        the split form, 1e-8 and ``100·tol``).
 
     Raises
     ------
@@ -100,30 +104,29 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
         When a certificate of the stated QP or of the returned model exceeds ``check_tol``
         (an answer whose crossover did not settle is judged by its certificates like any other).
     """
-    from svrqp.solvers.qp_backends import DEFAULT_CHECK_FACTOR
-
-    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
+    settings = DualSettings() if settings is None else settings
+    tol = settings.tol
+    check_tol = check_limit(tol, settings.check_tol)
     C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
     start = time.perf_counter()
-    beta, b, Kbeta, settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
+    beta, b, Kbeta, path_settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
     solve_time = time.perf_counter() - start
-    residuals, objective, (x, y_eq, z_box), qp = certificates(formulation, y, C, epsilon, beta, b, Kbeta,
-                                                              kernel_scale(X, kernel_parameters))
-    solution = Solution(x=x, y=y_eq, z=None, z_box=z_box, objective=objective, status="optimal",
-                        residuals=residuals, backend=path, backend_version=f"svrqp {__version__}",
-                        settings={"tol": tol, "check_tol": check_tol, **settings, "times_s": times_s},
-                        build_time=time.perf_counter() - start - solve_time, solve_time=solve_time)
-    require_certificates(solution, qp, check_tol)
-    require_model_certificate({key: residuals[key] for key in MODEL_CERTIFICATES}, check_tol, path)
-    return beta, b, solution
+    on_qp = model_on_qp(settings.formulation, y, C, epsilon, beta, b, Kbeta, kernel_scale(X, kernel_parameters))
+    record = SolverRecord(path, f"svrqp {__version__}",
+                          {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s},
+                          build_time=time.perf_counter() - start - solve_time, solve_time=solve_time)
+    solution = Solution.of_qp(on_qp.qp, on_qp.point, record, extra_residuals=on_qp.certificate)
+    require_certificates(solution, on_qp.qp, check_tol)
+    require_model_certificate(solution.residuals, check_tol, path)
+    return DualFit(beta, b, None, solution, bool(path_settings["crossover_exact"]))
 
 
 def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-               kernel_parameters: dict[str, Any], formulation: str = "split", tol: float = 1e-8,
-               check_tol: float | None = None) -> tuple[NDArray[np.float64], float, Solution]:
+               kernel_parameters: dict[str, Any],
+               settings: DualSettings | None = None) -> DualFit:
     """Try the paths of :data:`AUTO_ORDER` until one certifies (arguments as :func:`solve_path`).
 
-    ``solution.backend`` names the path that certified; ``solution.settings["rejected"]`` lists
+    ``fit.solution.backend`` names the path that certified; ``fit.solution.settings["rejected"]`` lists
     the paths tried before it and why they were rejected.
 
     Raises
@@ -134,12 +137,11 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     rejected: list[str] = []
     for path in AUTO_ORDER:
         try:
-            beta, b, solution = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters,
-                                           formulation=formulation, tol=tol, check_tol=check_tol)
+            fit = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters, settings=settings)
         except (SvrqpError, np.linalg.LinAlgError) as error:
             rejected.append(f"{path}: {error}")
             continue
-        solution.settings["rejected"] = rejected
-        return beta, b, solution
+        fit.solution.settings["rejected"] = rejected
+        return fit
     raise SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
                       + "; ".join(rejected), AUTO, "failed")

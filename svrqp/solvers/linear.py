@@ -10,7 +10,7 @@ import scipy.linalg
 
 from svrqp.exceptions import SolverError
 from svrqp.problems import LinearSystem
-from svrqp.solution import Solution
+from svrqp.solution import Solution, SolverRecord
 
 
 def solve_linear_system(system: LinearSystem, *, check_tol: float = 1e-9) -> Solution:
@@ -25,9 +25,5 @@ def solve_linear_system(system: LinearSystem, *, check_tol: float = 1e-9) -> Sol
     if residuals["residual_rel"] > check_tol:
         raise SolverError(f"LU residual {residuals['residual_rel']:.2e} > {check_tol:.1e} on {system.name!r}",
                           "lu", "inaccurate")
-    return Solution(
-        x=x, y=None, z=None, z_box=None, objective=0.0, status="optimal",
-        residuals={"primal": residuals["residual"], "primal_rel": residuals["residual_rel"]},
-        backend="lu", backend_version=f"scipy {version('scipy')}",
-        settings={"check_tol": check_tol}, solve_time=solve_time,
-    )
+    return Solution.of_linear_system(x, residuals, SolverRecord("lu", f"scipy {version('scipy')}",
+                                                                {"check_tol": check_tol}, solve_time=solve_time))

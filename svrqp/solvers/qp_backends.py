@@ -17,6 +17,7 @@ Sign conventions follow qpsolvers: ``y`` multiplies :math:`Ax - b`, ``z \\ge 0``
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import os
@@ -33,11 +34,13 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import BackendNotAvailableError, ProblemError, SolverError
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Solution, require_certificates
-
-#: Allowed slack between the requested ``tol`` and the relative certificates, because each
-#: backend measures its own stopping criterion in its own (scaled) norm.
-DEFAULT_CHECK_FACTOR = 100.0
+from svrqp.solution import (
+    Point,
+    Solution,
+    SolverRecord,
+    check_limit,
+    require_certificates,
+)
 
 #: Tiny diagonal added for backends that need a positive definite P (Goldfarb–Idnani in
 #: quadprog): relative to max |P_ii|. Its effect on the objective is reported in ``settings``.
@@ -245,7 +248,11 @@ def _swallow_highs_banner() -> None:
         os.close(saved)
 
 
-def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict[str, Any], initvals):
+#: What a backend adapter returns: the point ``(x, y, z, z_box)``, the status and the solver record.
+Outcome = tuple[Point, str, SolverRecord]
+
+
+def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict[str, Any], initvals) -> Outcome:
     import qpsolvers
 
     if backend.name == "highs":
@@ -273,10 +280,12 @@ def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict
     solve_time = time.perf_counter() - start
     extras = result.extras or {}
     status = "optimal" if result.found else _status_from_text(str(extras.get("status", "")))
-    return result.x, result.y, result.z, result.z_box, status, settings, build_time, solve_time, _iterations(extras)
+    record = SolverRecord(backend.name, backend_version(backend.name), settings, build_time, solve_time,
+                          _iterations(extras))
+    return (result.x, result.y, result.z, result.z_box), status, record
 
 
-def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals):
+def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals) -> Outcome:
     import cvxpy as cp
 
     solver = str(settings.get("solver", "CLARABEL")).upper()
@@ -310,7 +319,8 @@ def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals):
         raise SolverError(f"backend 'cvxpy' ({solver}) failed: {err}", "cvxpy", "failed") from err
     solve_time = time.perf_counter() - start
     if model.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or x.value is None:
-        return None, None, None, None, _status_from_text(model.status), settings, build_time, solve_time, None
+        record = SolverRecord("cvxpy", backend_version("cvxpy"), settings, build_time, solve_time)
+        return (None, None, None, None), _status_from_text(model.status), record
     duals = {name: np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for name, c in zip(names, constraints)}
     z_box = None
     if "lb" in duals or "ub" in duals:
@@ -320,8 +330,9 @@ def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals):
         if "ub" in duals:
             z_box[finite_ub] += duals["ub"]
     iterations = model.solver_stats.num_iters if model.solver_stats else None
-    return (np.asarray(x.value, dtype=float), duals.get("y"), duals.get("z"), z_box, "optimal",
-            {**settings, "solver": solver}, build_time, solve_time, iterations)
+    record = SolverRecord("cvxpy", backend_version("cvxpy"), {**settings, "solver": solver}, build_time, solve_time,
+                          iterations)
+    return (np.asarray(x.value, dtype=float), duals.get("y"), duals.get("z"), z_box), "optimal", record
 
 
 def solve_qp(
@@ -346,7 +357,7 @@ def solve_qp(
         Requested accuracy, mapped onto the backend's own tolerances.
     check_tol
         Largest relative primal residual, dual residual and duality gap accepted; defaults to
-        ``DEFAULT_CHECK_FACTOR * tol``.
+        :data:`~svrqp.solution.DEFAULT_CHECK_FACTOR` ``* tol`` (:func:`~svrqp.solution.check_limit`).
     initvals
         Warm start for backends that accept one.
     options
@@ -363,7 +374,7 @@ def solve_qp(
     """
     if not np.isfinite(tol) or tol <= 0:
         raise ProblemError(f"tol must be a positive number, got {tol!r}")
-    check_tol = DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
+    check_tol = check_limit(tol, check_tol)
     spec = require_backend(backend)
     twice = sorted(set(options or {}) & set(settings))
     if twice:
@@ -373,17 +384,14 @@ def solve_qp(
         outcome = _solve_cvxpy(problem, settings, initvals)
     else:
         outcome = _solve_qpsolvers(problem, spec, settings, initvals)
-    x, y, z, z_box, status, settings, build_time, solve_time, iterations = outcome
+    point, status, record = outcome
+    x = point[0]
     if x is None or status != "optimal" or not np.all(np.isfinite(x)):
         raise SolverError(f"backend {backend!r} did not solve {problem.name!r} (status: {status})",
                           backend, status)
-    settings = {**settings, "tol": tol, "check_tol": check_tol}
+    settings = {**record.settings, "tol": tol, "check_tol": check_tol}
     if "_pd_regularisation" in settings:  # what the added diagonal changed in the objective
         settings["_pd_objective_shift"] = 0.5 * settings["_pd_regularisation"] * float(x @ x)
-    solution = Solution(
-        x=x, y=y, z=z, z_box=z_box, objective=problem.objective(x), status=status,
-        residuals=problem.kkt_residuals(x, y, z, z_box), backend=backend, backend_version=backend_version(backend),
-        settings=settings, build_time=build_time, solve_time=solve_time, iterations=iterations,
-    )
+    solution = Solution.of_qp(problem, point, dataclasses.replace(record, settings=settings))
     require_certificates(solution, problem, check_tol)
     return solution

@@ -19,19 +19,21 @@ size :math:`|F|`. Only kernel columns of support vectors are formed
 (:class:`svrqp.linalg.kernel_columns.KernelColumns`), never the n×n Gram matrix.
 
 The result is exact only when the crossover says so (``exact``); the caller certifies it on the
-stated QP (:mod:`svrqp.formulations.epsilon_svr_certificate`) and otherwise moves to another path.
+stated QP (:mod:`svrqp.formulations.epsilon_svr_residuals`) and otherwise moves to another path.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.solvers.dual_ipm.crossover import crossover
 from svrqp.linalg.kernel_columns import KernelColumns
+from svrqp.solvers.dual_ipm.crossover import crossover
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
 #: answer needs; the crossover finishes the job. (1e-2 saves SMO iterations at large C but costs
@@ -60,35 +62,35 @@ def precomputed_columns(K: NDArray[np.float64]):
     return lambda idx: K[:, idx]
 
 
-def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-                       kernel: str = "rbf", gamma: float = 1.0, degree: int = 3, coef0: float = 0.0,
-                       smo_tol: float = WARM_START_TOL) -> WarmStartFit:
+def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
+                       kernel_parameters: Mapping[str, Any], *, smo_tol: float = WARM_START_TOL) -> WarmStartFit:
     """Loose SMO (Fan, Chen & Lin 2005) then the exact crossover (module docstring).
 
     Parameters
     ----------
     X
-        Training inputs, or the training Gram matrix when ``kernel="precomputed"``.
+        Training inputs, or the training Gram matrix when ``kernel_parameters["kernel"]`` is
+        ``"precomputed"``.
     y, C, epsilon
         Targets and SVR parameters.
-    kernel, gamma, degree, coef0
-        Kernel in scikit-learn's convention (the same as :func:`svrqp.kernels.gram`).
+    kernel_parameters
+        ``kernel``, ``gamma``, ``degree``, ``coef0`` in scikit-learn's convention (the same as
+        :func:`svrqp.kernels.gram`).
     smo_tol
         libsvm's tolerance for the warm start.
     """
     from sklearn.svm import SVR  # libsvm: the decomposition method
 
     C, epsilon = float(C), float(epsilon)
+    parameters = {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
     start = time.perf_counter()
-    smo = SVR(C=C, epsilon=epsilon, kernel=kernel, gamma=gamma, degree=degree, coef0=coef0, tol=smo_tol,
-              cache_size=CACHE_SIZE_MB).fit(X, y)
+    smo = SVR(C=C, epsilon=epsilon, **parameters, tol=smo_tol, cache_size=CACHE_SIZE_MB).fit(X, y)
     middle = time.perf_counter()
     beta0 = np.zeros(y.size)
     beta0[smo.support_] = smo.dual_coef_[0]
-    if kernel == "precomputed":
+    if parameters["kernel"] == "precomputed":
         columns, products = precomputed_columns(X), None
     else:
-        parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
         columns = KernelColumns(X, **parameters)
         products = columns.products
     result = crossover(columns, y, C, epsilon, beta0, products=products)

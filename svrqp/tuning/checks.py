@@ -9,11 +9,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.utils.validation import check_X_y
 
+from svrqp import registry
 from svrqp.estimators.kernel import DUAL_IPM
 from svrqp.exceptions import ProblemError
 from svrqp.solvers.auto import AUTO
 from svrqp.solvers.qp_backends import require_backend
-from svrqp.tuning.result import MODELS
 
 
 def validated(X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -25,9 +25,9 @@ def validated(X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
 
 
 def check_model(model: str) -> None:
-    """Raise unless ``model`` is one of :data:`~svrqp.tuning.result.MODELS`."""
-    if model not in MODELS:
-        raise ProblemError(f"model must be one of {MODELS}, got {model!r}")
+    """Raise unless ``model`` is a searchable model of the registry (:func:`svrqp.registry.tunable`)."""
+    if model not in registry.tunable():
+        raise ProblemError(f"model must be one of {registry.tunable()}, got {model!r}")
 
 
 def fit_solver(solver: str) -> str:

@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from svrqp.estimators.kernel import DUAL_IPM
 from svrqp.exceptions import SolverError
-from svrqp.formulations import epsilon_svr
-from svrqp.solvers import dual_ipm
+from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
+from svrqp.solvers import dual_ipm, dual_qp
 
 #: Backends whose qpsolvers adapter uses ``initvals`` (first-order and augmented-Lagrangian
 #: methods); interior-point backends ignore a warm start, so it is not passed to them.
@@ -53,7 +53,8 @@ def fit_epsilon_svr(
     if solver == DUAL_IPM:
         beta, b = _exact_dual_along_c(K, y, float(C), float(epsilon), tol, previous)
         return beta, b, (beta, float(C))
-    beta, b, _, solution, _ = epsilon_svr.solve_dual(K, y, C, epsilon, backend=solver, tol=tol, initvals=previous)
+    beta, b, _, solution, _ = dual_qp.solve_dual(K, y, C, epsilon, solver, dual_qp.DualSettings(tol=tol),
+                                                 initvals=previous)
     beta = np.where(epsilon_svr.support_mask(beta, C), beta, 0.0)
     return beta, b, solution.x
 
@@ -67,7 +68,7 @@ def _exact_dual_along_c(
         at_bound = np.abs(beta_previous) >= C_previous * (1.0 - epsilon_svr.SV_TOLERANCE)
         guess = np.where(at_bound, np.sign(beta_previous) * C, beta_previous)  # same states, new box
         warm = dual_ipm.crossover(lambda idx: K[:, idx], y, C, epsilon, guess,
-                                  fast_steps=WARM_CROSSOVER_STEPS, max_steps=0)
+                                  settings=dual_ipm.CrossoverSettings(fast_steps=WARM_CROSSOVER_STEPS, max_steps=0))
         if warm.exact and _kkt_holds(K, y, warm.beta, warm.intercept, C, epsilon):
             return warm.beta, warm.intercept
     fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
@@ -95,9 +96,6 @@ def _kkt_holds(K: NDArray, y: NDArray, beta: NDArray, b: float, C: float, epsilo
     slack = KKT_TOL * (1.0 + float(np.max(np.abs(y))))
     if abs(float(beta.sum())) > KKT_TOL * C * beta.size or np.max(np.abs(beta)) > C:
         return False
-    r = y - K @ beta - b
-    zero, upper, lower = beta == 0.0, beta == C, beta == -C
-    free = ~(zero | upper | lower)
-    return bool(np.all(np.abs(r[zero]) <= epsilon + slack)
-                and np.all(np.abs(r[free] - epsilon * np.sign(beta[free])) <= slack)
-                and np.all(r[upper] >= epsilon - slack) and np.all(r[lower] <= -epsilon + slack))
+    residual = epsilon_svr_certificate.multipliers(beta, b, K @ beta, y, epsilon).residual
+    state = epsilon_svr_certificate.states(beta, C, 0.0)  # exactly 0 or exactly ±C
+    return bool(np.all(epsilon_svr_certificate.kkt_violation(residual, state, epsilon) <= slack))

@@ -9,11 +9,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from svrqp import registry
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
-
-#: The searchable models: ε-SVR over (C, ε, γ) and LS-SVR over (C, γ).
-MODELS: tuple[str, ...] = ("svr", "lssvr")
-
 
 @dataclass
 class SearchResult:
@@ -52,5 +49,4 @@ class SearchResult:
 
     def best_estimator(self, **estimator_params: Any) -> EpsilonSVR | LSSVR:
         """An unfitted estimator with the best parameters (RBF kernel), e.g. to refit on all data."""
-        estimator = EpsilonSVR if self.model == "svr" else LSSVR
-        return estimator(kernel="rbf", **self.best_params, **estimator_params)
+        return registry.spec(self.model).estimator_class()(kernel="rbf", **self.best_params, **estimator_params)

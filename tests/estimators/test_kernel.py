@@ -7,7 +7,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from support.problems import SVR_CASES, thermal_two_sensors
 from sklearn.model_selection import GridSearchCV
 from sklearn.utils.estimator_checks import parametrize_with_checks
 from support.epsilon_svr_reference import (
@@ -17,10 +16,13 @@ from support.epsilon_svr_reference import (
     linear,
     reference,
 )
+from support.problems import SVR_CASES, thermal_two_sensors
 
 from svrqp import LSSVR, EpsilonSVR, ProblemError, SolverError, SvrqpError
-from svrqp.estimators.kernel import dual_qp_point, solve_dual_ipm
+from svrqp.formulations.epsilon_svr_certificate import dual_qp_point, multipliers
 from svrqp.kernels import gram
+from svrqp.solvers.dual_ipm.certified import solve_dual_ipm
+from svrqp.solvers.dual_qp import DualSettings
 
 X_OK = np.linspace(0.0, 1.0, 20)[:, None]
 Y_OK = np.sin(6.0 * X_OK[:, 0])
@@ -154,11 +156,12 @@ def test_dual_ipm_certificates_catch_a_wrong_solution():
     case = thermal_two_sensors()
     K = gram(case.X, gamma=case.gamma)
     fit = solve_dual_ipm(K, case.y, case.C, case.epsilon)
-    x, y_eq, z_box = dual_qp_point("split", K, case.y, 0.9 * fit.beta, fit.b, case.epsilon)
+    beta = 0.9 * fit.beta
+    x, y_eq, z_box = dual_qp_point("split", multipliers(beta, fit.intercept, K @ beta, case.y, case.epsilon))
     residuals = fit.problem.kkt_residuals(x, y_eq, None, z_box)
     assert max(residuals["dual_rel"], residuals["gap_rel"]) > 1e-3
     with pytest.raises(SolverError, match="'dual_ipm'.*certificate"):
-        solve_dual_ipm(K, case.y, case.C, case.epsilon, check_tol=1e-300)
+        solve_dual_ipm(K, case.y, case.C, case.epsilon, DualSettings(check_tol=1e-300))
 
 
 def test_dual_ipm_rejects_the_primal_formulation():

@@ -3,16 +3,20 @@ scikit-learn's libsvm as the outside reference, for every formulation × backend
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
+from support.backends import CHECK_TOLERANCE
+from support.epsilon_svr_reference import (
+    assert_kkt,
+    assert_matches_reference,
+    full_beta,
+    linear,
+    reference,
+)
+from support.problems import SVR_CASES
 
 from svrqp import EpsilonSVR
 from svrqp.kernels import gram
-
-from support.backends import CHECK_TOLERANCE
-from support.epsilon_svr_reference import assert_kkt, assert_matches_reference, full_beta, linear, reference
-from support.problems import SVR_CASES
 
 
 @pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)

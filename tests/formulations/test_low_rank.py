@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from support.problems import diabetes, thermal_two_sensors
 
 from svrqp.exceptions import ProblemError
 from svrqp.formulations import low_rank
-from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 from svrqp.formulations.epsilon_svr import dual_objective
-from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.kernels import gram
+from svrqp.linalg.kernel_columns import KernelColumns
+from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 from svrqp.solvers import solve_qp
-
-from support.problems import diabetes, thermal_two_sensors
 
 
 def test_factor_trace_error_is_the_trace_of_the_residual():

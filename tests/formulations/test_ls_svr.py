@@ -4,23 +4,22 @@ import numpy as np
 import pytest
 import scipy.linalg
 from sklearn.kernel_ridge import KernelRidge
+from support.problems import SVR_CASES
 
 from svrqp import LSSVR, ProblemError, SingularSystemError
 from svrqp.formulations.ls_svr import kkt_system, solve_cholesky_schur
 from svrqp.kernels import gram
-
-from support.problems import SVR_CASES
 
 
 @pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)
 def test_schur_equals_direct_kkt_solve(case_factory):
     case = case_factory()
     K = gram(case.X, gamma=case.gamma)
-    alpha, b, info = solve_cholesky_schur(K, case.y, case.C)
+    alpha, b, solution = solve_cholesky_schur(K, case.y, case.C)
     system = kkt_system(K, case.y, case.C)
     direct = scipy.linalg.solve(system.M, system.rhs)  # LU of the full bordered matrix
     np.testing.assert_allclose(np.concatenate([[b], alpha]), direct, rtol=1e-9, atol=1e-9 * np.abs(direct).max())
-    assert info["residual_rel"] < 1e-12
+    assert solution.residuals["primal_rel"] < 1e-12
     assert abs(alpha.sum()) < 1e-9 * np.abs(alpha).max()  # first KKT row: 1ᵀα = 0
 
 
@@ -55,19 +54,19 @@ def test_in_place_factorisation_gives_the_same_solution_and_only_then_destroys_k
     case = SVR_CASES[0]()
     K = gram(case.X, gamma=case.gamma)
     kept = K.copy()
-    alpha, b, info = solve_cholesky_schur(K, case.y, case.C, fit_intercept)
+    alpha, b, solution = solve_cholesky_schur(K, case.y, case.C, fit_intercept)
     np.testing.assert_array_equal(K, kept)  # the default leaves the caller's Gram matrix alone
-    alpha_in_place, b_in_place, info_in_place = solve_cholesky_schur(K, case.y, case.C, fit_intercept, overwrite_K=True)
+    alpha_in_place, b_in_place, solution_in_place = solve_cholesky_schur(K, case.y, case.C, fit_intercept, overwrite_K=True)
     np.testing.assert_array_equal(alpha_in_place, alpha)
-    assert b_in_place == b and info_in_place["residual"] == info["residual"]
+    assert b_in_place == b and solution_in_place.residuals == solution.residuals
     assert not np.array_equal(np.tril(K), np.tril(kept))  # the factor was written into K itself
 
 
 def test_certificate_is_the_residual_of_the_full_system():
     case = SVR_CASES[1]()
     K = gram(case.X, gamma=case.gamma)
-    alpha, b, info = solve_cholesky_schur(K, case.y, case.C)
+    alpha, b, solution = solve_cholesky_schur(K, case.y, case.C)
     system = kkt_system(K, case.y, case.C)
     direct = np.max(np.abs(system.M @ np.concatenate([[b], alpha]) - system.rhs))  # independent: the formed matrix
     # Both are rounding noise of the same size (a certificate read from the factored triangle is not).
-    assert direct / 10 <= info["residual"] <= 10 * direct + 1e-15
+    assert direct / 10 <= solution.residuals["primal"] <= 10 * direct + 1e-15

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from support.problems import diabetes
 from sklearn.metrics.pairwise import polynomial_kernel, rbf_kernel
+from support.problems import diabetes
 
 from svrqp import ProblemError
-from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.kernels import gram
+from svrqp.linalg.kernel_columns import KernelColumns
 
 
 @pytest.mark.parametrize("parameters", [{"kernel": "rbf", "gamma": 5.0}, {"kernel": "linear"},
@@ -51,7 +51,7 @@ def test_bad_parameters_are_rejected_when_the_cache_is_made():
 @pytest.mark.parametrize("parameters", [{"kernel": "rbf", "gamma": 5.0}, {"kernel": "linear"},
                                         {"kernel": "poly", "gamma": 0.5, "degree": 3, "coef0": 1.0}])
 def test_products_equal_scikit_learn_kernel_times_vector(monkeypatch, parameters):
-    import svrqp.linalg.kernel_columns as kernel_columns
+    from svrqp.linalg import kernel_columns
 
     monkeypatch.setattr(kernel_columns, "PRODUCT_BLOCK_ENTRIES", 200)  # several row blocks, a short last one
     X = diabetes().X

@@ -9,15 +9,23 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from support.epsilon_svr_reference import (
+    assert_kkt,
+    assert_matches_reference,
+    full_beta,
+    linear,
+    reference,
+)
 from support.problems import SVR_CASES
-from support.epsilon_svr_reference import assert_kkt, assert_matches_reference, full_beta, linear, reference
 
 from svrqp import EpsilonSVR, SolverError
-from svrqp.solvers import auto as solver_choice
-from svrqp.formulations.epsilon_svr_certificate import certificates
-from svrqp.estimators.kernel import PRIMAL_AUTO_BACKEND, dual_qp_point
+from svrqp.estimators.kernel import PRIMAL_AUTO_BACKEND
 from svrqp.formulations import epsilon_svr
+from svrqp.formulations.epsilon_svr_certificate import dual_qp_point, multipliers
+from svrqp.formulations.epsilon_svr_residuals import model_on_qp
 from svrqp.kernels import gram
+from svrqp.solution import Solution, SolverRecord
+from svrqp.solvers import auto as solver_choice
 
 
 def sinc_case(n: int = 400, seed: int = 0):
@@ -84,9 +92,11 @@ def test_certificates_without_P_equal_the_generic_ones(formulation):
     beta, b = full_beta(model, len(case.y)), model.intercept_[0]
     beta[0] += 1e-3 * case.C  # off the optimum, so that every certificate is non-trivial
     problem = epsilon_svr.build(formulation, case.y, case.C, case.epsilon, K=K)
-    point = dual_qp_point(formulation, K, case.y, beta, b, case.epsilon)
+    point = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon))
     expected = problem.kkt_residuals(*point[:2], None, point[2])
-    residuals, objective, _, _ = certificates(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
+    on_qp = model_on_qp(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
+    solution = Solution.of_qp(on_qp.qp, on_qp.point, SolverRecord("test", "0"), extra_residuals=on_qp.certificate)
+    residuals, objective = solution.residuals, solution.objective
     assert expected.keys() <= residuals.keys()
     for key, value in expected.items():
         # the dual residual is rounding by construction: K @ beta and P @ x round differently

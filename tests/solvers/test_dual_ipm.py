@@ -5,20 +5,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sklearn.svm import SVR
+from support.problems import SVR_CASES, SVRCase, thermal_two_sensors
 
 from svrqp import datasets
 from svrqp.bench import cases as bench
-from svrqp.solvers import dual_ipm
-from svrqp.solvers.dual_ipm.crossover import _bordered_solve
 from svrqp.exceptions import ProblemError
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr import dual_objective
-from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
-from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.kernels import gram
-from svrqp.solvers import solve_qp
+from svrqp.linalg.kernel_columns import KernelColumns
+from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
+from svrqp.solvers import dual_ipm, solve_qp
+from svrqp.solvers.dual_ipm.crossover import _bordered_solve
 
-from support.problems import SVR_CASES, SVRCase, thermal_two_sensors
+
+def rbf(gamma: float) -> dict:
+    """The kernel parameters of an RBF kernel of width ``gamma``."""
+    return {"kernel": "rbf", "gamma": gamma, "degree": 3, "coef0": 0.0}
 
 
 def warm_up_few_support() -> SVRCase:
@@ -75,8 +78,8 @@ def test_solve_exact_matches_libsvm_and_satisfies_kkt(case_factory):
 def test_solve_exact_from_data_matches_the_dense_path(case_factory):
     case = case_factory()
     K = gram(case.X, gamma=case.gamma)
-    fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
-                                         factor_tol=1e-6, max_rank=len(case.y))
+    fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, rbf(case.gamma),
+                                         settings=dual_ipm.ExactSettings(factor_tol=1e-6, max_rank=len(case.y)))
     assert fit.crossover.exact
     assert_exact_kkt(K, case.y, fit.beta, fit.intercept, case.C, case.epsilon)
     assert_matches_libsvm(case, K, fit.beta, fit.intercept)
@@ -84,11 +87,11 @@ def test_solve_exact_from_data_matches_the_dense_path(case_factory):
 
 def test_low_rank_path_forms_no_gram_and_falls_back_when_the_factor_is_poor():
     case = warm_up_few_support()
-    low_rank = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
-                                              factor_tol=1e-8, max_rank=len(case.y))
+    low_rank = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, rbf(case.gamma),
+                                              settings=dual_ipm.ExactSettings(factor_tol=1e-8, max_rank=len(case.y)))
     assert low_rank.times_s["gram_s"] == 0.0
-    fallback = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
-                                              factor_tol=1e-14, max_rank=3)
+    fallback = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, rbf(case.gamma),
+                                              settings=dual_ipm.ExactSettings(factor_tol=1e-14, max_rank=3))
     assert fallback.times_s["gram_s"] > 0.0
     np.testing.assert_allclose(low_rank.beta, fallback.beta, atol=1e-9 * case.C)
 
@@ -117,7 +120,8 @@ def test_crossover_repairs_a_perturbed_start_and_reports_when_it_cannot():
     repaired = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start)
     assert repaired.exact and repaired.steps > 1
     np.testing.assert_allclose(repaired.beta, exact.beta, atol=1e-9 * case.C)
-    stopped = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start, max_steps=1)
+    stopped = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start,
+                                 settings=dual_ipm.CrossoverSettings(max_steps=1))
     assert not stopped.exact
 
 
@@ -140,8 +144,8 @@ def test_a_coarse_factor_still_gives_the_exact_optimum(factor_tol):
     """The factor only guides the search: a rough one gives a longer crossover, never another answer."""
     case = warm_up_few_support()
     K = gram(case.X, gamma=case.gamma)
-    fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, gamma=case.gamma,
-                                         factor_tol=factor_tol, max_rank=len(case.y))
+    fit = dual_ipm.solve_exact_from_data(case.X, case.y, case.C, case.epsilon, rbf(case.gamma),
+                                         settings=dual_ipm.ExactSettings(factor_tol=factor_tol, max_rank=len(case.y)))
     assert fit.crossover.exact and fit.times_s["gram_s"] == 0.0
     assert_exact_kkt(K, case.y, fit.beta, fit.intercept, case.C, case.epsilon)
     assert_matches_libsvm(case, K, fit.beta, fit.intercept)
@@ -157,7 +161,7 @@ def test_crossover_never_calls_an_unbalanced_all_bound_guess_exact():
     K, y, C = np.eye(2), np.array([10.0, 10.0]), 1
     for fast_steps, max_steps in ((10, 0), (8, 200)):
         result = dual_ipm.crossover(lambda idx: K[:, idx], y, C, 0.1, np.array([1.0, 1.0]),
-                                    fast_steps=fast_steps, max_steps=max_steps)
+                                    settings=dual_ipm.CrossoverSettings(fast_steps=fast_steps, max_steps=max_steps))
         assert not result.exact
     fit = dual_ipm.solve_exact(K, y, C, 0.1)  # from the interior point the optimum β = 0 is found
     assert fit.crossover.exact
@@ -204,7 +208,7 @@ def test_repeated_inputs_with_noisy_targets_are_solved_exactly():
     y = y + 0.3 * rng.standard_normal(y.size)
     y = (y - y.mean()) / y.std()
     C, epsilon, gamma = 10.0, 0.05, 0.5
-    fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, gamma=gamma)
+    fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, rbf(gamma))
     K = gram(X, gamma=gamma)
     assert fit.crossover.exact
     assert_exact_kkt(K, y, fit.beta, fit.intercept, C, epsilon)

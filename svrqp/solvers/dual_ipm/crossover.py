@@ -36,9 +36,21 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from svrqp.formulations import epsilon_svr_certificate as certificate
 
 #: A coefficient within this fraction of C of zero or of a bound starts the crossover in that state.
 CROSSOVER_THRESHOLD = 1e-6
+
+
+@dataclass(frozen=True)
+class CrossoverSettings:
+    """How far :func:`crossover` goes (see its docstring)."""
+
+    threshold: float = CROSSOVER_THRESHOLD  #: fraction of C within which a start coefficient is at zero or a bound
+    kkt_tol: float = 1e-9  #: slack on the tube conditions, relative to 1 + max|y|
+    max_steps: int = 200  #: limit on the feasible active-set steps; ``exact`` is false when it is reached
+    fast_steps: int = 8  #: limit on the primal–dual active-set steps tried first
+
 
 @dataclass
 class CrossoverResult:
@@ -52,23 +64,13 @@ class CrossoverResult:
     Kbeta: NDArray[np.float64] | None = None  # K beta from the final (fresh) bounded term, when exact
 
 
-def _states(beta: NDArray[np.float64], C: float, threshold: float) -> NDArray[np.int8]:
-    """-2: at -C, -1: free negative, 0: zero, 1: free positive, 2: at +C."""
-    states = np.sign(beta).astype(np.int8)
-    states[np.abs(beta) <= threshold * C] = 0
-    states[beta >= C * (1 - threshold)] = 2
-    states[beta <= -C * (1 - threshold)] = -2
-    return states
-
-
 def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64], C: float,
               epsilon: float, beta: NDArray[np.float64], *,
               products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]] | None = None,
-              threshold: float = CROSSOVER_THRESHOLD, kkt_tol: float = 1e-9, max_steps: int = 200,
-              fast_steps: int = 8) -> CrossoverResult:
+              settings: CrossoverSettings = CrossoverSettings()) -> CrossoverResult:
     """Active-set steps from an approximate ``beta`` to the exact optimum (module docstring).
 
-    First up to ``fast_steps`` primal–dual active-set steps (every state updated at once: a few
+    First up to ``settings.fast_steps`` primal–dual active-set steps (every state updated at once: a few
     steps from a good start, but no guarantee); if they do not settle, the feasible active-set
     method restarts from ``beta`` (one blocking coefficient at a time, objective never increasing).
 
@@ -80,26 +82,24 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     y, C, epsilon
         Targets and SVR parameters.
     beta
-        Starting coefficients (an interior-point solution): states within ``threshold``·C of a bound
-        or of zero are taken as active.
+        Starting coefficients (an interior-point solution): states within ``settings.threshold``·C
+        of a bound or of zero are taken as active
+        (:func:`svrqp.formulations.epsilon_svr_certificate.states`).
     products
         ``products(idx, v)`` returns :math:`K_{:, idx} v`; defaults to ``columns(idx) @ v``. A linear
         kernel passes :math:`X (X_{idx}^\\top v)`, so the many bounded columns are never formed.
-    kkt_tol
-        Slack on the tube conditions, relative to :math:`1 + \\max|y|`.
-    max_steps
-        Limit on the feasible active-set steps; ``exact`` is false when it is reached.
-    fast_steps
-        Limit on the primal–dual active-set steps tried first.
+    settings
+        The start threshold, the slack on the tube conditions and the two step limits.
     """
     beta = np.asarray(beta, dtype=float)
     C = float(C)  # an integer C times the int8 states would overflow
-    slack = kkt_tol * (1.0 + float(np.max(np.abs(y))))
+    slack = settings.kkt_tol * (1.0 + float(np.max(np.abs(y))))
     kernel = _KernelAccess(columns, products or (lambda idx, v: columns(idx) @ v), y.size)
-    fast = _primal_dual_active_set(kernel, y, C, epsilon, _states(beta, C, threshold), slack, fast_steps)
+    start = certificate.states(beta, C, settings.threshold)
+    fast = _primal_dual_active_set(kernel, y, C, epsilon, start.copy(), slack, settings.fast_steps)
     if fast.exact:
         return fast
-    careful = _feasible_active_set(kernel, y, C, epsilon, beta, _states(beta, C, threshold), slack, max_steps)
+    careful = _feasible_active_set(kernel, y, C, epsilon, beta, start, slack, settings.max_steps)
     careful.steps += fast.steps
     return careful
 
@@ -269,7 +269,7 @@ def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8
     different targets both free), which the final check must not take on trust.
     """
     free = np.abs(states) == 1
-    return bool(np.all(np.abs(residual[free] - epsilon * states[free]) <= slack))
+    return bool(np.all(certificate.kkt_violation(residual, states, epsilon)[free] <= slack))
 
 
 def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64], signs: NDArray[np.int8],

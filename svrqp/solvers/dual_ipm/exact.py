@@ -3,14 +3,28 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.solvers.dual_ipm.crossover import CROSSOVER_THRESHOLD, CrossoverResult, crossover
+from svrqp.kernels import gram
+from svrqp.linalg.kernel_columns import KernelColumns
+from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
+from svrqp.solvers.dual_ipm.crossover import (
+    CROSSOVER_THRESHOLD,
+    CrossoverResult,
+    CrossoverSettings,
+    crossover,
+)
 from svrqp.solvers.dual_ipm.interior_point import IPMResult, _check, interior_point
-from svrqp.solvers.dual_ipm.kernel_operators import DenseKernel, FactoredKernel, KernelOperator
+from svrqp.solvers.dual_ipm.kernel_operators import (
+    DenseKernel,
+    FactoredKernel,
+    KernelOperator,
+)
 
 
 @dataclass
@@ -48,7 +62,8 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
         start = time.perf_counter()
         ipm = interior_point(kernel, y, C, epsilon, tol=ipm_tol, max_iter=max_iter)
         middle = time.perf_counter()
-        result = crossover(columns, y, C, epsilon, ipm.beta, threshold=max(CROSSOVER_THRESHOLD, np.sqrt(ipm_tol)))
+        result = crossover(columns, y, C, epsilon, ipm.beta,
+                           settings=CrossoverSettings(threshold=max(CROSSOVER_THRESHOLD, np.sqrt(ipm_tol))))
         times_s["ipm_s"] += middle - start
         times_s["crossover_s"] += time.perf_counter() - middle
         if result.exact:
@@ -57,14 +72,25 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
     return ExactFit(beta, b, ipm, result, times_s)
 
 
-def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-                          kernel: str = "rbf", gamma: float = 1.0, degree: int = 3, coef0: float = 0.0,
-                          tol: float = 1e-8, factor_tol: float = 3e-5, max_rank: int | None = None,
-                          max_iter: int = 100, K: NDArray[np.float64] | None = None) -> ExactFit:
+@dataclass(frozen=True)
+class ExactSettings:
+    """Accuracy and low-rank settings of :func:`solve_exact_from_data`."""
+
+    tol: float = 1e-8  #: relative accuracy of the interior point
+    max_iter: int = 100  #: interior-point iteration limit
+    factor_tol: float = 3e-5  #: relative trace error the pivoted Cholesky factor must reach
+    max_rank: int | None = None  #: rank limit of the factor (None: n // 8)
+
+
+def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
+                          kernel_parameters: Mapping[str, Any], *, settings: ExactSettings = ExactSettings(),
+                          K: NDArray[np.float64] | None = None) -> ExactFit:
     """The fastest exact path: a low-rank interior point when the kernel allows it, the dense one otherwise.
 
-    A pivoted Cholesky factor of rank at most ``max_rank`` (default ``n // 8``) is tried first;
-    if its relative trace error reaches ``factor_tol``, the interior point runs on
+    ``kernel_parameters`` are ``kernel``, ``gamma``, ``degree`` and ``coef0`` as in
+    :func:`svrqp.kernels.gram`. A pivoted Cholesky factor of rank at most ``settings.max_rank``
+    (default ``n // 8``) is tried first; if its relative trace error reaches
+    ``settings.factor_tol``, the interior point runs on
     :math:`LL^\top` in :math:`O(nr^2)` per iteration and the crossover, which uses exact kernel
     columns of the support vectors only, turns its solution into the exact optimum: the factor
     only guides the search (a coarser one means more crossover steps, not another answer). When
@@ -72,20 +98,18 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     matrix is formed (or ``K`` used, when the caller already holds it) and :func:`solve_exact`
     runs. ``times_s`` adds the factorisation (``factor_s``) and Gram (``gram_s``) times.
     """
-    from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
-    from svrqp.linalg.kernel_columns import KernelColumns
-    from svrqp.kernels import gram
-
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
     n = X.shape[0]
     _check(y, C, epsilon, n)
-    parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
+    tol, max_iter = settings.tol, settings.max_iter
+    parameters = {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
     start = time.perf_counter()
     columns = KernelColumns(X, **parameters)
-    factor = pivoted_cholesky(columns, max_rank=max_rank or max(1, n // 8), tol=factor_tol, give_up=True)
+    factor = pivoted_cholesky(columns, max_rank=settings.max_rank or max(1, n // 8), tol=settings.factor_tol,
+                              give_up=True)
     factor_s = time.perf_counter() - start
-    if factor.relative_trace_error <= factor_tol:
+    if factor.relative_trace_error <= settings.factor_tol:
         fit = _interior_point_then_crossover(FactoredKernel(factor.L), columns, y, C, epsilon, tol, max_iter)
         if fit.crossover.exact:
             fit.times_s.update(factor_s=factor_s, gram_s=0.0)

@@ -1,0 +1,90 @@
+r"""The stated ε-SVR dual QP at a model :math:`(\beta, b)`, from :math:`K\beta` alone, P never formed.
+
+The QPs of :mod:`svrqp.formulations.epsilon_svr` touch the kernel only through :math:`Px`:
+
+* split, :math:`x = [\beta; \alpha; \alpha^*]`: :math:`Px = [K\beta;\ 0;\ 0]`;
+* stacked, :math:`x = [\alpha; \alpha^*]`: :math:`Px = [-K\beta;\ K\beta]`.
+
+So the stated QP's residuals (:meth:`svrqp.problems.QuadraticProgram.kkt_residuals`, the same
+code every backend's answer goes through) and objective are evaluated on a copy of the QP whose
+kernel block is empty and whose ``P`` answers :math:`Px` with the product above: :math:`K\beta`
+comes from the kernel columns of the support vectors only (:math:`O(n\,n_{SV})` kernel entries
+instead of the :math:`O(n^2)` of building P). The point and multipliers are those of
+:func:`svrqp.formulations.epsilon_svr_certificate.dual_qp_point`; the returned model's own
+certificate (:func:`svrqp.formulations.epsilon_svr_certificate.model_certificate`) is added to
+the residuals by the caller, through :meth:`svrqp.solution.Solution.of_qp`.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any, NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from svrqp.exceptions import ProblemError
+from svrqp.formulations import epsilon_svr
+from svrqp.formulations.epsilon_svr_certificate import (
+    dual_qp_point,
+    model_certificate,
+    multipliers,
+)
+from svrqp.kernels import gram_diagonal
+from svrqp.problems import QuadraticProgram
+
+
+class KnownProduct:
+    """A stand-in for a matrix whose product with one vector is already known (``M @ vector``).
+
+    Any other operand raises :class:`ProblemError`, so a stale product can never be used.
+    """
+
+    def __init__(self, vector: NDArray[np.float64], product: NDArray[np.float64]) -> None:
+        self.vector, self.product = vector, product
+        self.shape = (product.size, vector.size)
+
+    def __matmul__(self, other: Any) -> NDArray[np.float64]:
+        if other is not self.vector and not np.array_equal(other, self.vector):
+            raise ProblemError("KnownProduct only knows its product with the vector it was built for")
+        return self.product
+
+
+def kernel_free_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
+    """The QP of ``formulation`` with an empty kernel block: q, A, b and the box as stated, P all zero."""
+    if formulation not in ("split", "stacked"):
+        raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
+    n = y.size
+    empty = sp.csc_matrix((n, n)) if formulation == "split" else np.zeros((n, n))
+    return epsilon_svr.build(formulation, y, C, epsilon, K=empty)
+
+
+def kernel_scale(X: NDArray[np.float64], kernel_parameters: dict[str, Any]) -> float:
+    """:math:`\\max_i K_{ii}` without forming K (``X`` is the Gram matrix for ``"precomputed"``)."""
+    if kernel_parameters["kernel"] == "precomputed":
+        return float(np.max(np.diagonal(X), initial=0.0))
+    return float(np.max(gram_diagonal(np.asarray(X, dtype=float), **kernel_parameters), initial=0.0))
+
+
+class ModelOnQP(NamedTuple):
+    """A model :math:`(\\beta, b)` written on a dual QP: what :func:`model_on_qp` returns."""
+
+    qp: QuadraticProgram  #: the kernel-free copy whose P answers the one product P x
+    point: tuple[NDArray[np.float64], NDArray[np.float64], None, NDArray[np.float64]]  #: (x, y_eq, z, z_box)
+    certificate: dict[str, float]  #: model_certificate of (beta, b)
+
+
+def model_on_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float, beta: NDArray[np.float64],
+                b: float, Kbeta: NDArray[np.float64], scale: float) -> ModelOnQP:
+    """The stated dual QP of ``formulation`` at :math:`(\\beta, b)` (module docstring).
+
+    ``scale`` is :math:`\\max_i K_{ii}` (:func:`kernel_scale`), for the model certificate.
+    ``Solution.of_qp(result.qp, result.point, record, extra_residuals=result.certificate)`` gives
+    the residuals and objective every backend's answer gets.
+    """
+    x, y_eq, z_box = dual_qp_point(formulation, multipliers(beta, b, Kbeta, y, epsilon))
+    Px = np.concatenate([Kbeta, np.zeros(2 * y.size)]) if formulation == "split" else np.concatenate([-Kbeta, Kbeta])
+    view = copy.copy(kernel_free_qp(formulation, y, C, epsilon))
+    view.P = KnownProduct(x, Px)
+    return ModelOnQP(view, (x, y_eq, None, z_box), model_certificate(y, beta, Kbeta, b, C, epsilon, scale))

@@ -1,0 +1,65 @@
+"""The one ε-SVR certificate: states, rebuilt multipliers and per-point violations (S0 eq. 6)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.svm import SVR
+from support.epsilon_svr_reference import full_beta
+from support.problems import SVR_CASES
+
+from svrqp.formulations import epsilon_svr
+from svrqp.formulations.epsilon_svr_certificate import (
+    dual_qp_point,
+    kkt_violation,
+    multipliers,
+    states,
+)
+from svrqp.kernels import gram
+
+
+def test_states_sort_by_the_tolerance():
+    C = 2.0
+    beta = np.array([-C, -C * (1 - 1e-7), -0.5, -1e-9, 0.0, 1e-9, 0.5, C * (1 - 1e-7), C])
+    np.testing.assert_array_equal(states(beta, C, 1e-6), [-2, -2, -1, 0, 0, 0, 1, 2, 2])
+    np.testing.assert_array_equal(states(beta, C, 0.0), [-2, -1, -1, -1, 0, 1, 1, 1, 2])  # exactly 0 or ±C
+    np.testing.assert_array_equal(states(beta, C, 1e-6, zero_tol=1.0), [-2, -2, 0, 0, 0, 0, 0, 2, 2])
+
+
+def test_violation_of_each_condition_in_units_of_y():
+    epsilon = 0.1
+    r = np.array([0.05, -0.3, 0.1, 0.25, -0.1, -0.02, 0.3, -0.02])
+    state = np.array([0, 0, 1, 1, -1, -1, 2, -2], dtype=np.int8)
+    # zero: |r| - ε; free: |r - ε s|; at +C: ε - r; at -C: r + ε (≤ 0 where the condition holds)
+    expected = [-0.05, 0.2, 0.0, 0.15, 0.0, 0.08, -0.2, 0.08]
+    np.testing.assert_allclose(kkt_violation(r, state, epsilon), expected, atol=1e-15)
+
+
+@pytest.mark.parametrize("formulation", ["split", "stacked"])
+def test_rebuilt_multipliers_make_any_model_stationary(formulation):
+    """Stationarity holds by construction, for any (β, b): only the sign conditions are left."""
+    case = SVR_CASES[1]()
+    K = gram(case.X, gamma=case.gamma)
+    rng = np.random.default_rng(7)
+    beta, b = rng.uniform(-case.C, case.C, case.y.size), 0.3
+    problem = epsilon_svr.build(formulation, case.y, case.C, case.epsilon, K=K)
+    x, y_eq, z_box = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon))
+    residuals = problem.kkt_residuals(x, y_eq, None, z_box)
+    assert residuals["dual_rel"] <= 1e-13
+    np.testing.assert_allclose(epsilon_svr.beta_from_solution(formulation, case.y.size, x), beta, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)
+def test_violations_vanish_at_libsvm_optimum_and_see_a_shifted_bias(case_factory):
+    case = case_factory()
+    reference = SVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma, tol=1e-10).fit(case.X, case.y)
+    beta = full_beta(reference, case.y.size)
+    b = float(reference.intercept_[0])
+    K = gram(case.X, gamma=case.gamma)
+    state = states(beta, case.C, 1e-6)
+    point = multipliers(beta, b, K @ beta, case.y, case.epsilon)
+    assert np.max(kkt_violation(point.residual, state, case.epsilon)) <= 1e-5 * case.y.std()
+    shifted = multipliers(beta, b + 0.1 * case.y.std(), K @ beta, case.y, case.epsilon)
+    free = np.abs(state) == 1
+    np.testing.assert_allclose(kkt_violation(shifted.residual, state, case.epsilon)[free], 0.1 * case.y.std(),
+                               rtol=1e-3)
