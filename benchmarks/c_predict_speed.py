@@ -162,7 +162,7 @@ def main() -> None:
         f"{measured['latency_ns_p999']:.0f} / {measured['latency_ns_max']:.0f} ns |\n"
         f"| 99.9 % latency as a share of a 1 ms cycle (S4) | {100 * result['share_of_1ms_cycle_p999']:.3f} % |\n"
         f"| for comparison: Python `model.predict` on one row (median) | "
-        f"{result['python_predict_one_row_ns_median'] / 1e3:.0f} µs |\n\n"
+        f"{result['python_predict_one_row_ns_median'] / 1e3:.0f} μs |\n\n"
         f"Machine: {result['machine']['cpu']}, {result['machine']['cores_visible']} cores visible, "
         f"{result['machine']['os']}, {gcc}. Shared development machine with other jobs running: the "
         "maximum latency is the OS preempting the process (milliseconds when it happens), not the "

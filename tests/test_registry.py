@@ -46,10 +46,14 @@ def test_unknown_names_list_the_valid_ones():
 
 
 def test_tuning_and_gap_use_the_registry_names():
-    from svrqp.gap.baseline import MODEL_KINDS
+    from svrqp.gap.baseline import make_model
     from svrqp.tuning.checks import check_model
 
-    assert registry.baselines() == MODEL_KINDS and registry.baselines()[0] == registry.DEFAULT_BASELINE
+    assert registry.baselines()[0] == registry.DEFAULT_BASELINE
+    for name in registry.baselines():
+        make_model(name)
+    with pytest.raises(ProblemError, match="choose one of"):
+        make_model("poly")
     for name in registry.tunable():
         check_model(name)
     with pytest.raises(ProblemError, match="model must be one of"):

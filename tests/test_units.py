@@ -11,8 +11,6 @@ from svrqp.units import MICRO, UNIT_SUFFIXES, axis_label, latex_symbol, ratio_un
 
 MICRO_SIGN = "\N{MICRO SIGN}"  # U+00B5, the look-alike the project does not write
 PACKAGE = Path(svrqp.__file__).parent
-#: Modules outside this area that still write U+00B5 (their owners switch them to svrqp.units).
-PENDING = {"gap/figures.py", "gap/verdict.py"}
 
 
 def test_the_micro_sign_is_the_greek_mu():
@@ -44,10 +42,4 @@ def _files_with_micro_sign() -> set[str]:
 
 
 def test_no_module_writes_the_micro_sign_look_alike():
-    assert _files_with_micro_sign() - PENDING == set()
-
-
-@pytest.mark.parametrize("pending", sorted(PENDING))
-@pytest.mark.xfail(strict=True, reason="still writes U+00B5; once it is fixed, drop it from PENDING")
-def test_pending_modules_are_fixed(pending):
-    assert pending not in _files_with_micro_sign()
+    assert _files_with_micro_sign() == set()

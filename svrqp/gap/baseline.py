@@ -36,13 +36,11 @@ from sklearn.compose import TransformedTargetRegressor
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
+from svrqp import registry
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
 from svrqp.estimators.linear import LinearLS
 from svrqp.exceptions import ProblemError
 from svrqp.gap.prepare import GapData
-
-MODEL_KINDS = ("mlr", "svr", "lssvr")
-"""Model families a baseline can be fitted with."""
 
 TRAIN_BLOCKS = 5
 """Contiguous blocks of a single train group for its cross-validated reference."""
@@ -74,7 +72,7 @@ def make_model(kind: str, gamma: float | str = "scale") -> RegressorMixin:
     elif kind == "lssvr":
         core = LSSVR(C=LSSVR_C, gamma=gamma)
     else:
-        raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
+        raise ProblemError(f"model: unknown kind {kind!r}; choose one of {registry.baselines()}")
     return make_pipeline(StandardScaler(), TransformedTargetRegressor(regressor=core, transformer=StandardScaler()))
 
 
@@ -123,8 +121,8 @@ def fit_baseline(data: GapData, kind: str = "mlr") -> Baseline:
         y_hat = data.prediction
         residual = data.y - y_hat
         return Baseline("prediction", y_hat, residual, residual[train])
-    if kind not in MODEL_KINDS:
-        raise ProblemError(f"model: unknown kind {kind!r}; choose one of {MODEL_KINDS}")
+    if kind not in registry.baselines():
+        raise ProblemError(f"model: unknown kind {kind!r}; choose one of {registry.baselines()}")
     model = clone(make_model(kind)).fit(data.X[train], data.y[train])
     y_hat = np.asarray(model.predict(data.X), dtype=float).ravel()
     gamma = None if kind == "mlr" else float(model[-1].regressor_.gamma_)

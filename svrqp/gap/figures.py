@@ -11,18 +11,20 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from svrqp.gap.transforms import group_slices
+from svrqp.units import MICRO, UNIT_SUFFIXES, normalise_micro
 
-UNITS = {"um": "µm", "µm": "µm", "μm": "µm", "mm": "mm", "min": "min", "s": "s", "h": "h", "C": "°C", "°C": "°C",
-         "degC": "°C", "K": "K", "rpm": "rpm", "pct": "%", "urad": "µrad", "arcsec": "″"}
-"""Column-name suffixes read as units (``error_um`` → µm; the micro sign and Greek mu both count)."""
+UNITS = {**UNIT_SUFFIXES, f"{MICRO}m": f"{MICRO}m", "°C": "°C", "degC": "°C", "pct": "%"}
+"""Column-name suffixes read as units: the project's table (:data:`svrqp.units.UNIT_SUFFIXES`) and
+the spellings measured tables bring (``Fehler_μm``, ``t_degC``, ``duty_pct``); a MICRO SIGN
+(U+00B5) in a suffix reads as μ."""
 
 
 def unit_of(name: str) -> str | None:
-    """Unit of a column from its name's suffix (``"error_um"`` → ``"µm"``), None when there is none."""
+    """Unit of a column from its name's suffix (``"error_um"`` → ``"μm"``), None when there is none."""
     if name == "row":
         return "rows"
     stem, _, suffix = name.rpartition("_")
-    return UNITS.get(suffix) if stem else None
+    return UNITS.get(normalise_micro(suffix)) if stem else None
 
 
 def axis_label(name: str) -> str:

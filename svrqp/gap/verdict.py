@@ -89,7 +89,7 @@ def effect_text(effect: Cause | Verdict, order_name: str) -> str:
 
 
 def quantity(value: float, unit: str | None) -> str:
-    """``4.09 µm``, or the bare number for a column whose name carries no unit."""
+    """``4.09 μm``, or the bare number for a column whose name carries no unit."""
     return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
 
 

@@ -165,8 +165,8 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
 
 
 @pytest.mark.parametrize("name, unit, label", [
-    ("error_um", "µm", "error (µm)"),
-    ("Fehler_µm", "µm", "Fehler (µm)"),
+    ("error_um", "μm", "error (μm)"),
+    ("Fehler_µm", "μm", "Fehler (μm)"),  # a MICRO SIGN in the name reads as μ
     ("spindle_box_C", "°C", "spindle box (°C)"),
     ("time_min", "min", "time (min)"),
     ("deviation", None, "deviation (units of the column)"),
