@@ -142,8 +142,12 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
     return Y
 
 
-def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int) -> None:
-    """Turn a block of the inner matrix into kernel values, in place (no temporaries)."""
+def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, check_finite: bool = True) -> None:
+    """Turn a block of the inner matrix into kernel values, in place (no temporaries).
+
+    ``check_finite=False`` leaves the overflow check to a caller that checks a result every
+    entry flows into (:func:`require_finite_kernel`), saving one pass over the block.
+    """
     with np.errstate(over="ignore", invalid="ignore"):
         if kernel == "poly":
             # Repeated products: libm's pow per entry is several times slower for small degrees.
@@ -154,7 +158,13 @@ def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int) -> Non
             # The expansion can go a few ulps above −γ·0 where points coincide.
             np.minimum(inner, 0.0, out=inner)
             np.exp(inner, out=inner)
-    if not np.isfinite(inner).all():
+    if check_finite:
+        require_finite_kernel(inner, kernel)
+
+
+def require_finite_kernel(values: NDArray[np.float64], kernel: str) -> None:
+    """Raise :class:`ProblemError` when kernel values (or a product they all flow into) overflowed."""
+    if not np.isfinite(values).all():
         raise ProblemError(f"the {kernel} kernel overflows on these inputs: scale the features")
 
 

@@ -19,6 +19,7 @@ from svrqp.kernels import (
     finish_in_place,
     gram_diagonal,
     left_factor,
+    require_finite_kernel,
     right_factor,
 )
 
@@ -91,7 +92,8 @@ class KernelColumns:
         in this product (and once more for the final check): recomputing them is cheaper than
         caching thousands of columns that are never read again. The factors come from the ones
         formed for X at construction (no re-centring or norms per block) and one block buffer is
-        reused.
+        reused. Overflow is checked once on the result instead of on every block: a non-finite
+        kernel entry makes its row of the product non-finite (inf·0 and NaN·v are NaN).
         """
         idx = np.asarray(idx, dtype=np.intp).ravel()
         kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
@@ -99,10 +101,11 @@ class KernelColumns:
             right = np.ascontiguousarray(right_factor(self._points[idx], kernel, gamma).T)
         rows = max(1, PRODUCT_BLOCK_ENTRIES // max(idx.size, 1))
         buffer, result = np.empty((min(rows, self.n), idx.size)), np.empty(self.n)
-        for start in range(0, self.n, rows):
-            block = buffer[:min(rows, self.n - start)]
-            with np.errstate(over="ignore", invalid="ignore"):
+        with np.errstate(over="ignore", invalid="ignore"):  # checked on the result below
+            for start in range(0, self.n, rows):
+                block = buffer[:min(rows, self.n - start)]
                 np.matmul(self._left[start:start + block.shape[0]], right, out=block)
-            finish_in_place(block, kernel, self.parameters["degree"])
-            np.matmul(block, v, out=result[start:start + block.shape[0]])
+                finish_in_place(block, kernel, self.parameters["degree"], check_finite=False)
+                np.matmul(block, v, out=result[start:start + block.shape[0]])
+        require_finite_kernel(result, kernel)
         return result

@@ -62,3 +62,9 @@ def test_products_equal_scikit_learn_kernel_times_vector(monkeypatch, parameters
     columns = KernelColumns(X, **parameters)
     np.testing.assert_allclose(columns.products(idx, v), reference(X, X[idx]) @ v, rtol=1e-12, atol=1e-13)
     assert columns.evaluated == 0  # the product's columns are not cached
+
+
+def test_products_reject_an_overflowing_kernel():
+    X = np.full((4, 2), 1e160)  # checked once on the product, not on every block
+    with pytest.raises(ProblemError, match="overflows"):
+        KernelColumns(X, kernel="linear").products(np.array([0, 1]), np.array([1.0, 0.0]))

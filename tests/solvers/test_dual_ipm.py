@@ -16,7 +16,7 @@ from svrqp.kernels import gram
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 from svrqp.solvers import dual_ipm, solve_qp
-from svrqp.solvers.dual_ipm.crossover import _bordered_solve
+from svrqp.solvers.dual_ipm.crossover import _bordered_solve, _KernelAccess
 
 
 def rbf(gamma: float) -> dict:
@@ -120,6 +120,7 @@ def test_crossover_repairs_a_perturbed_start_and_reports_when_it_cannot():
     repaired = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start)
     assert repaired.exact and repaired.steps > 1
     np.testing.assert_allclose(repaired.beta, exact.beta, atol=1e-9 * case.C)
+    np.testing.assert_allclose(repaired.Kbeta, K @ repaired.beta, rtol=1e-12, atol=1e-12 * case.C)
     stopped = dual_ipm.crossover(lambda idx: K[:, idx], case.y, case.C, case.epsilon, start,
                                  settings=dual_ipm.CrossoverSettings(max_steps=1))
     assert not stopped.exact
@@ -218,3 +219,28 @@ def test_repeated_inputs_with_noisy_targets_are_solved_exactly():
     assert ours <= theirs + 1e-9 * abs(theirs)
     difference = (K @ fit.beta + fit.intercept) - (K @ reference + solution.y[-1])
     assert np.max(np.abs(difference)) <= 1e-5 * y.std()
+
+
+def test_bounded_term_is_recomputed_only_when_its_updates_outnumber_its_product():
+    X = np.random.default_rng(0).normal(size=(60, 3))
+    K = gram(X, gamma=0.5)
+    calls = []
+
+    def products(idx, v):
+        calls.append(idx.size)
+        return K[:, idx] @ v
+
+    kernel = _KernelAccess(lambda idx: K[:, idx], products, 60)
+    fixed = np.zeros(60)
+    fixed[:10] = 1.0
+    kernel.update_bounded(fixed)  # from scratch: 10 columns
+    fixed[10:14] = -1.0
+    kernel.update_bounded(fixed)  # 4 changed columns: within the product's 10
+    assert kernel.accurate
+    np.testing.assert_allclose(kernel.update_bounded(fixed, fresh=True), K @ fixed, rtol=1e-13, atol=1e-13)
+    assert calls == [10, 4]  # an accurate term is not recomputed
+    fixed[20:30] = 1.0
+    kernel.update_bounded(fixed)  # 14 changed columns in all: more than the 10 of the product
+    assert not kernel.accurate
+    np.testing.assert_allclose(kernel.update_bounded(fixed, fresh=True), K @ fixed, rtol=1e-13, atol=1e-13)
+    assert calls == [10, 4, 10, 24] and kernel.accurate  # recomputed from all 24 bounded columns
