@@ -142,11 +142,13 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
     return Y
 
 
-def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, check_finite: bool = True) -> None:
+def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, in_product: bool = False) -> None:
     """Turn a block of the inner matrix into kernel values, in place (no temporaries).
 
-    ``check_finite=False`` leaves the overflow check to a caller that checks a result every
-    entry flows into (:func:`require_finite_kernel`), saving one pass over the block.
+    ``in_product=True`` for values that only enter a product computed by the caller, who checks
+    that product for overflow (:func:`require_finite_kernel`): the per-block check and the RBF
+    clamp are skipped, two passes over the block. The clamp only moves entries of coinciding
+    points by the few ulps of the expansion's own rounding, which a product carries anyway.
     """
     with np.errstate(over="ignore", invalid="ignore"):
         if kernel == "poly":
@@ -155,10 +157,10 @@ def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, che
             for _ in range(int(degree) - 1):
                 inner *= base
         elif kernel == "rbf":
-            # The expansion can go a few ulps above −γ·0 where points coincide.
-            np.minimum(inner, 0.0, out=inner)
+            if not in_product:  # the expansion can go a few ulps above −γ·0 where points coincide
+                np.minimum(inner, 0.0, out=inner)
             np.exp(inner, out=inner)
-    if check_finite:
+    if not in_product:
         require_finite_kernel(inner, kernel)
 
 

@@ -105,7 +105,7 @@ class KernelColumns:
             for start in range(0, self.n, rows):
                 block = buffer[:min(rows, self.n - start)]
                 np.matmul(self._left[start:start + block.shape[0]], right, out=block)
-                finish_in_place(block, kernel, self.parameters["degree"], check_finite=False)
+                finish_in_place(block, kernel, self.parameters["degree"], in_product=True)
                 np.matmul(block, v, out=result[start:start + block.shape[0]])
         require_finite_kernel(result, kernel)
         return result
