@@ -9,6 +9,8 @@ code as :func:`svrqp.kernels.gram`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -23,10 +25,11 @@ from svrqp.kernels import (
     right_factor,
 )
 
-#: Kernel entries formed at once by :meth:`KernelColumns.products`: a 2 MB block stays in cache and
-#: its memory is reused (a large block is a fresh allocation whose page faults cost more than the
-#: kernel itself: 2.5× slower at 4000 × 3550 entries, measured).
-PRODUCT_BLOCK_ENTRIES = 2**18
+#: Kernel entries formed at once by :meth:`KernelColumns.products` (a row block, or a square tile):
+#: a 1 MB block stays in cache and its memory is reused (a large block is a fresh allocation whose
+#: page faults cost more than the kernel itself: 2.5× slower at 4000 × 3550 entries; of 2^16 to
+#: 2^19 entries, 2^17 was fastest at 4000 × 1000 and 4000 × 3550, measured).
+PRODUCT_BLOCK_ENTRIES = 2**17
 
 
 class KernelColumns:
@@ -86,26 +89,64 @@ class KernelColumns:
         return block
 
     def products(self, idx: NDArray[np.intp], v: NDArray[np.float64]) -> NDArray[np.float64]:
-        r""":math:`K_{:, idx}\, v` in row blocks, the columns neither cached nor kept.
+        r""":math:`K_{:, idx}\, v` in blocks, the columns neither cached nor kept.
 
         The crossover's bounded term needs the columns of every coefficient at :math:`\pm C` only
-        in this product (and once more for the final check): recomputing them is cheaper than
-        caching thousands of columns that are never read again. The factors come from the ones
-        formed for X at construction (no re-centring or norms per block) and one block buffer is
-        reused. Overflow is checked once on the result instead of on every block: a non-finite
-        kernel entry makes its row of the product non-finite (inf·0 and NaN·v are NaN).
+        in this product: recomputing them is cheaper than caching thousands of columns that are
+        never read again. The factors come from the ones formed for X at construction (no
+        re-centring or norms per block) and one block buffer is reused. The rows of ``idx``
+        themselves use the symmetry of K: each tile of :math:`K_{idx, idx}` above the diagonal
+        is formed once and serves both :math:`K_{PQ}v_Q` and :math:`K_{QP}v_P = K_{PQ}^\top v_P`
+        (the blocked symmetric matrix–vector product of BLAS ``dsymv``; Golub & Van Loan 2013,
+        *Matrix Computations*, §1.3), so about :math:`n\,|idx| - |idx|^2/2` kernel entries are
+        formed instead of :math:`n\,|idx|` — nearly half when most points are at a bound.
+        Overflow is checked once on the result instead of on every block: a non-finite kernel
+        entry makes its row of the product non-finite (inf·0 and NaN·v are NaN).
         """
-        idx = np.asarray(idx, dtype=np.intp).ravel()
+        idx, inverse = np.unique(np.asarray(idx, dtype=np.intp).ravel(), return_inverse=True)
+        if idx.size == 0:
+            return np.zeros(self.n)
+        v = np.bincount(inverse.ravel(), weights=np.asarray(v, dtype=float).ravel(), minlength=idx.size)
         kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
-        with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            right = np.ascontiguousarray(right_factor(self._points[idx], kernel, gamma).T)
-        rows = max(1, PRODUCT_BLOCK_ENTRIES // max(idx.size, 1))
-        buffer, result = np.empty((min(rows, self.n), idx.size)), np.empty(self.n)
         with np.errstate(over="ignore", invalid="ignore"):  # checked on the result below
-            for start in range(0, self.n, rows):
-                block = buffer[:min(rows, self.n - start)]
-                np.matmul(self._left[start:start + block.shape[0]], right, out=block)
-                finish_in_place(block, kernel, self.parameters["degree"], in_product=True)
-                np.matmul(block, v, out=result[start:start + block.shape[0]])
+            right = np.ascontiguousarray(right_factor(self._points[idx], kernel, gamma).T)
+            result = np.empty(self.n)
+            others = np.ones(self.n, dtype=bool)
+            others[idx] = False
+            result[others] = self._rows_times(self._left[others], right, v)
+            result[idx] = self._symmetric_times(self._left[idx], right, v)
         require_finite_kernel(result, kernel)
+        return result
+
+    def _finish(self, block: NDArray[np.float64]) -> None:
+        finish_in_place(block, self.parameters["kernel"], self.parameters["degree"], in_product=True)
+
+    def _rows_times(self, left: NDArray[np.float64], right: NDArray[np.float64],
+                    v: NDArray[np.float64]) -> NDArray[np.float64]:
+        r""":math:`k(\text{rows}, idx)\,v` for the rows whose left factor is ``left``, in row blocks."""
+        rows = max(1, PRODUCT_BLOCK_ENTRIES // max(right.shape[1], 1))
+        buffer, result = np.empty(min(rows, left.shape[0]) * right.shape[1]), np.empty(left.shape[0])
+        for start in range(0, left.shape[0], rows):
+            block = buffer[:min(rows, left.shape[0] - start) * right.shape[1]].reshape(-1, right.shape[1])
+            np.matmul(left[start:start + block.shape[0]], right, out=block)
+            self._finish(block)
+            np.matmul(block, v, out=result[start:start + block.shape[0]])
+        return result
+
+    def _symmetric_times(self, left: NDArray[np.float64], right: NDArray[np.float64],
+                         v: NDArray[np.float64]) -> NDArray[np.float64]:
+        r""":math:`K_{idx, idx}\,v` from the tiles on and above the diagonal only (see :meth:`products`)."""
+        m = left.shape[0]
+        side = max(1, math.isqrt(PRODUCT_BLOCK_ENTRIES))
+        buffer, result = np.empty(min(side, m) ** 2), np.zeros(m)
+        for a in range(0, m, side):
+            rows = slice(a, min(a + side, m))
+            for b in range(a, m, side):
+                columns = slice(b, min(b + side, m))
+                tile = buffer[:(rows.stop - a) * (columns.stop - b)].reshape(rows.stop - a, columns.stop - b)
+                np.matmul(left[rows], right[:, columns], out=tile)
+                self._finish(tile)
+                result[rows] += tile @ v[columns]
+                if b > a:  # the mirrored tile below the diagonal
+                    result[columns] += tile.T @ v[rows]
         return result

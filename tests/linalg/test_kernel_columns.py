@@ -64,6 +64,22 @@ def test_products_equal_scikit_learn_kernel_times_vector(monkeypatch, parameters
     assert columns.evaluated == 0  # the product's columns are not cached
 
 
+@pytest.mark.parametrize("parameters", [{"kernel": "rbf", "gamma": 5.0}, {"kernel": "linear"},
+                                        {"kernel": "poly", "gamma": 0.5, "degree": 2, "coef0": 1.0}])
+def test_products_over_most_columns_use_symmetry_and_equal_numpy(monkeypatch, parameters):
+    from svrqp.linalg import kernel_columns
+
+    monkeypatch.setattr(kernel_columns, "PRODUCT_BLOCK_ENTRIES", 200)  # 14 x 14 tiles, short last ones
+    X = diabetes().X
+    rng = np.random.default_rng(1)
+    idx = np.concatenate([rng.permutation(X.shape[0])[:100], [5, 5, 17]])  # most rows, some repeated
+    v = rng.uniform(-2.0, 2.0, idx.size)
+    K = gram(X, **parameters)
+    columns = KernelColumns(X, **parameters)
+    np.testing.assert_allclose(columns.products(idx, v), K[:, idx] @ v, rtol=1e-12, atol=1e-12)
+    assert np.array_equal(columns.products(np.array([], dtype=int), np.zeros(0)), np.zeros(X.shape[0]))
+
+
 def test_products_reject_an_overflowing_kernel():
     X = np.full((4, 2), 1e160)  # checked once on the product, not on every block
     with pytest.raises(ProblemError, match="overflows"):
