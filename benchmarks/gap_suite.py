@@ -465,10 +465,10 @@ def local_scenarios(design) -> list[Scenario]:
         for i, window in enumerate(windows):
             out.append(Scenario(f"lt-{effect}-{i}", "thermal/prediction", "local", effect, n_decoys=4,
                                 window=window, shape=("transient" if effect == "startup" else "bump", "indicator")[i % 2],
-                                **design(i) | {"seed": 90000 + len(out)}))
+                                **design(i) | {"seed": design(i)["seed"] + len(out)}))
     for i, w in enumerate((0.03, 0.05, 0.08, 0.1, 0.12, 0.15, 0.2, 0.25)):
         out.append(Scenario(f"lg-zone-{i}", "gantry/prediction", "local", "zone", window=(0.0, w),
-                            **design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0, "seed": 90000 + len(out)}))
+                            **design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0, "seed": design(i)["seed"] + len(out)}))
     axis = {"patch": ((0.1, 0.2), (0.5, 0.58), (0.3, 0.45), (0.7, 0.95), (0.2, 0.32), (0.6, 0.72)),
             "load": ((0.4, 0.6), (0.1, 0.25), (0.45, 0.53), (0.6, 0.85), (0.3, 0.42), (0.05, 0.2))}
     for effect, windows in axis.items():
@@ -476,7 +476,7 @@ def local_scenarios(design) -> list[Scenario]:
             out.append(Scenario(f"la-{effect}-{i}", "axis/prediction", "local", effect, window=window,
                                 shape=("bump", "indicator")[i % 2],
                                 **design(i) | {"runs": (5, 7, 9)[i % 3], "run_min": 0.0, "positions": 111,
-                                               "seed": 90000 + len(out)}))
+                                               "seed": design(i)["seed"] + len(out)}))
     nulls = (("thermal/prediction", 8, {}), ("gantry/prediction", 6, {"run_min": 0.0}),
              ("axis/prediction", 6, {"run_min": 0.0, "positions": 111}))
     for family, count, extra in nulls:
@@ -487,7 +487,7 @@ def local_scenarios(design) -> list[Scenario]:
                     "axis/prediction": (5, 7, 9)[i % 3]}[family]
             out.append(Scenario(f"l0-{family.split('/')[0]}-{i}", family, "local-null", None, n_decoys=4,
                                 window=(start, start + width), shape=("bump", "indicator")[i % 2],
-                                **design(i) | extra | {"runs": runs, "seed": 90000 + len(out)}))
+                                **design(i) | extra | {"runs": runs, "seed": design(i)["seed"] + len(out)}))
     return out
 
 
