@@ -60,7 +60,7 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     rate,
 )
-from svrqp.gap.windows import LOCAL_MARGIN, local_columns, window_dictionary
+from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, window_dictionary
 
 TRANSFORMS = ("level", "rate", "lag", "local")
 """Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
@@ -276,7 +276,16 @@ class TransferRanker:
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
+        for row in best.values():
+            if row.region is not None and self._collinear(row):
+                row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
+                            "the refits keep the minimum-norm solution")
         return sorted(best.values(), key=lambda r: -r.gain)
+
+    def _collinear(self, row: Ranked) -> bool:
+        """Whether the window a ``local`` row chose most is collinear with the family's design (:func:`collinear`)."""
+        E, _, known = self.columns(_fixed(row))
+        return collinear(self.family.A[known], E[known])
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
         if effect.taus is None:

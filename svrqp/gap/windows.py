@@ -77,6 +77,24 @@ def window_dictionary(t: np.ndarray, units: np.ndarray) -> np.ndarray:
     return np.array(out).reshape(-1, 2)
 
 
+COLLINEAR_RCOND = 1e-10
+"""Smallest singular value, relative to the largest, below which a window's columns count as collinear."""
+
+
+def collinear(A: np.ndarray, E: np.ndarray) -> bool:
+    r"""Whether a window's columns ``E`` are collinear with the model's own design ``A`` (or each other).
+
+    Happens when the candidate holds one value wherever the window has rows (then
+    :math:`x\mathbb{1}_W \propto \mathbb{1}_W`) or the window holds every row (then
+    :math:`\mathbb{1}_W` is the intercept). The refits then keep the minimum-norm solution; the
+    causes table says so in the cause's note.
+    """
+    M = np.column_stack([A, E])
+    M = M / np.maximum(np.linalg.norm(M, axis=0), 1e-300)
+    s = np.linalg.svd(M, compute_uv=False)
+    return bool(s[-1] <= COLLINEAR_RCOND * s[0])
+
+
 def indicator(t: np.ndarray, low: float, high: float) -> np.ndarray:
     r""":math:`\mathbb{1}_W(t)` of the window ``[low, high]`` (1.0 inside, 0.0 outside)."""
     return ((t >= low) & (t <= high)).astype(float)

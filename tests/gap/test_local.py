@@ -11,7 +11,7 @@ import pytest
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.windows import MIN_REGION_ROWS, window_dictionary
+from svrqp.gap.windows import MIN_REGION_ROWS, collinear, window_dictionary
 
 PATCH_MM = (20.0, 34.0)
 QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
@@ -108,3 +108,13 @@ def test_the_report_shades_the_region_and_draws_the_profile(patch, tmp_path):
     assert (tmp_path / "gap_before_after.png").stat().st_size > 0
     html = report.to_html(tmp_path / "gap.html").read_text(encoding="utf-8")
     assert "acting only between" in html
+
+
+def test_a_window_collinear_with_the_model_is_detected():
+    t = np.arange(0.0, 100.0)
+    A = np.column_stack([np.ones(t.size), np.sin(t / 7)])
+    w = ((t >= 20) & (t <= 30)).astype(float)
+    x = np.where(w > 0, 21.5, np.cos(t / 3))  # constant inside the window: x 1_W = 21.5 1_W
+    assert collinear(A, np.column_stack([w, x * w]))
+    assert not collinear(A, np.column_stack([w, np.cos(t / 3) * w]))
+    assert collinear(A, np.column_stack([np.ones(t.size), np.cos(t / 3)]))  # a window holding every row
