@@ -195,7 +195,7 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     report_progress("quantifying", 0.9)
     notes = untestable_between_runs(data) | constant_on_real_rows(data) | family.kept_linear
     causes, errors_after = _causes(ranking, r, family, units, units.code[real], within, notes,
-                                   np.random.default_rng([seed, 20]), data.order_name)
+                                   np.random.default_rng([seed, 20]))
     verdict, residual_gate = decide(ranking, causes, errors_after, context)
     verdict = replace(verdict, reason=verdict.reason + extrapolation_text(context))
     remaining = [c.column for c in causes[1:] if verdict.column and c.significant
@@ -282,14 +282,13 @@ def _within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray,
 
 
 def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units, real_units: np.ndarray,
-            within: dict, notes: dict, rng: np.random.Generator,
-            order_name: str) -> tuple[list[Cause], dict[str, np.ndarray]]:
+            within: dict, notes: dict, rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
     """The causes table, best transfer first (by the linear screen): one row per column with its transfer numbers.
 
     ``family`` holds the same-family refits (:mod:`svrqp.gap.kernel_transfer`); a cause it did not
     refit keeps the linear screen's numbers, said by its ``family``. ``real_units`` is the held-out
     unit of each real row; ``within`` the numbers of :func:`_within_numbers`; ``notes`` the
-    attribution's notes on columns; ``order_name`` the order column a ``local`` cause's region is on.
+    attribution's notes on columns.
     """
     index = bootstrap_index(units.n_units, rng)
     causes, errors_after = [], {}
@@ -309,7 +308,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
-            region=None if row.region is None else {"column": order_name, "low": row.region[0], "high": row.region[1]},
+            region=row.region,
         ))
         errors_after[effect.column] = after
     return causes, errors_after

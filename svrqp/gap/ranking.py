@@ -136,8 +136,9 @@ class Ranked:
         Surrogate p-value (1 when untested) and its Benjamini–Hochberg adjustment.
     tau : float or None
         The time constant chosen most often over the fits (``lag``).
-    region : tuple of float or None
-        The window ``(low, high)`` of the order axis chosen most often over the fits (``local``).
+    region : dict or None
+        ``{"column": ORDER, "low": …, "high": …}``: the window of the order axis chosen most often
+        over the fits (``local``).
     note : str or None
     """
 
@@ -150,7 +151,7 @@ class Ranked:
     note: str | None = None
     tested: bool = False
     ambiguous: bool = False
-    region: tuple[float, float] | None = None
+    region: dict | None = None
 
     @property
     def significant(self) -> bool:
@@ -292,11 +293,11 @@ class TransferRanker:
             return None
         return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
 
-    def _region(self, effect: Effect, fit: TransferFit) -> tuple[float, float] | None:
+    def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
         if effect.windows is None:
             return None
         low, high = effect.windows[np.bincount(fit.variant, minlength=len(effect.windows)).argmax()]
-        return float(low), float(high)
+        return {"column": self.data.order_name, "low": float(low), "high": float(high)}
 
     # -- surrogates ---------------------------------------------------------------------
 
@@ -449,7 +450,7 @@ def _besag_clifford(hits: list[bool]) -> float:
 def _fixed(row: Ranked) -> Effect:
     """The row's effect with its time constant (or window) fixed at the one its fits chose most."""
     if row.region is not None:
-        return dataclasses.replace(row.effect, windows=np.array([row.region]))
+        return dataclasses.replace(row.effect, windows=np.array([[row.region["low"], row.region["high"]]]))
     if row.tau is None:
         return row.effect
     return dataclasses.replace(row.effect, taus=np.array([row.tau]))
