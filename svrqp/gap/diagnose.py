@@ -159,7 +159,7 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
         findings = _search_causes(problem, taus, context, seed, report_progress)
     report_progress("reporting", 0.98)
     if findings.verdict.region is not None:  # a local verdict: where it acts comes first
-        where = [region_of(findings.verdict.column, data.order_name, data.t[real], r, findings.verdict.region), *where]
+        where = [region_of(data.t[real], r, findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
                 "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES}
