@@ -46,6 +46,17 @@ Scenario families
     constant through each pass gives one number per pass, and with three passes an unrelated
     reading lines up with |r| > 0.99 about one time in eleven.
 
+``local`` and ``local-null`` (:func:`local_scenarios`)
+    An effect confined to one stretch of the order axis (3–25 % of its range), added to a
+    family's simulation with nothing else withheld and left out of the prediction: a start-up
+    transient scaled by ``speed_rpm``, a mid-run window scaled by ``coolant_C`` (thermal), the
+    acceleration zone scaled by ``accel_mm_s2`` (gantry), a guideway patch scaled by
+    ``ambient_C`` and a load bump scaled by ``load_kg`` (axis, 111 positions); the truth is the
+    scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
+    run that no column reads. Scored apart (:func:`summarise_local`): top-1, false attribution,
+    and the row IoU on the real rows of the named stretch (``verdict.region``, else the first
+    ``where`` entry on the order axis) with the true one.
+
 Runs use random speed/duty programmes and seasons (train runs in summer), varied record
 length, signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
 *identifiable* part of the withheld effect — what is left on the real rows after each run's
