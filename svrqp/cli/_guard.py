@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from rich.table import Table
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
 
 from svrqp.exceptions import ExtrapolationWarning, ProblemError
 from svrqp.guard import Guarded
@@ -18,8 +20,12 @@ from svrqp.guard.conformal import METHODS
 from svrqp.table_checks import check_present
 
 
-def guarded_or_plain(model: Any, coverage: float | None, group: str | None, method: str) -> Any:
-    """``model`` wrapped in :class:`Guarded` when ``--coverage`` is given, else ``model``."""
+def guarded_or_plain(model: Any, coverage: float | None, group: str | None, method: str, *,
+                     standardize: bool = False) -> Any:
+    """``model`` as the commands fit it: after a ``StandardScaler`` with ``--standardize``, wrapped in
+    :class:`Guarded` when ``--coverage`` is given."""
+    if standardize:
+        model = make_pipeline(StandardScaler(), model)
     if coverage is None:
         if group is not None:
             raise ProblemError("--group only applies with --coverage")

@@ -60,8 +60,6 @@ def export_command(
     # Imported when the command runs: `svrqp export --help` loads no scikit-learn.
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
 
     from svrqp.cli._common import (
         make_estimator,
@@ -93,8 +91,7 @@ def export_command(
         split_columns(target, table, "--target", numeric=True)
         estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
                                    forgetting=forgetting, solver=solver)
-        fitted_model = make_pipeline(StandardScaler(), estimator) if standardize else estimator
-        fitted_model = guarded_or_plain(fitted_model, coverage, group, interval)
+        fitted_model = guarded_or_plain(estimator, coverage, group, interval, standardize=standardize)
         groups = group_labels(table, group)
         X, y = table[columns], table[target]
         with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),

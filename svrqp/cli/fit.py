@@ -124,8 +124,6 @@ def fit_command(
     """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
     # Imported when the command runs: `svrqp fit --help` loads no scikit-learn.
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
 
     from svrqp.cli._common import (
         make_estimator,
@@ -153,8 +151,7 @@ def fit_command(
         raise ProblemError("--standardize applies to svr and lssvr only")
     estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
                                forgetting=forgetting, solver=solver)
-    fitted = make_pipeline(StandardScaler(), estimator) if standardize else estimator
-    fitted = guarded_or_plain(fitted, coverage, group, interval)
+    fitted = guarded_or_plain(estimator, coverage, group, interval, standardize=standardize)
     groups = group_labels(table, group)
     mask = select_train_rows(table, train)
     X, y = table[columns], table[target]
