@@ -56,12 +56,10 @@ class Solution:
         One of :data:`STATUSES`.
     primal_residual, dual_residual, duality_gap
         Absolute certificates; ``residuals`` holds them with their relative values.
-    backend, backend_version, settings
-        Who solved it, and every setting actually passed (defaults made explicit).
-    build_time, solve_time
-        Seconds spent converting matrices for the backend, and inside the backend.
-    iterations
-        Iteration count when the backend reports one.
+    record
+        Who solved it and how (:class:`SolverRecord`); its fields read as attributes of the
+        solution too (``backend``, ``backend_version``, ``settings``, ``build_time``,
+        ``solve_time``, ``iterations``).
     """
 
     x: NDArray[np.float64]
@@ -71,12 +69,37 @@ class Solution:
     objective: float
     status: str
     residuals: dict[str, float]
-    backend: str
-    backend_version: str
-    settings: dict[str, Any] = field(default_factory=dict)
-    build_time: float = 0.0
-    solve_time: float = 0.0
-    iterations: int | None = None
+    record: SolverRecord
+
+    @property
+    def backend(self) -> str:
+        """Who solved it (``record.backend``)."""
+        return self.record.backend
+
+    @property
+    def backend_version(self) -> str:
+        """The solver's version (``record.backend_version``)."""
+        return self.record.backend_version
+
+    @property
+    def settings(self) -> dict[str, Any]:
+        """Every setting actually passed, defaults made explicit (``record.settings``)."""
+        return self.record.settings
+
+    @property
+    def build_time(self) -> float:
+        """Seconds spent converting matrices for the backend (``record.build_time``)."""
+        return self.record.build_time
+
+    @property
+    def solve_time(self) -> float:
+        """Seconds inside the backend (``record.solve_time``)."""
+        return self.record.solve_time
+
+    @property
+    def iterations(self) -> int | None:
+        """Iteration count when the backend reports one (``record.iterations``)."""
+        return self.record.iterations
 
     @property
     def primal_residual(self) -> float:
@@ -97,12 +120,6 @@ class Solution:
         """True when every relative certificate is at most ``eps``."""
         return all(value <= eps for key, value in self.residuals.items() if key.endswith("_rel"))
 
-    @property
-    def record(self) -> SolverRecord:
-        """Who solved it and how (everything but the point, the objective and the certificates)."""
-        return SolverRecord(self.backend, self.backend_version, self.settings, self.build_time, self.solve_time,
-                            self.iterations)
-
     @classmethod
     def of_qp(cls, problem: QuadraticProgram, point: Point, record: SolverRecord, *,
               extra_residuals: dict[str, float] | None = None) -> Solution:
@@ -115,7 +132,7 @@ class Solution:
         residuals.update(extra_residuals or {})
         x, y, z, z_box = point
         return cls(x=x, y=y, z=z, z_box=z_box, objective=problem.objective(x), status="optimal",
-                   residuals=residuals, **vars(record))
+                   residuals=residuals, record=record)
 
     @classmethod
     def of_linear_system(cls, x: NDArray[np.float64], residual: dict[str, float], record: SolverRecord) -> Solution:
@@ -123,8 +140,7 @@ class Solution:
         (``{"residual", "residual_rel"}`` as :meth:`svrqp.problems.LinearSystem.residual` returns)."""
         return cls(x=x, y=None, z=None, z_box=None, objective=0.0, status="optimal",
                    residuals={"primal": residual["residual"], "primal_rel": residual["residual_rel"]},
-                   **vars(record))
-
+                   record=record)
 
 
 def check_limit(tol: float, check_tol: float | None) -> float:
