@@ -1,17 +1,11 @@
 """One entry point for every solver: ``solve(problem, backend=...) -> Solution``.
 
-Quadratic programs go to any installed `qpsolvers <https://qpsolvers.github.io>`_ backend or to
-cvxpy (the same QP stated in cvxpy's modelling language); linear systems go to a direct
-factorisation. Every backend has one adapter entry in :data:`BACKENDS`: the extra that installs
-it, the matrix format it prefers, how the common tolerance ``tol`` maps onto its own settings, and
-the settings it accepts (anything else is rejected with the valid list — no unchecked ``**kwargs``).
-
-Every returned :class:`Solution` has been certificate-checked: its relative primal residual,
-dual residual and duality gap (see :meth:`QuadraticProgram.kkt_residuals`) are at most
-``check_tol``; otherwise :class:`~svrqp.exceptions.SolverError` names the backend and its status.
-
-Sign conventions follow qpsolvers: ``y`` multiplies :math:`Ax - b`, ``z \\ge 0`` multiplies
-:math:`Gx - h`, and ``z_box`` is negative on active lower bounds, positive on active upper bounds.
+A :class:`~svrqp.problems.QuadraticProgram` goes to a qpsolvers backend or cvxpy
+(:mod:`svrqp.solvers.qp_backends`, which states the backends, their settings and the sign
+conventions of the multipliers); a :class:`~svrqp.problems.LinearSystem` to LU
+(:mod:`svrqp.solvers.linear`). Every returned :class:`~svrqp.solution.Solution` has been
+certificate-checked. svrqp's own exact ε-SVR paths are :mod:`svrqp.solvers.auto` and
+:mod:`svrqp.solvers.dual_ipm`.
 """
 
 from __future__ import annotations
