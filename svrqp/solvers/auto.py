@@ -46,8 +46,8 @@ AUTO_ORDER: tuple[str, ...] = (SMO_CROSSOVER, "dual_ipm")
 
 def _smo_crossover(X, y, C, epsilon, kernel_parameters, tol):
     fit = solve_warm_started(X, y, C, epsilon, kernel_parameters)
-    settings = {"smo_iterations": fit.smo_iterations, "crossover_steps": fit.crossover_steps,
-                "crossover_exact": fit.exact}
+    settings = {"smo_iterations": fit.smo_iterations, "screened_points": fit.screened,
+                "crossover_steps": fit.crossover_steps, "crossover_exact": fit.exact}
     return fit.beta, fit.intercept, fit.Kbeta, settings, fit.times_s
 
 

@@ -16,7 +16,9 @@ exactly and frees or fixes coefficients until every KKT condition of the dual (S
 rounding. SMO pays per support vector and per iteration, so a loose run is cheap; its tail to
 1e-8 is what costs on smooth data, and the crossover replaces that tail by one or a few solves of
 size :math:`|F|`. Only kernel columns of support vectors are formed
-(:class:`svrqp.linalg.kernel_columns.KernelColumns`), never the n×n Gram matrix.
+(:class:`svrqp.linalg.kernel_columns.KernelColumns`), never the n×n Gram matrix. On large problems
+the loose run first leaves out the points a pilot fit puts inside the tube
+(:mod:`svrqp.solvers.screening`).
 
 The result is exact only when the crossover says so (``exact``); the caller certifies it on the
 stated QP (:mod:`svrqp.formulations.epsilon_svr_residuals`) and otherwise moves to another path.
@@ -34,14 +36,12 @@ from numpy.typing import NDArray
 
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.solvers.dual_ipm.crossover import crossover
+from svrqp.solvers.screening import decomposition_fit, screened_fit
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
 #: answer needs; the crossover finishes the job. (1e-2 saves SMO iterations at large C but costs
 #: crossover steps at small C, where SMO is cheap anyway: measured on the benchmark panel.)
 WARM_START_TOL = 1e-3
-
-#: libsvm's kernel cache in MB (scikit-learn's default is 200).
-CACHE_SIZE_MB = 1000.0
 
 
 @dataclass
@@ -54,6 +54,7 @@ class WarmStartFit:
     exact: bool
     crossover_steps: int
     smo_iterations: int
+    screened: int = 0  #: points the warm start held at zero (:mod:`svrqp.solvers.screening`)
     times_s: dict[str, float] = field(default_factory=dict)
 
 
@@ -65,6 +66,10 @@ def precomputed_columns(K: NDArray[np.float64]):
 def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
                        kernel_parameters: Mapping[str, Any], *, smo_tol: float = WARM_START_TOL) -> WarmStartFit:
     """Loose SMO (Fan, Chen & Lin 2005) then the exact crossover (module docstring).
+
+    On a kernel of inputs the loose run first tries the screened start of
+    :func:`svrqp.solvers.screening.screened_fit`; when the crossover does not settle from it,
+    the loose run over all points and the crossover start again.
 
     Parameters
     ----------
@@ -79,25 +84,27 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     smo_tol
         libsvm's tolerance for the warm start.
     """
-    from sklearn.svm import SVR  # libsvm: the decomposition method
-
     C, epsilon = float(C), float(epsilon)
-    parameters = {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
     start = time.perf_counter()
-    smo = SVR(C=C, epsilon=epsilon, **parameters, tol=smo_tol, cache_size=CACHE_SIZE_MB).fit(X, y)
-    middle = time.perf_counter()
-    beta0 = np.zeros(y.size)
-    beta0[smo.support_] = smo.dual_coef_[0]
-    if parameters["kernel"] == "precomputed":
+    screened = None
+    if kernel_parameters["kernel"] == "precomputed":
         columns, products = precomputed_columns(X), None
     else:
-        columns = KernelColumns(X, **parameters)
+        columns = KernelColumns(X, **{key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")})
         products = columns.products
-    result = crossover(columns, y, C, epsilon, beta0, products=products)
+        screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, products)
+    warm = screened or decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
+    middle = time.perf_counter()
+    result = crossover(columns, y, C, epsilon, warm.beta, products=products)
+    iterations = warm.iterations
+    if screened is not None and not result.exact:  # the screened start misled it: start from all points
+        warm = decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
+        iterations += warm.iterations
+        result = crossover(columns, y, C, epsilon, warm.beta, products=products)
     Kbeta = result.Kbeta
     if Kbeta is None:  # not exact: the caller rejects it, but its certificates are still reported
         support = np.flatnonzero(result.beta)
         Kbeta = (products or (lambda idx, v: columns(idx) @ v))(support, result.beta[support])
     end = time.perf_counter()
-    return WarmStartFit(result.beta, result.intercept, Kbeta, result.exact, result.steps,
-                        int(np.sum(smo.n_iter_)), {"smo_s": middle - start, "crossover_s": end - middle})
+    return WarmStartFit(result.beta, result.intercept, Kbeta, result.exact, result.steps, iterations,
+                        warm.screened, {"smo_s": middle - start, "crossover_s": end - middle})
