@@ -2,7 +2,7 @@
 
 Screening only chooses where the exact crossover starts, so every check here compares the final
 answer with libsvm's SVR(tol=1e-8) and with the KKT conditions written out in numpy; the branches
-(screening used, not used, the crossover misled and restarted from all points) are each forced.
+(holds at zero, at ±C, none, the crossover misled and restarted from all points) are each forced.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from support.epsilon_svr_reference import (
 from support.problems import SVRCase
 
 from svrqp import EpsilonSVR
+from svrqp.bench.cases import friedman1
 from svrqp.kernels import gram
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.solvers import screening, warm_start
@@ -40,10 +41,17 @@ def warm_up_case(n: int = 2000, seed: int = 0) -> SVRCase:
 
 
 def noise_case(n: int = 1500, seed: int = 0) -> SVRCase:
-    """Pure noise at small C: almost every point is a bounded support vector, none can be screened out."""
+    """Pure noise at small C: most points end far outside the tube, at ±C."""
     rng = np.random.default_rng(seed)
     return SVRCase("noise", rng.normal(size=(n, 3)), rng.normal(size=n), C=1.0, epsilon=0.1, gamma=0.3,
-                   why="nothing inside the tube")
+                   why="most points outside the tube")
+
+
+def friedman_case(n: int = 1500) -> SVRCase:
+    """Friedman #1 at small C: most residuals end near the tube's edge, too close to hold."""
+    X, y = friedman1(n, 10, 0)
+    return SVRCase("friedman1", X, y, C=1.0, epsilon=0.1, gamma=1.0 / (X.shape[1] * X.var()),
+                   why="residuals near the tube edge")
 
 
 def _screened(case: SVRCase):
@@ -58,32 +66,34 @@ def _assert_exact(model, case):
     assert_matches_reference(model, reference(case), case, K)
 
 
-@pytest.mark.parametrize("C", [1.0, 100.0])
-def test_screened_default_fit_matches_libsvm(C):
-    case = dataclasses.replace(warm_up_case(), C=C)
+@pytest.mark.parametrize(("case_factory", "C"), [(warm_up_case, 1.0), (warm_up_case, 100.0), (noise_case, 1.0)])
+def test_screened_default_fit_matches_libsvm(case_factory, C):
+    case = dataclasses.replace(case_factory(), C=C)
     model = EpsilonSVR(C=C, epsilon=case.epsilon, gamma=case.gamma).fit(case.X, case.y)
     assert model.solution_.settings["screened_points"] > len(case.y) // 3
     assert model.solution_.settings["crossover_exact"]
     _assert_exact(model, case)
 
 
-def test_screened_points_are_zero_in_the_start_and_mostly_at_the_optimum():
-    case = warm_up_case()
+@pytest.mark.parametrize("case_factory", [warm_up_case, noise_case])
+def test_holds_match_the_optimum_but_for_a_few(case_factory):
+    case = case_factory()
     start = _screened(case)
     assert start is not None and start.screened >= screening.MIN_SCREENED * len(case.y)
-    assert np.sum(start.beta == 0.0) >= start.screened
-    # the exact optimum (libsvm at 1e-8) keeps all but a few of them inside the tube
+    held = start.held
+    assert abs(start.beta[held].sum()) < 1e-9 * case.C  # the bounded holds are balanced
+    # the exact optimum (libsvm at 1e-8) agrees with all but a few holds (0, or the bound held at)
     optimum = full_beta(reference(case), len(case.y))
-    assert np.sum((start.beta == 0.0) & (optimum != 0.0)) <= screening.CROSSOVER_VIOLATORS
+    assert np.sum(held & (np.abs(optimum - start.beta) > 1e-6 * case.C)) <= screening.CROSSOVER_VIOLATORS
 
 
 def test_no_screening_where_it_would_not_pay():
-    assert _screened(noise_case()) is None  # few points inside the tube
-    small = warm_up_case(n=screening.SCREEN_MIN_POINTS - 1)
-    assert _screened(small) is None  # below the size where a pilot pays
-    model = EpsilonSVR(C=1.0, epsilon=0.1, gamma=0.3).fit(noise_case().X, noise_case().y)
+    case = friedman_case()
+    assert _screened(case) is None  # few residuals far enough from the tube's edge
+    assert _screened(warm_up_case(n=screening.SCREEN_MIN_POINTS - 1)) is None  # too small for a pilot to pay
+    model = EpsilonSVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma).fit(case.X, case.y)
     assert model.solution_.settings["screened_points"] == 0
-    _assert_exact(model, noise_case())
+    _assert_exact(model, case)
 
 
 def test_misled_crossover_restarts_from_all_points(monkeypatch):
