@@ -137,6 +137,7 @@ def run_cell(dataset, X, y, gamma, C) -> dict:
                                      and row[f"{label}_prediction_err_std"] <= PREDICTION_TOL)
         if label == "auto":
             row["auto_path"] = model.solver_
+            row["auto_held"] = model.solution_.settings.get("screened_points", 0)
     if "dual_ipm" in predictions:  # two independent exact paths: an interior point, and SMO + crossover
         row["auto_vs_dual_ipm_err_std"] = float(np.max(np.abs(predictions["auto"] - predictions["dual_ipm"])) / y.std())
     return row
@@ -199,7 +200,7 @@ def report(table: pd.DataFrame, total_s: float) -> str:
         "",
         "## Results",
         "",
-        markdown_table(table[["dataset", "n", "C", "repeats", "n_SV", "n_free", "libsvm_s", "auto_path", "auto_s", "auto_ratio",
+        markdown_table(table[["dataset", "n", "C", "repeats", "n_SV", "n_free", "libsvm_s", "auto_path", "auto_held", "auto_s", "auto_ratio",
                               "auto_objective_rel", "auto_prediction_err_std", "dual_ipm_s", "dual_ipm_ratio",
                               "dual_ipm_objective_rel", "auto_vs_dual_ipm_err_std"]]),
         "",

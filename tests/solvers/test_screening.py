@@ -40,14 +40,14 @@ def warm_up_case(n: int = 2000, seed: int = 0) -> SVRCase:
                    why="smooth target, noisy readings: most points inside the tube")
 
 
-def noise_case(n: int = 1500, seed: int = 0) -> SVRCase:
+def noise_case(n: int = 2000, seed: int = 0) -> SVRCase:
     """Pure noise at small C: most points end far outside the tube, at ±C."""
     rng = np.random.default_rng(seed)
     return SVRCase("noise", rng.normal(size=(n, 3)), rng.normal(size=n), C=1.0, epsilon=0.1, gamma=0.3,
                    why="most points outside the tube")
 
 
-def friedman_case(n: int = 1500) -> SVRCase:
+def friedman_case(n: int = 2000) -> SVRCase:
     """Friedman #1 at small C: most residuals end near the tube's edge, too close to hold."""
     X, y = friedman1(n, 10, 0)
     return SVRCase("friedman1", X, y, C=1.0, epsilon=0.1, gamma=1.0 / (X.shape[1] * X.var()),
@@ -94,6 +94,13 @@ def test_no_screening_where_it_would_not_pay():
     model = EpsilonSVR(C=case.C, epsilon=case.epsilon, gamma=case.gamma).fit(case.X, case.y)
     assert model.solution_.settings["screened_points"] == 0
     _assert_exact(model, case)
+
+
+def test_a_pilot_over_its_iteration_budget_holds_nothing(monkeypatch):
+    case = warm_up_case()
+    assert _screened(case) is not None
+    monkeypatch.setattr(screening, "PILOT_ITERATIONS_PER_POINT", 0)  # every pilot runs out of iterations
+    assert _screened(case) is None
 
 
 def test_misled_crossover_restarts_from_all_points(monkeypatch):
