@@ -82,6 +82,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import os
 import platform
 import sys
@@ -104,6 +105,9 @@ from svrqp.machine.geometry import AxisConfig, simulate_axis
 from svrqp.machine.cycles import CycleSegment
 from svrqp.machine.thermal import EFFECTS as THERMAL_EFFECTS
 from svrqp.machine.thermal import Ambient
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from transfer_oracle import logo_rmse, lstsq_predict  # noqa: E402  (benchmarks/ is not a package)
 
 RESULTS = Path(__file__).resolve().parent / "results"
 AR_PHI = 0.8
@@ -583,17 +587,9 @@ def _oracle_shrink(s: Scenario, case: Case) -> float:
                                order=ORDER[s.family.split("/")[0]], features=[c for c in NODE_SENSORS if c != s.effect])
         data = prepare(table, question)
         before = fit_baseline(data, s.model).residual[data.is_real]
-    D = np.column_stack([own, table["true_effect_um"].to_numpy()])
-    runs = table["run"].to_numpy()
-    errors = []
-    for run in np.unique(runs[real]):
-        test = runs == run
-        if kernel:
-            predicted = _lssvr_predict(D[~test], y[~test], D[test & real], _scale_gamma(features[~real]))
-        else:
-            predicted = (D @ np.linalg.lstsq(D[~test], y[~test], rcond=None)[0])[test & real]
-        errors.append(y[test & real] - predicted)
-    return 1 - np.sqrt(np.mean(np.concatenate(errors) ** 2)) / np.sqrt(np.mean(before**2))
+    predict = functools.partial(_lssvr_predict, gamma=_scale_gamma(features[~real])) if kernel else lstsq_predict
+    after = logo_rmse(y, own, [table[["true_effect_um"]].to_numpy()], table["run"].to_numpy(), real, predict)
+    return 1 - after / np.sqrt(np.mean(before**2))
 
 
 def _scale_gamma(X_train: np.ndarray) -> float:
