@@ -1,7 +1,9 @@
-"""Exact permutation tests of run-level candidates over few runs, and the thin-evidence verdict (svrqp.gap.ranking)."""
+"""Run-level candidates (svrqp.gap.ranking): exact permutation tests over few runs, the thin-evidence
+verdict, and the plain level next to the between-run block."""
 
 import json
 
+import numpy as np
 import pytest
 from support.gap_problems import AXIS_CANDIDATES, axis_passes
 
@@ -47,3 +49,22 @@ def test_three_passes_in_all_say_the_evidence_is_too_thin():
 def test_a_null_over_three_passes_is_not_called_untestable():
     report = _diagnose("none", runs=3, seed=0)
     assert report.verdict.column is None and report.verdict.untestable is None
+
+
+def test_an_offset_in_proportion_to_a_run_level_reading_is_refitted_as_its_plain_level():
+    """Each pass is off by 0.8 μm/K times its axis temperature: the plain level (one column) is the cause,
+    and its shrink equals an independent leave-one-pass-out refit of target − prediction on [1, axis_C]."""
+    df = axis_passes("none", runs=5, seed=0)
+    df["error_um"] += 0.8 * (df.groupby("run")["axis_C"].transform("mean") - 20.0)
+    report = diagnose(df, GapQuestion(candidates=AXIS_CANDIDATES, **ARGS))
+    top = report.causes[0]
+    assert (top.column, top.transform, top.evidence) == ("axis_C", "level", "within runs")
+    assert report.verdict.column == "axis_C"
+    d = (df["error_um"] - df["prediction_um"]).to_numpy()
+    D = np.column_stack([np.ones(d.size), df["axis_C"].to_numpy()])
+    runs, real = df["run"].to_numpy(), (df["run"] != "p0").to_numpy()
+    errors = np.concatenate([d[runs == run] - D[runs == run] @ np.linalg.lstsq(D[runs != run], d[runs != run],
+                                                                               rcond=None)[0]
+                             for run in np.unique(runs[real])])
+    oracle = 1 - np.sqrt(np.mean(errors**2)) / np.sqrt(np.mean(d[real] ** 2))
+    assert top.shrink == pytest.approx(oracle, abs=1e-9)
