@@ -461,11 +461,14 @@ class TransferRanker:
         stronger = self.stronger_unproven(ranked, top)
         if stronger is not None:
             top.note = f"adds nothing beyond {stronger.effect.column} on held-out runs"
+            n_real = len(group_slices(self.data.groups[self.data.is_real]))
+            untested = (f"is not significant between {n_real} real runs (q = {stronger.q_value:.2g})" if stronger.tested
+                        else f"cannot be tested between {MIN_RUNS - 1} or fewer real runs")
             result.withheld = (
                 f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "
                 f"{stronger.effect.transform} of {stronger.effect.column} transfers better and it adds nothing "
-                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, cannot be "
-                f"tested between {MIN_RUNS - 1} or fewer real runs: no cause is named.")
+                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, {untested}: "
+                "no cause is named.")
             return result
         result.top = top
         return result
