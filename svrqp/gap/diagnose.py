@@ -299,7 +299,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
         note = row.note or notes.get(effect.column)
         causes.append(Cause(
             column=effect.column, transform=effect.transform, tau=row.tau,
-            evidence=EVIDENCE_BETWEEN if effect.run_level else "within runs",
+            evidence=EVIDENCE_BETWEEN if effect.block else "within runs",
             p_value=row.q_value, p_raw=row.p_raw, gain=row.gain, significant=row.significant,
             rmse_before=numbers.rmse_before, rmse_after=numbers.rmse_after, shrink=numbers.shrink,
             shrink_ci=numbers.shrink_ci, round=1, note=note, ambiguous=row.ambiguous,

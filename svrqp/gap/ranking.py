@@ -15,13 +15,29 @@ Significance by surrogates that respect what varies where
     candidate that varies within runs is rotated circularly within every group
     (:func:`svrqp.gap.blocks.shift_offsets`, which keeps its autocorrelation); one that holds
     a level per run (:func:`svrqp.gap.between.is_run_level`) has its run levels permuted across
-    the runs. Each surrogate is transformed again (a lag filtered again) and refitted exactly
+    the runs. Such a candidate's ``level`` is refitted two ways: as the block of
+    :mod:`svrqp.gap.between` (a profile along the run that it scales, :attr:`Effect.block`) and as
+    the plain column (an offset in proportion to it, one parameter: with two or three held-out
+    runs the block's seven columns extrapolate where the plain level transfers); the column's row
+    is the better of the two (the plain one on a near tie). Each surrogate is transformed again (a lag filtered again) and refitted exactly
     as the observed one, :math:`\tau` chosen inside each fit. The Monte-Carlo p-value is
     sequential (Besag & Clifford 1991; at most :data:`MAX_SURROGATES` draws in
     :data:`SURROGATE_STAGES`, stopping after :data:`STOP_EXCEEDANCES` exceedances or once
     rejected). The :data:`MAX_TESTED` best causes above the effect floor are tested;
     Benjamini–Hochberg runs over every column (an untested one counts with :math:`p = 1`),
     level :data:`svrqp.gap.attribute.ALPHA`.
+
+Exact permutation tests for few runs
+    Over :math:`k` runs a run-level candidate has only :math:`k!` orderings of its levels. When
+    :math:`k! \le` :data:`EXACT_ORDERINGS` every ordering is refitted and the p-value is exact,
+    :math:`p = \#\{\pi : g_\pi \ge g\} / k!` (the observed ordering included), instead of a
+    Monte-Carlo estimate of it. Its smallest reachable value is :math:`p_{\min} = s / k!`, with
+    :math:`s` the orderings that leave the run levels as they are (one, unless two runs share a
+    level). When even :math:`p_{\min}`, put in place of the candidate's p-value, leaves its
+    Benjamini–Hochberg q-value at or above :math:`\alpha` — with three runs in all
+    :math:`p_{\min} = 1/6` — no data could have made it significant: if it is the
+    best-transferring cause, the verdict's reason and the summary say that the evidence is too
+    thin (:attr:`Ranking.too_thin`) instead of only "not beyond chance".
 
 Effect floor
     A cause is significant only if its transfer gain is at least
@@ -43,13 +59,15 @@ Confounded pairs
 from __future__ import annotations
 
 import dataclasses
+import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.between import MIN_RUNS, is_run_level, run_level_columns
+from svrqp.gap.between import MIN_RUNS, PROFILE_DEGREE, is_run_level, run_level_columns
 from svrqp.gap.blocks import rotated_rows, shift_offsets
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, TransferFit
@@ -89,6 +107,10 @@ LAG_BATCH = 20
 CONDITIONAL_SURROGATES = 99
 """Surrogates of a conditional test."""
 
+EXACT_ORDERINGS = 120
+"""Most orderings of a run-level candidate's levels (five runs) that a test enumerates exactly; with more
+runs it draws them (the Monte-Carlo resolution then matches the smallest p-value, 1/720 or less)."""
+
 
 @dataclass(frozen=True)
 class Effect:
@@ -101,19 +123,24 @@ class Effect:
     taus : ndarray or None
         The time-constant grid (``lag``).
     run_level : bool
-        The candidate holds one level per run: surrogates permute its run levels, and its
-        ``level`` enters as the block :math:`[\Psi, \bar c, \bar c\Psi]` of
-        :mod:`svrqp.gap.between` (a level scaling a profile along each run).
+        The candidate holds one level per run: surrogates permute its run levels.
+    block : bool
+        Its ``level`` enters as the block :math:`[\Psi, \bar c, \bar c\Psi]` of
+        :mod:`svrqp.gap.between` (a level scaling a profile along each run) rather than as the
+        plain column (a run-level candidate is refitted both ways).
     """
 
     column: str
     transform: str
     taus: np.ndarray | None
     run_level: bool
+    block: bool = False
 
     @property
     def parameters(self) -> int:
         """Columns added plus a fitted time constant."""
+        if self.block:
+            return 2 * PROFILE_DEGREE + 1
         return {"level": 1, "rate": 1, "lag": 3}[self.transform]
 
 
@@ -160,6 +187,10 @@ class Ranking:
     notes: list[str] = field(default_factory=list)
     withheld: str | None = None
     """Why no verdict is named although a cause is significant (a stronger untestable cause explains it)."""
+    too_thin: str | None = None
+    """The sentence on a best-transferring run-level cause that too few runs can never make significant."""
+    untestable: str | None = None
+    """That cause's column (:attr:`too_thin`)."""
 
 
 class TransferRanker:
@@ -195,6 +226,8 @@ class TransferRanker:
                     continue
                 if run_level and transform != "level":
                     continue  # its rate and lag are zero but for noise
+                if run_level:  # a level scaling a profile along each run, or an offset in proportion to it
+                    out.append(Effect(column, transform, None, run_level, block=True))
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
         return out
 
@@ -207,7 +240,7 @@ class TransferRanker:
         x = data.C[:, data.candidates.index(effect.column)] if x is None else x
         known = np.isfinite(x)
         t, groups, xk = data.t[known], data.groups[known], x[known]
-        if effect.transform == "level" and effect.run_level:  # its level scales a profile along each run
+        if effect.block:  # its level scales a profile along each run
             own = run_level_columns(xk, t, groups)
             variants = [np.arange(own.shape[1])]
         elif effect.transform == "level":
@@ -272,8 +305,24 @@ class TransferRanker:
 
     # -- surrogates ---------------------------------------------------------------------
 
-    def surrogate(self, effect: Effect, count: int) -> list[np.ndarray]:
-        """``count`` surrogates of the candidate (rotated within groups, or run levels permuted)."""
+    def run_levels(self, effect: Effect) -> np.ndarray:
+        """The candidate's mean over each run where it is known, in run order."""
+        x = self.data.C[:, self.data.candidates.index(effect.column)]
+        known = np.flatnonzero(np.isfinite(x))
+        return np.array([x[known[s]].mean() for s in group_slices(self.data.groups[known])])
+
+    def orderings(self, effect: Effect) -> list[np.ndarray] | None:
+        """Every ordering of a run-level candidate's levels when there are at most :data:`EXACT_ORDERINGS`, else None."""
+        if not effect.run_level:
+            return None
+        k = self.run_levels(effect).size
+        if math.factorial(k) > EXACT_ORDERINGS:
+            return None
+        return [np.array(order) for order in itertools.permutations(range(k))]
+
+    def surrogate(self, effect: Effect, count: int, orders: list[np.ndarray] | None = None) -> list[np.ndarray]:
+        """``count`` surrogates of the candidate (rotated within groups, or run levels permuted: drawn at
+        random, or the ``orders`` given)."""
         data = self.data
         x = data.C[:, data.candidates.index(effect.column)]
         known = np.flatnonzero(np.isfinite(x))
@@ -282,8 +331,9 @@ class TransferRanker:
         if effect.run_level:
             slices = group_slices(groups)
             means = np.array([x[known[s]].mean() for s in slices])
-            for _ in range(count):
-                order = self.rng.permutation(len(slices))
+            if orders is None:
+                orders = [self.rng.permutation(len(slices)) for _ in range(count)]
+            for order in orders:
                 xs = x.copy()
                 for s, g in zip(slices, order):
                     xs[known[s]] += means[g] - means[slices.index(s)]
@@ -310,9 +360,27 @@ class TransferRanker:
                     return hits
         return hits
 
+    def exact_p(self, effect: Effect, observed: float, orders: list[np.ndarray], given: np.ndarray | None = None,
+                reference: float | None = None) -> float:
+        """Exact permutation p-value over every ordering of the run levels (the observed one included)."""
+        surrogates = self.surrogate(effect, len(orders), orders)
+        hits = sum(self.gain(self.fit(effect, xs, given), reference) >= observed - 1e-12 for xs in surrogates)
+        return hits / len(orders)
+
+    def smallest_p(self, effect: Effect, orders: list[np.ndarray]) -> float:
+        """The smallest p-value :meth:`exact_p` can give: the orderings that leave the run levels unchanged."""
+        levels = self.run_levels(effect)
+        same = sum(bool(np.allclose(levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())))
+                   for order in orders)
+        return same / len(orders)
+
     def p_value(self, effect: Effect, observed: float, most: int, given: np.ndarray | None = None,
                 reference: float | None = None) -> float:
-        """Sequential Monte-Carlo p-value of one transfer gain, at most ``most`` surrogates."""
+        """Sequential Monte-Carlo p-value of one transfer gain, at most ``most`` surrogates (exact for a
+        run-level candidate over few runs, :meth:`exact_p`)."""
+        orders = self.orderings(effect)
+        if orders is not None:
+            return self.exact_p(effect, observed, orders, given, reference)
         hits = self.draw(effect, observed, min(SURROGATE_STAGES[0], most), given, reference)
         if sum(hits) < STOP_EXCEEDANCES // 2:  # not clearly null after the first stage
             hits += self.draw(effect, observed, most - len(hits), given, reference)
@@ -326,6 +394,15 @@ class TransferRanker:
         rejects it (a p-value after a fixed number of draws stays valid), or at the last stage.
         """
         tested = [r for r in ranked if r.gain >= MIN_GAIN][:MAX_TESTED]
+        sampled = []
+        for row in tested:
+            orders = self.orderings(row.effect)
+            if orders is None:
+                sampled.append(row)
+            else:
+                row.p_raw, row.tested = self.exact_p(row.effect, row.gain, orders), True
+        self._adjust(ranked)
+        tested = sampled
         hits: dict[int, list[bool]] = {id(r): [] for r in tested}
         for stage in SURROGATE_STAGES:
             open_rows = [r for r in tested if sum(hits[id(r)]) < STOP_EXCEEDANCES and not r.significant]
@@ -362,6 +439,7 @@ class TransferRanker:
         """The verdict candidate among the significant causes, confounded rivals checked."""
         result = Ranking(ranked)
         significant = [r for r in ranked if r.significant]
+        self.thin_evidence(ranked, result)
         if not significant:
             return result
         top = significant[0]
@@ -383,14 +461,43 @@ class TransferRanker:
         stronger = self.stronger_unproven(ranked, top)
         if stronger is not None:
             top.note = f"adds nothing beyond {stronger.effect.column} on held-out runs"
+            n_real = len(group_slices(self.data.groups[self.data.is_real]))
+            untested = (f"is not significant between {n_real} real runs (q = {stronger.q_value:.2g})" if stronger.tested
+                        else f"cannot be tested between {MIN_RUNS - 1} or fewer real runs")
             result.withheld = (
                 f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "
                 f"{stronger.effect.transform} of {stronger.effect.column} transfers better and it adds nothing "
-                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, cannot be "
-                f"tested between {MIN_RUNS - 1} or fewer real runs: no cause is named.")
+                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, {untested}: "
+                "no cause is named.")
             return result
         result.top = top
         return result
+
+    def thin_evidence(self, ranked: list[Ranked], result: Ranking) -> None:
+        """Say so when the best-transferring cause is run-level and too few runs can ever make it significant.
+
+        Its smallest reachable p-value (:meth:`smallest_p`) in place of its own must leave its
+        Benjamini–Hochberg q-value at or above :data:`svrqp.gap.attribute.ALPHA` (module docstring).
+        """
+        if not ranked or ranked[0].significant or ranked[0].gain < MIN_GAIN:
+            return
+        best = ranked[0]
+        orders = self.orderings(best.effect)
+        if orders is None:
+            return
+        p_min = self.smallest_p(best.effect, orders)
+        p = [p_min if r is best else r.p_raw for r in ranked]
+        q_min = float(false_discovery_control(p, method="bh")[0])
+        if q_min < ALPHA:
+            return
+        k, column = len(orders[0]), best.effect.column
+        shrink = 1 - np.sqrt(max(1 - best.gain, 0.0))
+        result.untestable = column
+        result.too_thin = (
+            f" The level of {column}, one level per run, transfers best ({shrink:.0%} beyond the refit), but its "
+            f"{k} run levels have only {len(orders)} orderings: no permutation test can give it a p-value below "
+            f"{p_min:.2g}, which over {len(ranked)} candidate columns leaves q ≥ {q_min:.2g} (above {ALPHA:g}). "
+            "The transfer evidence is too thin to name it; more runs are needed.")
 
     def stronger_unproven(self, ranked: list[Ranked], top: Ranked) -> Ranked | None:
         """An untestable cause that transfers better than ``top`` and explains it away.

@@ -101,6 +101,9 @@ class Verdict:
     shrink_beyond_refit_ci: tuple[float, float] | None = None
     thin: bool = False
     family: str | None = None
+    untestable: str | None = None
+    """A run-level column that transfers best but that too few runs can never make significant
+    (:attr:`svrqp.gap.ranking.Ranking.too_thin`)."""
 
 
 @dataclass(frozen=True)

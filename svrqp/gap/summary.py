@@ -2,7 +2,8 @@
 
 The summary states the gap against the train rows' error on the same footing, then what fixes it
 on held-out units: leading with extrapolation when a model input is used outside its train range
-and the same-input refit removes most of the gap (``docs/gap.md``, "The contract"), else the verdict's transfer shrink.
+and the same-input refit removes most of the gap (``docs/gap.md``, "The contract"), else the verdict's transfer shrink,
+or, without a verdict, whether the evidence was too thin for the best-transferring cause to be tested at all.
 """
 
 from __future__ import annotations
@@ -49,7 +50,11 @@ def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:
     if transfer.get("refit_closes_gap"):
         return (f"{first}. Refitting with the new {unit_word(units)}s removes {transfer['shrink_refit']:.0%} and "
                 f"leaves only noise on {held}, so no cause is named" + (f" ({caveat[2:]})." if caveat else "."))
-    return f"{first}. No candidate improves a refit on {held} beyond chance" + (f" ({caveat[2:]})." if caveat else ".")
+    second = f"{first}. No candidate improves a refit on {held} beyond chance"
+    if verdict.untestable is not None:  # the evidence is too thin by design (svrqp.gap.ranking.Ranking.too_thin)
+        return second + (f"; {verdict.untestable}, one level per run, transfers best, but too few runs to test it: "
+                         "the evidence is too thin.")
+    return second + (f" ({caveat[2:]})." if caveat else ".")
 
 
 def _most_outside(uses: list[InputUse]) -> InputUse:
