@@ -102,23 +102,24 @@ def logo_rmse(y: np.ndarray, base: np.ndarray, variants: list[np.ndarray], group
 
 
 def column_shrinks(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, rmse_before: float, column: str,
-                   order: str, group: str, real: np.ndarray) -> dict[str, float]:
+                   order: str, group: str, real: np.ndarray, predict: Predict = lstsq_predict) -> dict[str, float]:
     """Transfer shrink of ``column`` under each transform (rows sorted by ``order`` within ``group``)."""
     t, groups = table[order].to_numpy(float), table[group].to_numpy()
     banks = transform_variants(table[column].to_numpy(float), t, groups, tau_grid(t, groups))
-    return {name: 1 - logo_rmse(y, base, variants, groups, real) / rmse_before for name, variants in banks.items()}
+    return {name: 1 - logo_rmse(y, base, variants, groups, real, predict) / rmse_before
+            for name, variants in banks.items()}
 
 
 def best_shrink(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, rmse_before: float, columns: tuple[str, ...],
-                order: str, group: str, real: np.ndarray) -> float:
+                order: str, group: str, real: np.ndarray, predict: Predict = lstsq_predict) -> float:
     """The largest transfer shrink of any of ``columns`` under any transform (``nan`` for none)."""
-    return max((max(column_shrinks(table, y, base, rmse_before, c, order, group, real).values()) for c in columns),
-               default=float("nan"))
+    return max((max(column_shrinks(table, y, base, rmse_before, c, order, group, real, predict).values())
+                for c in columns), default=float("nan"))
 
 
 def as_well_as_truth(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, rmse_before: float,
                      named: str | None, transform: str | None, truth: tuple[str, ...], truth_shrink: float,
-                     order: str, group: str, real: np.ndarray) -> tuple[bool, float]:
+                     order: str, group: str, real: np.ndarray, predict: Predict = lstsq_predict) -> tuple[bool, float]:
     """DESIGN §4's acceptance of a verdict, by independent refits.
 
     Returns whether ``named`` is a truth column, or transfers with its ``transform`` at least as well
@@ -128,5 +129,5 @@ def as_well_as_truth(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, rmse_
     """
     if named is None or named in truth:
         return named is not None, float("nan")
-    shrink = column_shrinks(table, y, base, rmse_before, named, order, group, real)[transform]
+    shrink = column_shrinks(table, y, base, rmse_before, named, order, group, real, predict)[transform]
     return bool(shrink >= truth_shrink - AS_WELL), shrink
