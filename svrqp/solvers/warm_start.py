@@ -35,13 +35,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp.linalg.kernel_columns import KernelColumns
-from svrqp.solvers.dual_ipm.crossover import crossover
+from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, crossover
 from svrqp.solvers.screening import decomposition_fit, screened_fit
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
 #: answer needs; the crossover finishes the job. (1e-2 saves SMO iterations at large C but costs
 #: crossover steps at small C, where SMO is cheap anyway: measured on the benchmark panel.)
 WARM_START_TOL = 1e-3
+
+
+#: The crossover from a held start (:mod:`svrqp.solvers.screening`): the few holds a run left
+#: contradicted enter with the loose run's own misfits, and the primal–dual steps often change as
+#: many states twice before they settle; given up at once they handed 11–50 steps to the feasible
+#: method on the benchmark panel's C = 1 cells. Two such steps allowed: 13 → 5 steps on the thermal
+#: set at n = 2000, 16 → 5 on the sinc set (measured; up to 1.2× the crossover's time at C = 100).
+HELD_START = CrossoverSettings(stalled_steps=2)
 
 
 @dataclass
@@ -95,7 +103,8 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
         screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, products)
     warm = screened or decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
     middle = time.perf_counter()
-    result = crossover(columns, y, C, epsilon, warm.beta, products=products)
+    result = crossover(columns, y, C, epsilon, warm.beta, products=products,
+                       settings=HELD_START if screened is not None else CrossoverSettings())
     iterations = warm.iterations
     if screened is not None and not result.exact:  # the screened start misled it: start from all points
         warm = decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)

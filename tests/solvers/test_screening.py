@@ -24,6 +24,7 @@ from svrqp.bench.cases import friedman1
 from svrqp.kernels import gram
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.solvers import screening, warm_start
+from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, crossover
 
 RBF = {"kernel": "rbf", "degree": 3, "coef0": 0.0}
 
@@ -126,3 +127,15 @@ def test_misled_crossover_restarts_from_all_points(monkeypatch):
     assert len(calls) == 2 and rows_seen == [None]  # one restart, over all points
     assert model.solution_.settings["screened_points"] == 0
     _assert_exact(model, case)
+
+
+def test_crossover_from_a_held_start_reaches_the_same_optimum_with_or_without_patience():
+    """HELD_START lets the primal–dual steps stall twice; the optimum it reaches is the one without it."""
+    case = warm_up_case()
+    parameters = {**RBF, "gamma": case.gamma}
+    columns = KernelColumns(case.X, **parameters)
+    start = screening.screened_fit(case.X, case.y, case.C, case.epsilon, parameters, 1e-3, columns.products)
+    results = [crossover(columns, case.y, case.C, case.epsilon, start.beta, products=columns.products,
+                         settings=settings) for settings in (CrossoverSettings(), warm_start.HELD_START)]
+    assert all(result.exact for result in results)
+    np.testing.assert_allclose(results[1].beta, results[0].beta, rtol=0, atol=1e-9 * case.C)

@@ -50,6 +50,9 @@ class CrossoverSettings:
     kkt_tol: float = 1e-9  #: slack on the tube conditions, relative to 1 + max|y|
     max_steps: int = 200  #: limit on the feasible active-set steps; ``exact`` is false when it is reached
     fast_steps: int = 8  #: limit on the primal–dual active-set steps tried first
+    #: primal–dual steps that may change no fewer states than the best step before, before the feasible
+    #: method takes over (0: give up at the first)
+    stalled_steps: int = 0
 
 
 @dataclass
@@ -96,7 +99,8 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     slack = settings.kkt_tol * (1.0 + float(np.max(np.abs(y))))
     kernel = _KernelAccess(columns, products or (lambda idx, v: columns(idx) @ v), y.size)
     start = certificate.states(beta, C, settings.threshold)
-    fast = _primal_dual_active_set(kernel, y, C, epsilon, start.copy(), slack, settings.fast_steps)
+    fast = _primal_dual_active_set(kernel, y, C, epsilon, start.copy(), slack, settings.fast_steps,
+                                   settings.stalled_steps)
     if fast.exact:
         return fast
     careful = _feasible_active_set(kernel, y, C, epsilon, beta, start, slack, settings.max_steps)
@@ -198,13 +202,14 @@ def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
     return rho - b, b
 
 
-def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
+def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, stalled_steps=0) -> CrossoverResult:
     """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result.
 
-    Gives up as soon as the number of state changes stops shrinking: away from the optimum the
-    method can swing large sets back and forth, and each such step costs a large free-set solve.
+    Gives up once the number of state changes has failed ``stalled_steps`` + 1 times to fall below
+    its smallest so far: away from the optimum the method can swing large sets back and forth, and
+    each such step costs a large free-set solve.
     """
-    beta, b, fresh, previous_changes = np.zeros(y.size), 0.0, False, y.size + 1
+    beta, b, fresh, fewest_changes, stalls = np.zeros(y.size), 0.0, False, y.size + 1, 0
     for step in range(1, max_steps + 1):
         free, fixed, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states,
                                                                                      fresh)
@@ -228,9 +233,10 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
             fresh = True  # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
             continue
         changes = int(np.count_nonzero(new_states != states))
-        if changes >= previous_changes:
+        stalls += changes >= fewest_changes
+        if stalls > stalled_steps:
             return CrossoverResult(beta, b, step, False, int(free.size))
-        states, fresh, previous_changes = new_states, False, changes
+        states, fresh, fewest_changes = new_states, False, min(changes, fewest_changes)
     return CrossoverResult(beta, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
 
 
