@@ -61,7 +61,7 @@ from svrqp.gap.figures import Series
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.inputs import input_use
 from svrqp.gap.kernel_transfer import LINEAR, FamilyErrors, same_family_errors
-from svrqp.gap.localise import localise
+from svrqp.gap.localise import localise, region_of
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink
 from svrqp.gap.question import GapQuestion
@@ -158,6 +158,8 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
                                      n_jobs)
         findings = _search_causes(problem, taus, context, seed, report_progress)
     report_progress("reporting", 0.98)
+    if findings.verdict.region is not None:  # a local verdict: where it acts comes first
+        where = [region_of(data.t[real], r, findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
                 "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES}
@@ -306,6 +308,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
+            region=row.region,
         ))
         errors_after[effect.column] = after
     return causes, errors_after

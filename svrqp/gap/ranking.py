@@ -60,9 +60,11 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     rate,
 )
+from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, window_dictionary
 
-TRANSFORMS = ("level", "rate", "lag")
-"""Transforms refitted for every candidate (a model feature: ``rate`` and ``lag`` only)."""
+TRANSFORMS = ("level", "rate", "lag", "local")
+"""Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
+``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.windows`)."""
 
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
@@ -110,11 +112,13 @@ class Effect:
     transform: str
     taus: np.ndarray | None
     run_level: bool
+    windows: np.ndarray | None = None
+    """The windows ``[low, high]`` of the order axis searched (``local``, :mod:`svrqp.gap.windows`)."""
 
     @property
     def parameters(self) -> int:
-        """Columns added plus a fitted time constant."""
-        return {"level": 1, "rate": 1, "lag": 3}[self.transform]
+        """Columns added plus fitted time constant or window bounds."""
+        return {"level": 1, "rate": 1, "lag": 3, "local": 4}[self.transform]
 
 
 @dataclass
@@ -132,6 +136,9 @@ class Ranked:
         Surrogate p-value (1 when untested) and its Benjamini–Hochberg adjustment.
     tau : float or None
         The time constant chosen most often over the fits (``lag``).
+    region : dict or None
+        ``{"column": ORDER, "low": …, "high": …}``: the window of the order axis chosen most often
+        over the fits (``local``).
     note : str or None
     """
 
@@ -144,6 +151,7 @@ class Ranked:
     note: str | None = None
     tested: bool = False
     ambiguous: bool = False
+    region: dict | None = None
 
     @property
     def significant(self) -> bool:
@@ -181,6 +189,7 @@ class TransferRanker:
         self.data, self.family, self.taus, self.rng = data, family, taus, rng
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
+        self.windows = window_dictionary(data.t, family.units.code)
 
     # -- effects ------------------------------------------------------------------------
 
@@ -193,9 +202,12 @@ class TransferRanker:
             for transform in TRANSFORMS:
                 if transform == "level" and column in data.features:
                     continue
-                if run_level and transform != "level":
+                if run_level and transform in ("rate", "lag"):
                     continue  # its rate and lag are zero but for noise
-                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
+                if transform == "local" and not len(self.windows):
+                    continue
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level,
+                                  self.windows if transform == "local" else None))
         return out
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
@@ -216,6 +228,8 @@ class TransferRanker:
         elif effect.transform == "rate":
             own = rate(xk, t, groups)[:, None]
             variants = [np.array([0])]
+        elif effect.transform == "local":
+            own, variants = local_columns(xk, t, effect.windows)
         else:
             ell = lag(xk, t, groups, effect.taus) if ell is None else ell
             if effect.column in data.features:
@@ -259,16 +273,31 @@ class TransferRanker:
         best: dict[str, Ranked] = {}
         for effect in self.effects():
             fit = self.fit(effect)
-            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit))
+            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
+        for row in best.values():
+            if row.region is not None and self._collinear(row):
+                row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
+                            "the refits keep the minimum-norm solution")
         return sorted(best.values(), key=lambda r: -r.gain)
+
+    def _collinear(self, row: Ranked) -> bool:
+        """Whether the window a ``local`` row chose most is collinear with the family's design (:func:`collinear`)."""
+        E, _, known = self.columns(_fixed(row))
+        return collinear(self.family.A[known], E[known])
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
         if effect.taus is None:
             return None
         return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
+
+    def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
+        if effect.windows is None:
+            return None
+        low, high = effect.windows[np.bincount(fit.variant, minlength=len(effect.windows)).argmax()]
+        return {"column": self.data.order_name, "low": float(low), "high": float(high)}
 
     # -- surrogates ---------------------------------------------------------------------
 
@@ -419,15 +448,19 @@ def _besag_clifford(hits: list[bool]) -> float:
 
 
 def _fixed(row: Ranked) -> Effect:
-    """The row's effect with its time constant fixed at the one its fits chose most."""
+    """The row's effect with its time constant (or window) fixed at the one its fits chose most."""
+    if row.region is not None:
+        return dataclasses.replace(row.effect, windows=np.array([[row.region["low"], row.region["high"]]]))
     if row.tau is None:
         return row.effect
     return dataclasses.replace(row.effect, taus=np.array([row.tau]))
 
 
 def _better(row: Ranked, held: Ranked) -> bool:
-    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie)."""
+    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie; the ``local``
+    transform against a global one must be ahead by :data:`svrqp.gap.windows.LOCAL_MARGIN`)."""
     shrink = lambda r: 1 - np.sqrt(max(1 - r.gain, 0.0))
-    if abs(shrink(row) - shrink(held)) < SAME_FIT:
+    local = (row.effect.transform == "local") != (held.effect.transform == "local")
+    if abs(shrink(row) - shrink(held)) < (LOCAL_MARGIN if local else SAME_FIT):
         return row.effect.parameters < held.effect.parameters
     return row.gain > held.gain
