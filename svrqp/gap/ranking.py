@@ -60,7 +60,7 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     rate,
 )
-from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, window_dictionary
+from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, permutations_can_reject, window_dictionary
 
 TRANSFORMS = ("level", "rate", "lag", "local")
 """Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
@@ -182,20 +182,23 @@ class TransferRanker:
     taus : ndarray
         The time-constant grid.
     rng : numpy.random.Generator
-        Source of the surrogates.
+        Source of the surrogates (the ``local`` form's from a stream spawned from it, which
+        leaves this one's draws to the other transforms).
     """
 
     def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator):
         self.data, self.family, self.taus, self.rng = data, family, taus, rng
+        self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
-        self.windows = window_dictionary(data.t, family.units.code)
+        self.windows = window_dictionary(data.t, family.units.code, data.groups)
 
     # -- effects ------------------------------------------------------------------------
 
     def effects(self) -> list[Effect]:
         """Every candidate × transform to refit."""
         data, real = self.data, self.data.is_real
+        testable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
         out = []
         for j, column in enumerate(data.candidates):
             run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
@@ -204,8 +207,8 @@ class TransferRanker:
                     continue
                 if run_level and transform in ("rate", "lag"):
                     continue  # its rate and lag are zero but for noise
-                if transform == "local" and not len(self.windows):
-                    continue
+                if transform == "local" and (not len(self.windows) or (run_level and not testable)):
+                    continue  # no window to try, or run levels too few to permute to significance
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level,
                                   self.windows if transform == "local" else None))
         return out
@@ -307,18 +310,19 @@ class TransferRanker:
         x = data.C[:, data.candidates.index(effect.column)]
         known = np.flatnonzero(np.isfinite(x))
         groups = data.groups[known]
+        rng = self.local_rng if effect.windows is not None else self.rng
         out = []
         if effect.run_level:
             slices = group_slices(groups)
             means = np.array([x[known[s]].mean() for s in slices])
             for _ in range(count):
-                order = self.rng.permutation(len(slices))
+                order = rng.permutation(len(slices))
                 xs = x.copy()
                 for s, g in zip(slices, order):
                     xs[known[s]] += means[g] - means[slices.index(s)]
                 out.append(xs)
             return out
-        offsets = shift_offsets(groups, count, self.rng, x[known])
+        offsets = shift_offsets(groups, count, rng, x[known])
         for rows in rotated_rows(groups, offsets):
             xs = x.copy()
             xs[known] = x[known][rows]

@@ -18,14 +18,31 @@ is chosen out of sample, and every surrogate of the transfer test searches the d
 again: the test pays for the search and a local disturbance that no candidate carries gains
 the window's offset on the observed candidate and its surrogates alike.
 
-Limits: the window is one interval of the order axis shared by every run (an effect at the
-end of passes of unequal length is not one interval); a window narrower than
-:data:`MIN_REGION_ROWS` rows of one unit, or with rows in fewer than two held-out units, is not tried; the
+What the form costs the other transforms
+    The ``local`` form of a candidate that holds one level per run is offered only when a
+    permutation of its run levels can reach significance (:func:`permutations_can_reject`):
+    with :math:`n` runs the smallest permutation p-value is :math:`1/n!`, and
+    Benjamini–Hochberg over :math:`m` columns rejects its first only at :math:`p \le \alpha/m`,
+    so the form needs :math:`n! \ge m/\alpha` (five runs for up to six columns at
+    :math:`\alpha = 0.05`, six runs for up to 36). An untestable form could only shadow a
+    testable cause. Its surrogates come from a stream of their own, so offering it leaves the
+    Monte-Carlo p-values of the other transforms as they were.
+
+Limits: the window is one interval of the order axis shared by runs (an effect at the
+end of passes of unequal length is not one interval). A window is tried only where it is a
+stretch of at least two runs' own axis (it lies inside the order range of two groups): on a
+record whose clock runs on through the runs (each run its own stretch of time) no window is,
+and the ``local`` form is not offered, since a stretch of the clock holds no future run and a
+window across the seam of two runs would only carry the end of one into the start of the
+next. Nor is a window narrower than :data:`MIN_REGION_ROWS` rows of one unit, or with rows in
+fewer than two held-out units; the
 ``--order`` column is strictly increasing within each group (:mod:`svrqp.gap.prepare` refuses
 ties and sorts reversed stretches), and gaps only leave some tiles with fewer rows.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -40,13 +57,14 @@ LOCAL_MARGIN = 0.02
 for the column (it has the most parameters: two columns and the window's two bounds)."""
 
 
-def window_dictionary(t: np.ndarray, units: np.ndarray) -> np.ndarray:
+def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """The windows tried, as rows ``[low, high]`` of order values (inclusive).
 
     Tiles of :data:`WINDOW_WIDTHS` of the range of ``t``; each window's bounds are the smallest
     and largest order value of the rows in its tile, windows holding the same rows are kept
     once, and a window narrower than :data:`MIN_REGION_ROWS` rows (in the unit where it holds
-    most) or with rows in fewer than two units is dropped.
+    most), with rows in fewer than two units, or inside the order range of fewer than two
+    groups is dropped.
 
     Parameters
     ----------
@@ -54,6 +72,8 @@ def window_dictionary(t: np.ndarray, units: np.ndarray) -> np.ndarray:
         Order value of every row.
     units : ndarray of int, shape (n,)
         Held-out unit of every row.
+    groups : ndarray of int, shape (n,)
+        Run (group) of every row.
 
     Returns
     -------
@@ -63,6 +83,7 @@ def window_dictionary(t: np.ndarray, units: np.ndarray) -> np.ndarray:
     out, seen = [], set()
     if span <= 0:
         return np.zeros((0, 2))
+    ranges = np.array([(t[groups == g].min(), t[groups == g].max()) for g in np.unique(groups)])
     for width in WINDOW_WIDTHS:
         edges = start + span * np.linspace(0.0, 1.0, int(round(1 / width)) + 1)
         for i, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
@@ -71,10 +92,21 @@ def window_dictionary(t: np.ndarray, units: np.ndarray) -> np.ndarray:
             if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
                 continue
             bounds = (float(t[inside].min()), float(t[inside].max()))
-            if bounds not in seen:
+            shared = np.sum((ranges[:, 0] <= bounds[0]) & (ranges[:, 1] >= bounds[1]))
+            if shared >= 2 and bounds not in seen:
                 seen.add(bounds)
                 out.append(bounds)
     return np.array(out).reshape(-1, 2)
+
+
+def permutations_can_reject(n_runs: int, n_columns: int, alpha: float) -> bool:
+    r"""Whether permuting ``n_runs`` run levels can give a p-value Benjamini–Hochberg rejects among ``n_columns``.
+
+    The smallest p-value of a permutation test over :math:`n` runs is :math:`1/n!` (the observed
+    arrangement among the :math:`n!`); the first threshold of Benjamini–Hochberg over :math:`m`
+    columns is :math:`\alpha/m`. So :math:`n! \ge m/\alpha`.
+    """
+    return math.factorial(n_runs) * alpha >= n_columns
 
 
 COLLINEAR_RCOND = 1e-10

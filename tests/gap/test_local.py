@@ -66,7 +66,7 @@ def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
     t, runs = df["x_mm"].to_numpy(), df["run"].to_numpy()
     y = (df["error_um"] - df["prediction_um"]).to_numpy()
     x = df["room_C"].to_numpy()
-    windows = window_dictionary(t, runs)
+    windows = window_dictionary(t, runs, runs)
     designs = [np.column_stack([np.ones(t.size), w, x * w]) for w in ((t >= a) & (t <= b) for a, b in windows)]
     squared = []
     for run in np.unique(runs[runs > 0]):
@@ -87,11 +87,18 @@ def test_a_local_disturbance_no_candidate_carries_gets_no_verdict():
 def test_windows_narrower_than_five_rows_are_not_tried():
     t = np.tile(np.arange(0.0, 60.0, 1.0), 2)  # a 5 % tile holds 3 rows per run; a 10 % tile 6
     units = np.repeat([0, 1], 60)
-    windows = window_dictionary(t, units)
+    windows = window_dictionary(t, units, units)
     inside = [np.sum((t[:60] >= a) & (t[:60] <= b)) for a, b in windows]
     assert len(windows) and min(inside) >= MIN_REGION_ROWS  # no 3-row (5 %) tile survives
-    one_unit = window_dictionary(np.arange(0.0, 10.0), np.zeros(10, dtype=int))
+    one_unit = window_dictionary(np.arange(0.0, 10.0), np.zeros(10, dtype=int), np.zeros(10, dtype=int))
     assert one_unit.shape == (0, 2)  # a window seen in one unit only cannot be refitted without it
+
+
+def test_a_clock_that_runs_on_through_the_runs_offers_no_window():
+    runs = np.repeat([0, 1, 2], 60)
+    shared = window_dictionary(np.tile(np.arange(60.0), 3), runs, runs)
+    on_one_clock = window_dictionary(np.arange(180.0), runs, runs)  # each run its own stretch of time
+    assert len(shared) and on_one_clock.shape == (0, 2)  # even the tiles across a seam of two runs
 
 
 def test_ties_in_the_order_axis_are_refused():
