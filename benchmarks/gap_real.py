@@ -201,7 +201,7 @@ def engine(csv: Path, target: str, features: list[str], candidates: list[str], o
     """``svrqp gap`` on the table written to ``csv``; its JSON."""
     command = [sys.executable, "-c", "import sys; from svrqp.cli import main; sys.exit(main())", "gap", str(csv),
                "--target", target, "--train", "cycle in " + repr(list(TRAIN_CYCLES)), "--features", ",".join(features),
-               "--candidates", ",".join(candidates), "--order", "time_min", "--group", "cycle",
+               "--candidates", ",".join(candidates), "--order", "time_min", "--group", "cycle", "--local",
                "--json", str(out), "--force"]
     subprocess.run(command, check=True, capture_output=True, text=True, env=os.environ | {"PYTHONPATH": str(REPO)})
     return json.loads(out.read_text(encoding="utf-8"))

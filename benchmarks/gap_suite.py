@@ -51,8 +51,9 @@ Scenario families
     family's simulation with nothing else withheld and left out of the prediction: a start-up
     transient scaled by ``speed_rpm``, a mid-run window scaled by ``coolant_C`` (thermal), the
     acceleration zone scaled by ``accel_mm_s2`` (gantry), a guideway patch scaled by
-    ``ambient_C`` and a load bump scaled by ``load_kg`` (axis, 111 positions); the truth is the
-    scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
+    ``ambient_C`` and a load bump scaled by ``load_kg`` (axis, 111 positions), and a sensor that
+    matters only above a spindle speed (``T1_C`` where ``speed_rpm`` is above a threshold: a stretch
+    of the speed, not of the order axis); the truth is the scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
     run that no column reads. Scored apart (:func:`summarise_local`): top-1, false attribution,
     and the row IoU on the real rows of the named stretch (``verdict.region``, else the first
     ``where`` entry on the order axis) with the true one.
@@ -402,15 +403,24 @@ LOCAL_KINDS = ("local", "local-null")
 candidate scales (``local``), or one that no candidate carries (``local-null``)."""
 
 LOCAL_DRIVER = {"startup": "speed_rpm", "window": "coolant_C", "zone": "accel_mm_s2", "patch": "ambient_C",
-                "load": "load_kg"}
+                "load": "load_kg", "speed": "T1_C"}
 """Candidate column that scales each localised effect (the truth of its scenarios)."""
+
+LOCAL_AXIS = {"speed": "speed_rpm"}
+"""Column along which a localised effect is confined when it is not the order axis (``speed``: a sensor that
+matters only above a spindle speed)."""
+
+
+def local_axis(s: Scenario) -> str:
+    """The column whose stretch ``s.window`` confines the effect."""
+    return LOCAL_AXIS.get(s.effect, ORDER[s.family.split("/")[0]])
 
 LOCAL_CANDIDATES = {"thermal": NULL_PREDICTION_POOL, "gantry": GANTRY_CANDIDATES, "axis": AXIS_CANDIDATES}
 
 
 def window_bounds(table: pd.DataFrame, s: Scenario) -> tuple[float, float]:
-    """The local effect's stretch ``[low, high]`` in units of the order axis (fractions of its range)."""
-    order = table[ORDER[s.family.split("/")[0]]]
+    """The local effect's stretch ``[low, high]`` in units of its axis (:func:`local_axis`; fractions of its range)."""
+    order = table[local_axis(s)]
     low, high = float(order.min()), float(order.max())
     return low + s.window[0] * (high - low), low + s.window[1] * (high - low)
 
@@ -439,7 +449,7 @@ def local_case(s: Scenario) -> Case:
     clean = (table["error_um"] - table["noise_true_um"]).to_numpy()
     rng = np.random.default_rng(s.seed + 1)
     low, high = window_bounds(table, s)
-    profile = local_profile(table[ORDER[family]].to_numpy(), low, high, s.shape)
+    profile = local_profile(table[local_axis(s)].to_numpy(), low, high, s.shape)
     train = table.eval(train_query(s)).to_numpy()
     if s.kind == "local":
         driver = table[LOCAL_DRIVER[s.effect]].to_numpy()
@@ -466,7 +476,9 @@ def local_scenarios(design) -> list[Scenario]:
 
     Region widths run from 3 % to 25 % of the order axis, each with at least 5 rows per run:
     thermal runs are sampled every minute (3 % of 240 min is 7 rows), gantry passes at 15 Hz, and
-    the axis passes here at 111 positions (5 mm; the narrowest window, 8 %, is 9 rows).
+    the axis passes here at 111 positions (5 mm; the narrowest window, 8 %, is 9 rows). Six more,
+    ``lt-speed-*``, are confined along the spindle speed instead: ``T1_C`` matters only above 35–70 %
+    of the speed range, wherever in the run that is.
     """
     out: list[Scenario] = []
     thermal = {"startup": [(0.0, w) for w in (0.03, 0.05, 0.08, 0.12, 0.15, 0.2, 0.25, 0.1)],
@@ -499,6 +511,9 @@ def local_scenarios(design) -> list[Scenario]:
             out.append(Scenario(f"l0-{family.split('/')[0]}-{i}", family, "local-null", None, n_decoys=4,
                                 window=(start, start + width), shape=("bump", "indicator")[i % 2],
                                 **design(i) | extra | {"runs": runs, "seed": design(i)["seed"] + len(out)}))
+    for i, low in enumerate((0.55, 0.7, 0.35, 0.7, 0.55, 0.35)):  # added last: the seeds above stay as they were
+        out.append(Scenario(f"lt-speed-{i}", "thermal/prediction", "local", "speed", n_decoys=4, window=(low, 1.0),
+                            **design(i) | {"seed": design(i)["seed"] + len(out)}))
     return out
 
 
@@ -601,21 +616,23 @@ def transfer_scenarios(design) -> list[Scenario]:
 # ----------------------------------------------------------------------- evaluation
 
 
-def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
-    """Run the diagnosis the way a user would on this scenario."""
+def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_everywhere: bool = False):
+    """Run the diagnosis the way a user would on this scenario: with the ``local`` form (``GapQuestion(local=True)``)
+    on the localised scenarios, where the user suspects an effect in one stretch, or on all with ``local_everywhere``."""
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
-              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run"}
+              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run",
+              "local": local_everywhere or s.kind in LOCAL_KINDS}
     if s.family.endswith("prediction"):
         return diagnose(case.table, GapQuestion(prediction="prediction_um", **common), surrogates=surrogates)
     question = GapQuestion(features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
     return diagnose(case.table, question, surrogates=surrogates)
 
 
-def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
+def evaluate(s: Scenario, surrogates: str = "rotation", local_everywhere: bool = False) -> dict:
     """Simulate, diagnose and score one scenario."""
     case = case_for(s)
     started = time.perf_counter()
-    report = diagnose_case(s, case, surrogates)
+    report = diagnose_case(s, case, surrogates, local_everywhere)
     runtime = time.perf_counter() - started
     verdict = report.verdict.column
     causes = [c.column for c in report.causes]
@@ -649,10 +666,12 @@ def _region_iou(report, case: Case, s: Scenario) -> tuple[float | None, str | No
     real = ~table.eval(train_query(s)).to_numpy()
     t, run = table[order].to_numpy()[real], table["run"].astype(str).to_numpy()[real]
     low, high = window_bounds(table, s)
-    truth = (t >= low) & (t <= high)
+    axis = table[local_axis(s)].to_numpy()[real]
+    truth = (axis >= low) & (axis <= high)
     region = getattr(report.verdict, "region", None)
     if region is not None:
-        found, source = (t >= region["low"]) & (t <= region["high"]), "verdict.region"
+        u = table[region["column"]].to_numpy()[real]
+        found, source = (u >= region["low"]) & (u <= region["high"]), "verdict.region"
     else:
         first = next((r for r in report.where if r.column == report.order), None)
         if first is None:
@@ -910,21 +929,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS, help="Folder for gap_suite.csv and gap_suite.md.")
     parser.add_argument("--surrogates", choices=("rotation", "continuous"), default="rotation",
                         help="Surrogate scheme of the tests; a non-default one writes files suffixed with its name.")
+    parser.add_argument("--local", action="store_true",
+                        help="Offer the local form on every scenario, not only the localised ones (files suffixed "
+                             "_local_everywhere).")
     args = parser.parse_args(argv)
     grid = scenarios(args.quick, args.grid)
     if args.only:
         grid = [s for s in scenarios(False, args.grid) if s.name.startswith(tuple(args.only.split(",")))]
     started = time.perf_counter()
-    rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates) for s in grid)
+    rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates, args.local) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
     name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh"}[args.grid]
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
+    name += "_local_everywhere" if args.local else ""
     name += "_quick" if args.quick else ""
     name += "_" + args.only.replace(",", "_").replace("-", "").strip("_") if args.only else ""
     table.to_csv(args.out / f"{name}.csv", index=False)
     title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid"}[args.grid]
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
+    title += ", local form on every scenario" if args.local else ""
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"
     n_real, n_tests, seconds = timing_case()
     text += (f"\nPerformance case (issue target ≤ 20 s on 2 cores): {n_real} real rows, {n_tests} candidate × "

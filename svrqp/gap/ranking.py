@@ -184,14 +184,17 @@ class TransferRanker:
     rng : numpy.random.Generator
         Source of the surrogates (the ``local`` form's from a stream spawned from it, which
         leaves this one's draws to the other transforms).
+    local : bool
+        Whether the ``local`` form is refitted (:mod:`svrqp.gap.windows`).
     """
 
-    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator):
+    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator,
+                 local: bool = False):
         self.data, self.family, self.taus, self.rng = data, family, taus, rng
         self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
-        self.windows = window_dictionary(data.t, family.units.code, data.groups)
+        self.windows = window_dictionary(data.t, family.units.code, data.groups) if local else np.zeros((0, 2))
 
     # -- effects ------------------------------------------------------------------------
 

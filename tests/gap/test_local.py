@@ -15,7 +15,7 @@ from svrqp.gap.windows import MIN_REGION_ROWS, collinear, window_dictionary
 
 PATCH_MM = (20.0, 34.0)
 QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
-            "candidates": ["room_C", "humidity_pct"], "order": "x_mm", "group": "run"}
+            "candidates": ["room_C", "humidity_pct"], "order": "x_mm", "group": "run", "local": True}
 
 
 def _passes(carried: bool, seed: int = 3, runs: int = 8) -> pd.DataFrame:
@@ -58,6 +58,12 @@ def test_a_local_effect_is_named_with_its_region(patch):
     assert "between" in report.summary and "x_mm" in report.summary
     document = report.to_dict()  # schema-valid with the region
     assert document["verdict"]["region"] == verdict.region
+
+
+def test_the_local_form_is_offered_only_when_asked():
+    report = diagnose(_passes(carried=True), GapQuestion(**QUESTION | {"local": False}))
+    assert report.verdict.region is None and all(c.transform != "local" for c in report.causes)
+    assert report.to_dict()["settings"]["local"] is False
 
 
 def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
