@@ -9,6 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from support.benchmark_modules import load_benchmark
+
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.windows import MIN_REGION_ROWS, collinear, window_dictionary
@@ -131,3 +133,19 @@ def test_a_window_collinear_with_the_model_is_detected():
     assert collinear(A, np.column_stack([w, x * w]))
     assert not collinear(A, np.column_stack([w, np.cos(t / 3) * w]))
     assert collinear(A, np.column_stack([np.ones(t.size), np.cos(t / 3)]))  # a window holding every row
+
+
+@pytest.mark.parametrize("shared", [True, False])
+def test_the_real_data_checker_tiles_the_axis_as_the_engine_does(shared):
+    """benchmarks/gap_real.py writes the tile dictionary from its definition; the windows must be the engine's."""
+    checker = load_benchmark("gap_real")
+    cycles = ["1250", "2500", "3750", "5000", "mixed"]
+    rows = [100, 90, 100, 80, 70]
+    t = np.concatenate([np.arange(n) + (0.0 if shared else 100.0 * k) for k, n in enumerate(rows)])
+    table = pd.DataFrame({"cycle": np.repeat(cycles, rows), "time_min": t})
+    groups = np.repeat(np.arange(len(cycles)), rows)
+    units = np.where(table["cycle"] == "5000", 0, np.where(table["cycle"] == "mixed", 1, -1))  # train rows: one unit
+    engine = [((t >= low) & (t <= high)).astype(float) for low, high in window_dictionary(t, units, groups)]
+    mine = checker.windows(table)
+    assert len(mine) == len(engine) == (28 if shared else 0)
+    assert all(np.array_equal(a, b) for a, b in zip(mine, engine))
