@@ -114,12 +114,14 @@ def split_pair(train: pd.DataFrame, target: str, pair: list[str]) -> tuple[str, 
 # -- the independent refit -----------------------------------------------------------------
 
 def effect_inputs(table: pd.DataFrame, column: str, transform: str, tau: float | None, group: str,
-                  order: str) -> np.ndarray:
+                  order: str, region: dict | None = None) -> np.ndarray:
     """The named effect as model inputs, computed here from its definition (not by the engine).
 
     ``level``: the reading; ``rate``: its time derivative (per group, :func:`numpy.gradient`);
     ``lag``: the reading and its first-order low-pass with time constant ``tau`` (restarted in
-    equilibrium at each group start), which span the reading and the lag term.
+    equilibrium at each group start), which span the reading and the lag term; ``local``: the
+    indicator of the window ``region`` of the order axis and the reading inside it (the window
+    fixed at the one the engine's fits chose most, as τ is for ``lag``).
     """
     out = []
     for _, part in table.groupby(group, sort=False):
@@ -128,6 +130,9 @@ def effect_inputs(table: pd.DataFrame, column: str, transform: str, tau: float |
             out.append(x[:, None])
         elif transform == "rate":
             out.append(np.gradient(x, t)[:, None])
+        elif transform == "local":
+            inside = ((t >= region["low"]) & (t <= region["high"])).astype(float)
+            out.append(np.column_stack([inside, x * inside]))
         elif transform == "lag":
             filtered = np.empty_like(x)
             filtered[0] = x[0]
@@ -160,14 +165,14 @@ def transfer_rmse(table: pd.DataFrame, is_train: np.ndarray, target: str, inputs
 
 def independent_refit(table, is_train, target, features, report: GapReport, group, order) -> dict[str, float]:
     """Real-row RMSE of the model, of its leave-one-cycle-out refit, and of that refit with the verdict's effect
-    (at the verdict's time constant) added."""
+    (at the verdict's time constant or window) added."""
     base = table[features].to_numpy(float)
     before = refit_rmse(table, is_train, target, base)
     refit = transfer_rmse(table, is_train, target, base)
     if report.verdict.column is None:
         return {"rmse_before": before, "rmse_refit": refit, "rmse_after": float("nan"), "shrink": float("nan")}
     v = report.verdict
-    effect = effect_inputs(table, v.column, v.transform, v.tau, group, order)
+    effect = effect_inputs(table, v.column, v.transform, v.tau, group, order, v.region)
     after = transfer_rmse(table, is_train, target, np.column_stack([base, effect]))
     return {"rmse_before": before, "rmse_refit": refit, "rmse_after": after, "shrink": 1 - after / before}
 
@@ -226,7 +231,7 @@ def withheld_table(runs: list[WithheldRun], which: str = "better") -> list[str]:
     for r in runs:
         v = r.report.verdict
         rows.append([f"`{r.target}`", f"`{r.kept[0]}`", f"`{r.withheld}`",
-                     "none" if v.column is None else effect_text(v.column, v.transform, v.tau),
+                     "none" if v.column is None else effect_text(v.column, v.transform, v.tau, v.region),
                      f"{r.rank} of {len(r.report.causes)}" if r.rank else "not listed",
                      "named" if r.named else ("yes" if r.tied else "no"),
                      pct(v.shrink), pct(v.refit_shrink), pct(r.refit["shrink"]), pct(r.back_raw_shrink)])
@@ -308,10 +313,11 @@ def pct(x: float | None) -> str:
     return "–" if x is None or not np.isfinite(x) else f"{x:.0%}"
 
 
-def effect_text(column: str | None, transform: str | None, tau: float | None) -> str:
+def effect_text(column: str | None, transform: str | None, tau: float | None, region: dict | None = None) -> str:
     if column is None:
         return "no cause"
-    return f"{transform} of `{column}`" + (f" (τ = {tau:.3g} min)" if tau is not None else "")
+    return (f"{transform} of `{column}`" + (f" (τ = {tau:.3g} min)" if tau is not None else "")
+            + (f" in {region['low']:.0f} … {region['high']:.0f} min" if region is not None else ""))
 
 
 def report_section(title: str, report: GapReport) -> list[str]:
@@ -444,8 +450,8 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
         *report_section("1. Model on the chosen pair", full),
         *report_section(f"2. `{dropped}` withheld", withheld),
         "**Does the diagnosis name the withheld sensor?** " + (
-            f"Yes: the verdict names `{dropped}` ({effect_text(v.column, v.transform, v.tau)})." if named else
-            f"No: the verdict is {effect_text(v.column, v.transform, v.tau)}; `{dropped}` ranks "
+            f"Yes: the verdict names `{dropped}` ({effect_text(v.column, v.transform, v.tau, v.region)})." if named else
+            f"No: the verdict is {effect_text(v.column, v.transform, v.tau, v.region)}; `{dropped}` ranks "
             + (f"{rank} of {len(withheld.causes)} in the causes table." if rank else "nowhere in the causes table.")), "",
         markdown_table(["quantity", "real-row RMSE (μm)", "shrink"],
                        [["model without the withheld sensor (independent LinearLS)", f"{refit['rmse_before']:.3g}", "–"],
@@ -454,7 +460,7 @@ def run_fl(path: Path, every: int, seed: int) -> tuple[list[str], dict]:
                         ["engine: transfer shrink of the verdict (leave-one-cycle-out refit with the effect)",
                          "–" if v.rmse_after is None else f"{v.rmse_after:.3g}", pct(v.shrink)],
                         ["engine: refit on the train cycles alone with the effect", "–", pct(v.refit_shrink)],
-                        [f"independent: LinearLS + {effect_text(v.column, v.transform, v.tau)}, leave-one-cycle-out",
+                        [f"independent: LinearLS + {effect_text(v.column, v.transform, v.tau, v.region)}, leave-one-cycle-out",
                          f"{refit['rmse_after']:.3g}", pct(refit["shrink"])],
                         ["independent: LinearLS on the original pair (withheld sensor back, raw), leave-one-cycle-out",
                          f"{truth_refit:.3g}", pct(1 - truth_refit / refit["rmse_before"])]]), "",
@@ -541,9 +547,9 @@ def run_miao(seed: int) -> tuple[list[str], dict]:
         + (f" — the effect whose sensor the verdict names ({v.column}, the spindle's front bearing)."
            if v.column == "T1_C" and beyond_effect == "effect_spindle_heating_um" else ".") + " "
         f"The residual as a whole follows `{truth_effect}` most closely; the data card says `T8_C` carries the slow structural "
-        f"temperature behind the ambient drift. The diagnosis names {effect_text(v.column, v.transform, v.tau)}"
+        f"temperature behind the ambient drift. The diagnosis names {effect_text(v.column, v.transform, v.tau, v.region)}"
         + (" — the sensor the card points to." if v.column == "T8_C" else " — not the sensor the card points to (`T8_C`"
-           + (f", which ranks {t8[0]} of {len(report.causes)} with {effect_text(t8[1].column, t8[1].transform, t8[1].tau)}, "
+           + (f", which ranks {t8[0]} of {len(report.causes)} with {effect_text(t8[1].column, t8[1].transform, t8[1].tau, t8[1].region)}, "
               f"transfer shrink {t8[1].shrink:.0%}"
               + (", and which the conditional transfer tests cannot tell apart from it" if t8[1].ambiguous else "")
               if t8 else ", absent from the causes table") + ").")

@@ -12,13 +12,24 @@ Models
 
 The checker's answer (DESIGN §4, "What shrink means")
     For every candidate (the other 14 temperatures and the spindle speed) × {level, rate,
-    lag}: the model refitted leave-one-cycle-out over all five cycles with the effect added,
+    lag, local}: the model refitted leave-one-cycle-out over all five cycles with the effect added,
     scored on the real rows. ``level`` adds :math:`x`; ``rate`` :math:`\\mathrm{d}x/\\mathrm{d}t`
     (:func:`numpy.gradient` within each cycle); ``lag`` adds :math:`x` and its first-order
     low-pass :math:`x_\\tau` (restarted in equilibrium at each cycle start), :math:`\\tau` taken
     from a geometric grid of :data:`N_TAU` values from max(2 sampling steps, median cycle
     span/100) to half the median cycle span, chosen inside each fit by the smallest squared
-    error on the fit's own rows. ``shrink = 1 − rmse_after / rmse_before`` with
+    error on the fit's own rows; ``local`` adds :math:`\\mathbb{1}_W` and :math:`x\\mathbb{1}_W`,
+    the indicator of a window :math:`W` of ``time_min`` and the candidate inside it, with
+    :math:`W` taken from the same tile dictionary as the engine's (:func:`windows`, written
+    here from its definition: tiles of 5, 10 and 20 % of the axis's range, each bounded by
+    the smallest and largest order value of its rows, kept once, and dropped when it holds
+    fewer than 5 rows in every held-out unit, rows in fewer than two of them — the units are
+    the real cycles and the train cycles together, which every fit keeps — or when it does not
+    lie inside the time span of at least two cycles), the window chosen inside each fit by the
+    smallest squared error on the fit's own rows. FL_THERMAL's clock runs on through the
+    cycles, so no tile lies inside two cycles' spans and the family is empty here (the table
+    says how many windows were tried): a stretch of the clock holds no later cycle, and a tile
+    across the seam of two cycles would carry the end of one into the start of the next. ``shrink = 1 − rmse_after / rmse_before`` with
     ``rmse_before`` the model fitted on the train cycles; ``beyond_refit = 1 − rmse_after /
     rmse_refit``. A column's score is its best transform; a candidate *transfers* when its
     shrink beyond the refit is at least :data:`TRANSFERS`.
@@ -61,6 +72,8 @@ EVERY = 4
 """Every fourth sample (one a minute), as the case study."""
 PAIRS_PER_CHANNEL = 4
 N_TAU = 8
+TILE_WIDTHS, TILE_MIN_ROWS = (0.05, 0.1, 0.2), 5
+"""The ``local`` family's tile dictionary (module docstring)."""
 TRANSFERS = 0.05
 AS_WELL = 0.005
 TOP = 3
@@ -87,8 +100,31 @@ def tau_grid(table: pd.DataFrame) -> np.ndarray:
     return np.geomspace(low, max(span / 2, 2 * low), N_TAU)
 
 
-def transforms(table: pd.DataFrame, column: str, taus: np.ndarray) -> dict[str, list[np.ndarray]]:
-    """Each transform's variants as input columns (``lag``: one per time constant)."""
+def windows(table: pd.DataFrame) -> list[np.ndarray]:
+    """The indicator of every window of the ``local`` family's tile dictionary (module docstring)."""
+    t = table["time_min"].to_numpy(float)
+    unit = table["cycle"].where(table["cycle"].isin(ASSESS_CYCLES), "train").to_numpy()  # units held out
+    spans = table.groupby("cycle")["time_min"].agg(["min", "max"]).to_numpy()
+    out, seen = [], set()
+    for width in TILE_WIDTHS:
+        n = int(round(1 / width))
+        edges = t.min() + np.ptp(t) * np.linspace(0.0, 1.0, n + 1)
+        for i in range(n):
+            inside = (t >= edges[i]) & ((t < edges[i + 1]) | (i == n - 1))
+            counts = pd.Series(unit[inside]).value_counts()
+            if len(counts) < 2 or counts.max() < TILE_MIN_ROWS:
+                continue
+            bounds = (t[inside].min(), t[inside].max())
+            shared = np.sum((spans[:, 0] <= bounds[0]) & (spans[:, 1] >= bounds[1]))
+            if shared >= 2 and bounds not in seen:
+                seen.add(bounds)
+                out.append(((t >= bounds[0]) & (t <= bounds[1])).astype(float))
+    return out
+
+
+def transforms(table: pd.DataFrame, column: str, taus: np.ndarray,
+               tiles: list[np.ndarray]) -> dict[str, list[np.ndarray]]:
+    """Each transform's variants as input columns (``lag``: one per time constant; ``local``: one per window)."""
     x = table[column].to_numpy(float)
     rate, lagged = np.empty_like(x), np.empty((x.size, taus.size))
     for _, rows in table.groupby("cycle", sort=False).indices.items():
@@ -100,8 +136,11 @@ def transforms(table: pd.DataFrame, column: str, taus: np.ndarray) -> dict[str, 
                 if k:
                     state += (1 - np.exp(-(t[k] - t[k - 1]) / tau)) * (x[row] - state)
                 lagged[row, j] = state
-    return {"level": [x[:, None]], "rate": [rate[:, None]],
+    bank = {"level": [x[:, None]], "rate": [rate[:, None]],
             "lag": [np.column_stack([x, lagged[:, j]]) for j in range(taus.size)]}
+    if tiles:
+        bank["local"] = [np.column_stack([w, x * w]) for w in tiles]
+    return bank
 
 
 def loco_rmse(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, variants: list[np.ndarray]) -> float:
@@ -162,7 +201,7 @@ def engine(csv: Path, target: str, features: list[str], candidates: list[str], o
     """``svrqp gap`` on the table written to ``csv``; its JSON."""
     command = [sys.executable, "-c", "import sys; from svrqp.cli import main; sys.exit(main())", "gap", str(csv),
                "--target", target, "--train", "cycle in " + repr(list(TRAIN_CYCLES)), "--features", ",".join(features),
-               "--candidates", ",".join(candidates), "--order", "time_min", "--group", "cycle",
+               "--candidates", ",".join(candidates), "--order", "time_min", "--group", "cycle", "--local",
                "--json", str(out), "--force"]
     subprocess.run(command, check=True, capture_output=True, text=True, env=os.environ | {"PYTHONPATH": str(REPO)})
     return json.loads(out.read_text(encoding="utf-8"))
@@ -187,7 +226,7 @@ def score(kind: str, target: str, features: list[str], withheld: str | None, num
                                       by_column[["column", "transform", "shrink"]].head(TOP).itertuples(index=False)),
            "train CV RMSE": numbers["rmse_train_cv"], "real RMSE": numbers["rmse_before"], "gap": gap,
            "refit shrink": 1 - numbers["rmse_refit"] / numbers["rmse_before"], "any transfers": transfers,
-           "verdict": "none" if named is None else f"{verdict['transform']} of {named}",
+           "verdict": "none" if named is None else f"{verdict['transform']} of {named}" + window_text(verdict),
            "engine shrink": verdict.get("shrink"), "checker shrink": checker_shrink, "shrink error": error,
            "top-3 hit": (bool(named in top) if named is not None else not transfers) if gap else named is None,
            "false verdict": named is not None and not (transfers and gap), "seconds": seconds}
@@ -202,6 +241,12 @@ def score(kind: str, target: str, features: list[str], withheld: str | None, num
     return row
 
 
+def window_text(verdict: dict) -> str:
+    """`` in [low, high] min`` of a local verdict's window, or nothing."""
+    region = verdict.get("region")
+    return "" if region is None else f" in [{region['low']:.0f}, {region['high']:.0f}] min"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("data", nargs="?", type=Path, default=DEFAULT_DATA, help="FL_THERMAL data.csv")
@@ -211,7 +256,8 @@ def main(argv: list[str] | None = None) -> int:
     table = load_fl(args.data, EVERY)
     train = table[table["cycle"].isin(TRAIN_CYCLES)]
     taus = tau_grid(table)
-    banks = {c: transforms(table, c, taus) for c in TEMPERATURES + ["speed_rpm"]}
+    tiles = windows(table)
+    banks = {c: transforms(table, c, taus, tiles) for c in TEMPERATURES + ["speed_rpm"]}
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         csv = Path(folder) / "fl.csv"
@@ -230,11 +276,11 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(score(kind, target, features, withheld, numbers, cands, report,
                                   time.perf_counter() - started))
                 print(rows[-1], flush=True)
-    write(pd.DataFrame(rows), args.out)
+    write(pd.DataFrame(rows), args.out, len(tiles))
     return 0
 
 
-def write(results: pd.DataFrame, out: Path) -> None:
+def write(results: pd.DataFrame, out: Path, n_windows: int) -> None:
     """The CSV and the Markdown page with the scores against their targets."""
     out.mkdir(parents=True, exist_ok=True)
     results.to_csv(out / "gap_real.csv", index=False)
@@ -246,8 +292,10 @@ def write(results: pd.DataFrame, out: Path) -> None:
     lines = [
         "# svrqp gap on FL_THERMAL — an independent leave-one-cycle-out check", "",
         "Generated by `benchmarks/gap_real.py` (method in its docstring): the checker refits every candidate × "
-        "{level, rate, lag} leave-one-cycle-out with plain least squares; the engine runs through `svrqp gap`.", "",
+        "{level, rate, lag, local} leave-one-cycle-out with plain least squares; the engine runs through `svrqp gap`.", "",
         f"- models: {len(pairs)} ({PAIRS_PER_CHANNEL} two-sensor models per channel, chosen on the train cycles)",
+        f"- windows of the `local` family: {n_windows} (a window must lie inside the time span of two cycles; "
+        "FL_THERMAL's clock runs on through the cycles)",
         f"- top-3 hit rate: {hit:.2f} (target ≥ {HIT_TARGET}) — {'met' if hit >= HIT_TARGET else '**not met**'}",
         f"- largest shrink error of a named verdict: {worst:.3f} over {len(errors)} verdicts (target ≤ {SHRINK_TARGET}) — "
         + ("met" if len(errors) and worst <= SHRINK_TARGET else "**not met**" if len(errors) else "no verdict named"),
@@ -261,7 +309,7 @@ def write(results: pd.DataFrame, out: Path) -> None:
         f"Engine time per model: median {results['seconds'].median():.1f} s (through the command line, one thread).",
     ]
     (out / "gap_real.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines[:9]))
+    print("\n".join(lines[:10]))
 
 
 if __name__ == "__main__":

@@ -46,6 +46,18 @@ Scenario families
     constant through each pass gives one number per pass, and with three passes an unrelated
     reading lines up with |r| > 0.99 about one time in eleven.
 
+``local`` and ``local-null`` (:func:`local_scenarios`)
+    An effect confined to one stretch of the order axis (3–25 % of its range), added to a
+    family's simulation with nothing else withheld and left out of the prediction: a start-up
+    transient scaled by ``speed_rpm``, a mid-run window scaled by ``coolant_C`` (thermal), the
+    acceleration zone scaled by ``accel_mm_s2`` (gantry), a guideway patch scaled by
+    ``ambient_C`` and a load bump scaled by ``load_kg`` (axis, 111 positions), and a sensor that
+    matters only above a spindle speed (``T1_C`` where ``speed_rpm`` is above a threshold: a stretch
+    of the speed, not of the order axis); the truth is the scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
+    run that no column reads. Scored apart (:func:`summarise_local`): top-1, false attribution,
+    and the row IoU on the real rows of the named stretch (``verdict.region``, else the first
+    ``where`` entry on the order axis) with the true one.
+
 Runs use random speed/duty programmes and seasons (train runs in summer), varied record
 length, signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
 *identifiable* part of the withheld effect — what is left on the real rows after each run's
@@ -79,7 +91,8 @@ it, so it is no longer unseen either — benchmarks/gap_sensor_network.py is the
 
 Run: ``python benchmarks/gap_suite.py [--grid development|holdout|fresh]`` (writes
 ``benchmarks/results/gap_suite[_holdout|_fresh].{csv,md}``); ``--quick`` runs every tenth scenario,
-``--jobs`` sets parallel workers (default 2).
+``--jobs`` sets parallel workers (default 2). The localised scenarios (:func:`local_scenarios`, names
+``lt-``, ``lg-``, ``la-``, ``l0-``) are summarised in a table of their own.
 """
 
 from __future__ import annotations
@@ -179,6 +192,8 @@ class Scenario:
     null_noise_um: float = 0.3  # noise std of null scenarios (no effect to scale it by)
     positions: int = 0  # measured positions per pass (axis family)
     continuous: bool = False  # one record without runs: the clock runs on and no --group is given
+    window: tuple[float, float] | None = None  # local kinds: the effect's stretch, as fractions of the order axis
+    shape: str = "indicator"  # local kinds: indicator, bump (half sine) or transient (decaying exponential)
 
 
 @dataclass(frozen=True)
@@ -383,6 +398,8 @@ def axis_case(s: Scenario) -> Case:
 def case_for(s: Scenario) -> Case:
     """The simulated data of a scenario."""
     family = s.family.split("/")[0]
+    if s.kind in LOCAL_KINDS:
+        return local_case(s)
     case = {"gantry": gantry_case, "axis": axis_case, "thermal": thermal_case}[family](s)
     if s.continuous:  # the runs follow one another on one clock
         order = ORDER[family]
@@ -390,6 +407,128 @@ def case_for(s: Scenario) -> Case:
         table[order] = table[order] + table["run"] * (table[order].max() + 1.0)
         case = dataclasses.replace(case, table=table)
     return case
+
+
+# ------------------------------------------------------------------------ localised effects
+
+
+LOCAL_KINDS = ("local", "local-null")
+"""Kinds of the localised scenarios: an effect confined to one stretch of the order axis that a
+candidate scales (``local``), or one that no candidate carries (``local-null``)."""
+
+LOCAL_DRIVER = {"startup": "speed_rpm", "window": "coolant_C", "zone": "accel_mm_s2", "patch": "ambient_C",
+                "load": "load_kg", "speed": "T1_C"}
+"""Candidate column that scales each localised effect (the truth of its scenarios)."""
+
+LOCAL_AXIS = {"speed": "speed_rpm"}
+"""Column along which a localised effect is confined when it is not the order axis (``speed``: a sensor that
+matters only above a spindle speed)."""
+
+
+def local_axis(s: Scenario) -> str:
+    """The column whose stretch ``s.window`` confines the effect."""
+    return LOCAL_AXIS.get(s.effect, ORDER[s.family.split("/")[0]])
+
+LOCAL_CANDIDATES = {"thermal": NULL_PREDICTION_POOL, "gantry": GANTRY_CANDIDATES, "axis": AXIS_CANDIDATES}
+
+
+def window_bounds(table: pd.DataFrame, s: Scenario) -> tuple[float, float]:
+    """The local effect's stretch ``[low, high]`` in units of its axis (:func:`local_axis`; fractions of its range)."""
+    order = table[local_axis(s)]
+    low, high = float(order.min()), float(order.max())
+    return low + s.window[0] * (high - low), low + s.window[1] * (high - low)
+
+
+def local_profile(t: np.ndarray, low: float, high: float, shape: str) -> np.ndarray:
+    """The effect's shape along the order axis: zero outside ``[low, high]``, peak 1 inside."""
+    inside = (t >= low) & (t <= high)
+    u = np.clip((t - low) / (high - low), 0.0, 1.0)
+    values = {"indicator": np.ones_like(u), "bump": np.sin(np.pi * u), "transient": np.exp(-3.0 * u)}[shape]
+    return np.where(inside, values, 0.0)
+
+
+def local_case(s: Scenario) -> Case:
+    """A family's simulation with nothing withheld, plus an effect confined to ``s.window`` of the order axis.
+
+    ``local``: the effect is the profile times the driver column's departure from its train-rows mean
+    (a start-up transient scaled by the spindle speed, a mid-run window scaled by the coolant
+    temperature, the gantry's acceleration zone scaled by the commanded acceleration, a guideway
+    patch scaled by the room temperature, a load bump scaled by the table load); the truth is the
+    driver. ``local-null``: the profile times a random amplitude per run that no column reads. The
+    prediction leaves the effect out; the noise is set by the SNR as for every withheld effect.
+    """
+    family = s.family.split("/")[0]
+    base = dataclasses.replace(s, kind="null", effect=None, window=None)
+    table = {"gantry": gantry_case, "axis": axis_case, "thermal": thermal_case}[family](base).table
+    clean = (table["error_um"] - table["noise_true_um"]).to_numpy()
+    rng = np.random.default_rng(s.seed + 1)
+    low, high = window_bounds(table, s)
+    profile = local_profile(table[local_axis(s)].to_numpy(), low, high, s.shape)
+    train = table.eval(train_query(s)).to_numpy()
+    if s.kind == "local":
+        driver = table[LOCAL_DRIVER[s.effect]].to_numpy()
+        reference = driver[train].mean() if family != "gantry" else 0.0  # a sync error scales with acceleration itself
+        true_effect = profile * (driver - reference) / max(np.std(driver), 1e-12)
+        truth = (LOCAL_DRIVER[s.effect],)
+    else:
+        amplitude = rng.normal(0.0, 1.0, table["run"].max() + 1)
+        true_effect = profile * amplitude[table["run"].to_numpy()]
+        truth = ()
+    pool = LOCAL_CANDIDATES[family]
+    if family == "thermal":
+        picked = list(rng.choice([c for c in pool if c not in truth], s.n_decoys, replace=False))
+        candidates = tuple(rng.permutation([*truth, *picked]))
+    else:
+        candidates = pool
+    effected = dataclasses.replace(s, effect=s.effect or "disturbance")
+    df = table.drop(columns=["error_um", "noise_true_um", "true_effect_um"]).assign(prediction_um=clean)
+    return Case(_add_noise(df, clean + true_effect, true_effect, effected, rng, ~train), candidates, truth)
+
+
+def local_scenarios(design) -> list[Scenario]:
+    """At least 30 localised withheld effects and 20 local nulls, across the thermal, gantry and axis families.
+
+    Region widths run from 3 % to 25 % of the order axis, each with at least 5 rows per run:
+    thermal runs are sampled every minute (3 % of 240 min is 7 rows), gantry passes at 15 Hz, and
+    the axis passes here at 111 positions (5 mm; the narrowest window, 8 %, is 9 rows). Six more,
+    ``lt-speed-*``, are confined along the spindle speed instead: ``T1_C`` matters only above 35–70 %
+    of the speed range, wherever in the run that is.
+    """
+    out: list[Scenario] = []
+    thermal = {"startup": [(0.0, w) for w in (0.03, 0.05, 0.08, 0.12, 0.15, 0.2, 0.25, 0.1)],
+               "window": [(a, a + w) for a, w in ((0.4, 0.05), (0.6, 0.1), (0.2, 0.15), (0.5, 0.25), (0.3, 0.08),
+                                                   (0.7, 0.2))]}
+    for effect, windows in thermal.items():
+        for i, window in enumerate(windows):
+            out.append(Scenario(f"lt-{effect}-{i}", "thermal/prediction", "local", effect, n_decoys=4,
+                                window=window, shape=("transient" if effect == "startup" else "bump", "indicator")[i % 2],
+                                **design(i) | {"seed": design(i)["seed"] + len(out)}))
+    for i, w in enumerate((0.03, 0.05, 0.08, 0.1, 0.12, 0.15, 0.2, 0.25)):
+        out.append(Scenario(f"lg-zone-{i}", "gantry/prediction", "local", "zone", window=(0.0, w),
+                            **design(i) | {"runs": (4, 6, 8)[i % 3], "run_min": 0.0, "seed": design(i)["seed"] + len(out)}))
+    axis = {"patch": ((0.1, 0.2), (0.5, 0.58), (0.3, 0.45), (0.7, 0.95), (0.2, 0.32), (0.6, 0.72)),
+            "load": ((0.4, 0.6), (0.1, 0.25), (0.45, 0.53), (0.6, 0.85), (0.3, 0.42), (0.05, 0.2))}
+    for effect, windows in axis.items():
+        for i, window in enumerate(windows):
+            out.append(Scenario(f"la-{effect}-{i}", "axis/prediction", "local", effect, window=window,
+                                shape=("bump", "indicator")[i % 2],
+                                **design(i) | {"runs": (5, 7, 9)[i % 3], "run_min": 0.0, "positions": 111,
+                                               "seed": design(i)["seed"] + len(out)}))
+    nulls = (("thermal/prediction", 8, {}), ("gantry/prediction", 6, {"run_min": 0.0}),
+             ("axis/prediction", 6, {"run_min": 0.0, "positions": 111}))
+    for family, count, extra in nulls:
+        for i in range(count):
+            width = (0.05, 0.1, 0.2, 0.25, 0.08, 0.15)[i % 6]
+            start = (0.0, 0.3, 0.6)[i % 3] if not family.startswith("gantry") else 0.0
+            runs = {"thermal/prediction": design(i)["runs"], "gantry/prediction": (4, 6, 8)[i % 3],
+                    "axis/prediction": (5, 7, 9)[i % 3]}[family]
+            out.append(Scenario(f"l0-{family.split('/')[0]}-{i}", family, "local-null", None, n_decoys=4,
+                                window=(start, start + width), shape=("bump", "indicator")[i % 2],
+                                **design(i) | extra | {"runs": runs, "seed": design(i)["seed"] + len(out)}))
+    for i, low in enumerate((0.55, 0.7, 0.35, 0.7, 0.55, 0.35)):  # added last: the seeds above stay as they were
+        out.append(Scenario(f"lt-speed-{i}", "thermal/prediction", "local", "speed", n_decoys=4, window=(low, 1.0),
+                            **design(i) | {"seed": design(i)["seed"] + len(out)}))
+    return out
 
 
 # ------------------------------------------------------------------------ scenarios
@@ -461,6 +600,7 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
         for i in range(4):
             out.append(Scenario(f"au-{effect}-{i}", "axis/prediction", "unmeasured", effect, **design(i) | passes(i)))
     out += transfer_scenarios(design)
+    out += local_scenarios(design)
     return out[::10] if quick else out
 
 
@@ -490,21 +630,23 @@ def transfer_scenarios(design) -> list[Scenario]:
 # ----------------------------------------------------------------------- evaluation
 
 
-def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation"):
-    """Run the diagnosis the way a user would on this scenario."""
+def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_everywhere: bool = False):
+    """Run the diagnosis the way a user would on this scenario: with the ``local`` form (``GapQuestion(local=True)``)
+    on the localised scenarios, where the user suspects an effect in one stretch, or on all with ``local_everywhere``."""
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
-              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run"}
+              "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run",
+              "local": local_everywhere or s.kind in LOCAL_KINDS}
     if s.family.endswith("prediction"):
         return diagnose(case.table, GapQuestion(prediction="prediction_um", **common), surrogates=surrogates)
     question = GapQuestion(features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
     return diagnose(case.table, question, surrogates=surrogates)
 
 
-def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
+def evaluate(s: Scenario, surrogates: str = "rotation", local_everywhere: bool = False) -> dict:
     """Simulate, diagnose and score one scenario."""
     case = case_for(s)
     started = time.perf_counter()
-    report = diagnose_case(s, case, surrogates)
+    report = diagnose_case(s, case, surrogates, local_everywhere)
     runtime = time.perf_counter() - started
     verdict = report.verdict.column
     causes = [c.column for c in report.causes]
@@ -524,7 +666,35 @@ def evaluate(s: Scenario, surrogates: str = "rotation") -> dict:
         clean_residual = (case.table["error_um"] - case.table["noise_true_um"]).to_numpy() - _prediction(report, case)
         row["iou"], row["iou_ceiling"] = _iou(report, case.table, real, clean_residual[real])
         row["oracle_shrink"] = None if s.continuous else _oracle_shrink(s, case)
+    if s.kind in LOCAL_KINDS:
+        row["region_iou"], row["region_source"] = _region_iou(report, case, s)
     return row
+
+
+def _region_iou(report, case: Case, s: Scenario) -> tuple[float | None, str | None]:
+    """Row IoU, on the real rows, of the stretch the report names with the effect's true stretch.
+
+    The named stretch is ``verdict.region`` where the report has one, else the first ``where``
+    entry on the order axis (within its run when it names one); None when the report names none.
+    """
+    table, order = case.table, ORDER[s.family.split("/")[0]]
+    real = ~table.eval(train_query(s)).to_numpy()
+    t, run = table[order].to_numpy()[real], table["run"].astype(str).to_numpy()[real]
+    low, high = window_bounds(table, s)
+    axis = table[local_axis(s)].to_numpy()[real]
+    truth = (axis >= low) & (axis <= high)
+    region = getattr(report.verdict, "region", None)
+    if region is not None:
+        u = table[region["column"]].to_numpy()[real]
+        found, source = (u >= region["low"]) & (u <= region["high"]), "verdict.region"
+    else:
+        first = next((r for r in report.where if r.column == report.order), None)
+        if first is None:
+            return None, None
+        in_run = np.ones(t.size, dtype=bool) if first.group is None else run == first.group
+        found, source = in_run & (t >= first.low) & (t <= first.high), "where[0]"
+    union = np.sum(truth | found)
+    return (float(np.sum(truth & found) / union) if union else None), source
 
 
 def _prediction(report, case: Case) -> np.ndarray:
@@ -649,8 +819,48 @@ def _lssvr_predict(X: np.ndarray, y: np.ndarray, X_new: np.ndarray, gamma: float
 # -------------------------------------------------------------------------- summary
 
 
+def summarise_local(rows: pd.DataFrame) -> str:
+    """Markdown tables of the localised scenarios (:func:`local_scenarios`) against the targets of their issue."""
+    local, nulls = rows[rows.kind == "local"], rows[rows.kind == "local-null"]
+    if local.empty and nulls.empty:
+        return ""
+    top1 = local.top1.astype(bool)
+    gap = local[local.gap_detected.astype(bool)]
+    correct_iou = pd.to_numeric(local[top1].region_iou, errors="coerce")
+    metric = {
+        "top-1 accuracy (local, truth named)": (top1.mean(), "≥ 0.85"),
+        "top-1 accuracy (local with a gap)": (gap.top1.astype(bool).mean(), ""),
+        "no verdict (local)": ((~local.named).mean(), ""),
+        "decoy named (local, wrong column)": ((local.named & ~top1).mean(), ""),
+        "false attribution (local nulls)": (nulls.named.mean(), "≤ 0.05"),
+        "correct verdicts with region IoU ≥ 0.5": ((correct_iou >= 0.5).mean() if len(correct_iou) else float("nan"),
+                                                  "≥ 0.70"),
+        "region IoU, mean over correct verdicts": (correct_iou.mean(), ""),
+        "first order-axis region IoU, mean over all local (today's where[0] or verdict.region)":
+            (pd.to_numeric(local.region_iou, errors="coerce").fillna(0.0).mean(), ""),
+    }
+    lines = ["", f"## Localised effects ({len(local)} local withheld, {len(nulls)} local nulls)", "",
+             "| metric | value | target |", "|---|---|---|"]
+    lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
+    lines += ["", "| family | kind | effect | n | top-1 | named | region IoU (named stretch) | gap detected |",
+              "|---|---|---|---|---|---|---|---|"]
+    part_rows = rows[rows.kind.isin(LOCAL_KINDS)]
+    for (family, kind, effect), part in part_rows.groupby(["family", "kind", part_rows.effect.fillna("–")]):
+        lines.append(f"| {family} | {kind} | {effect} | {len(part)} | {_fmt(part.top1)} | {part.named.mean():.2f} | "
+                     f"{_fmt(part.region_iou)} | {part.gap_detected.astype(bool).mean():.2f} |")
+    return "\n".join(lines) + "\n"
+
+
 def summarise(rows: pd.DataFrame, title: str) -> str:
-    """Markdown tables: overall metrics against targets, then per family/effect and per SNR."""
+    """Markdown tables: overall metrics against targets, then per family/effect and per SNR.
+
+    The localised scenarios are summarised apart (:func:`summarise_local`), so that the metrics of
+    the other scenarios keep their meaning.
+    """
+    local_text = summarise_local(rows)
+    rows = rows[~rows.kind.isin(LOCAL_KINDS)]
+    if rows.empty:
+        return f"# svrqp gap — validation suite, {title}, localised scenarios only\n" + local_text
     withheld = rows[rows.kind == "withheld"]
     nulls = rows[rows.kind != "withheld"]
     top1 = withheld.top1.astype(bool)
@@ -710,7 +920,7 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
         ok = part.top1.astype(bool)
         lines.append(f"| {snr:g} | {len(part)} | {ok.mean():.2f} | {part.named.mean():.2f} | "
                      f"{(part.named & ~ok).mean():.2f} |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n" + local_text
 
 
 def _fmt(column: pd.Series) -> str:
@@ -747,21 +957,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS, help="Folder for gap_suite.csv and gap_suite.md.")
     parser.add_argument("--surrogates", choices=("rotation", "continuous"), default="rotation",
                         help="Surrogate scheme of the tests; a non-default one writes files suffixed with its name.")
+    parser.add_argument("--local", action="store_true",
+                        help="Offer the local form on every scenario, not only the localised ones (files suffixed "
+                             "_local_everywhere).")
     args = parser.parse_args(argv)
     grid = scenarios(args.quick, args.grid)
     if args.only:
         grid = [s for s in scenarios(False, args.grid) if s.name.startswith(tuple(args.only.split(",")))]
     started = time.perf_counter()
-    rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates) for s in grid)
+    rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates, args.local) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
     name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh"}[args.grid]
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
+    name += "_local_everywhere" if args.local else ""
     name += "_quick" if args.quick else ""
     name += "_" + args.only.replace(",", "_").replace("-", "").strip("_") if args.only else ""
     table.to_csv(args.out / f"{name}.csv", index=False)
     title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid"}[args.grid]
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
+    title += ", local form on every scenario" if args.local else ""
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"
     n_real, n_tests, seconds = timing_case()
     text += (f"\nPerformance case (issue target ≤ 20 s on 2 cores): {n_real} real rows, {n_tests} candidate × "

@@ -7,9 +7,10 @@
               --candidates COL[,COL…] [--order COL] [--group COL]
               --json OUT.json [--report OUT.html]
 
-``--seed``, ``--surrogates`` and ``--force`` are additions: the seed of the surrogates and
-bootstrap, how the significance tests draw surrogates (:mod:`svrqp.gap.surrogate_tests`), and
-permission to overwrite existing output files.
+``--seed``, ``--surrogates``, ``--local`` and ``--force`` are additions: the seed of the surrogates
+and bootstrap, how the significance tests draw surrogates (:mod:`svrqp.gap.surrogate_tests`), the
+localised form of every candidate (:mod:`svrqp.gap.windows`), and permission to overwrite existing
+output files.
 """
 
 from __future__ import annotations
@@ -61,6 +62,9 @@ def gap(
         "safer when the true cause may be missing and candidates drift within a run (less power on slow effects)."),
     jobs: int = typer.Option(1, "--jobs", help="Threads for the significance tests (-1: one per core); the result "
                              "does not depend on it."),
+    local: bool = typer.Option(
+        False, "--local", help="Also try each candidate acting in one window of the --order axis only (a start-up "
+        "transient, an acceleration zone, a guideway patch) and name the window."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
 ) -> None:
     """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
@@ -90,6 +94,7 @@ def gap(
             order=_one(order, table, "--order"),
             group=_one(group, table, "--group"),
             model=model or "mlr",
+            local=local,
         )
         result = diagnose(
             table,

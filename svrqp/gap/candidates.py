@@ -32,6 +32,7 @@ from svrqp.gap.between import (
 )
 from svrqp.gap.discrepancy import nested_errors
 from svrqp.gap.prepare import GapData
+from svrqp.gap.windows import local_columns
 from svrqp.gap.transforms import (
     filter_coefficients,
     group_slices,
@@ -156,12 +157,17 @@ def transform_columns(
     return ell, (None if column in data.features else x)
 
 
-def effect_columns(data: GapData, column: str, transform: str, tau: float | None, evidence: str) -> np.ndarray:
+def effect_columns(data: GapData, column: str, transform: str, tau: float | None, evidence: str,
+                   region: dict | None = None) -> np.ndarray:
     r"""Raw columns of one effect on every row — what a refit of the model adds as inputs.
 
-    A transform's own column (and partner, for ``lag``), or for a run-level candidate the
-    block :math:`[\Psi, \bar c, \bar c\Psi]` of :mod:`svrqp.gap.between`.
+    A transform's own column (and partner, for ``lag``), for a ``local`` effect its window's
+    :math:`[\mathbb{1}_W, x\mathbb{1}_W]` (``region``, :mod:`svrqp.gap.windows`), or for a
+    run-level candidate the block :math:`[\Psi, \bar c, \bar c\Psi]` of :mod:`svrqp.gap.between`.
     """
+    if region is not None:
+        x = data.C[:, data.candidates.index(column)]
+        return local_columns(x, data.t, np.array([[region["low"], region["high"]]]))[0]
     if evidence == EVIDENCE_BETWEEN:
         return run_level_columns(data.C[:, data.candidates.index(column)], data.t, data.groups)
     own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))

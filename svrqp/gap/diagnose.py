@@ -61,7 +61,7 @@ from svrqp.gap.figures import Series
 from svrqp.gap.gate import GateResult, gap_detected, gate
 from svrqp.gap.inputs import input_use
 from svrqp.gap.kernel_transfer import LINEAR, FamilyErrors, same_family_errors
-from svrqp.gap.localise import localise
+from svrqp.gap.localise import localise, region_of
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink
 from svrqp.gap.question import GapQuestion
@@ -156,11 +156,14 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     else:
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, np.random.default_rng(seed), surrogates,
                                      n_jobs)
-        findings = _search_causes(problem, taus, context, seed, report_progress)
+        findings = _search_causes(problem, taus, context, seed, report_progress, question.local)
     report_progress("reporting", 0.98)
+    if findings.verdict.region is not None:  # a local verdict: where it acts comes first
+        where = [region_of(data.t[real], r, findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
-                "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES}
+                "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
+                "local": question.local}
     report = _report(context, question, where, findings, summary(context, findings.verdict, exact), settings)
     report.runtime_s = time.perf_counter() - started
     report_progress("done", 1.0)
@@ -168,8 +171,9 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
 
 
 def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: VerdictContext, seed: int,
-                   report_progress: Progress) -> _Findings:
-    """Test within the real rows, rank and test by transfer, tabulate the causes and decide the verdict.
+                   report_progress: Progress, local: bool) -> _Findings:
+    """Test within the real rows, rank and test by transfer (``local``: with the local form too), tabulate
+    the causes and decide the verdict.
 
     Fills ``context.transfer`` with the same-input refit's numbers.
     """
@@ -180,7 +184,8 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
                             lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
     report_progress("refitting on held-out runs", 0.6)
     within = _within_numbers(attribution, r, groups, context.base, problem.rng)
-    ranker = TransferRanker(data, family_of(data, context.baseline, units), taus, np.random.default_rng([seed, 19]))
+    ranker = TransferRanker(data, family_of(data, context.baseline, units), taus, np.random.default_rng([seed, 19]),
+                            local=local)
     ranked = ranker.rank()
     ranker.test(ranked)
     ranking = ranker.choose(ranked)
@@ -306,6 +311,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
+            region=row.region,
         ))
         errors_after[effect.column] = after
     return causes, errors_after

@@ -114,20 +114,32 @@ def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> byt
     return _png(fig)
 
 
-def before_after_figure(s: Series, effect: str) -> bytes:
-    """Real-row residual before and (out of sample) after adding the effect, PNG bytes."""
-    fig = Figure(figsize=(9, 3.5))
-    ax = fig.subplots()
+def before_after_figure(s: Series, effect: str, region: tuple[float, float] | None = None) -> bytes:
+    """Real-row residual before and (out of sample) after adding the effect, PNG bytes.
+
+    For a local effect (``region``: its stretch of the order axis), the stretch is shaded and a
+    second panel shows the effect's profile along the axis: what the refits with it predict on
+    each held-out real row (residual before minus after).
+    """
+    fig = Figure(figsize=(9, 3.5 if region is None else 6))
+    axes = [fig.subplots()] if region is None else fig.subplots(2, 1, sharex=True)
+    ax = axes[0]
     real = ~s.is_train
     residual = s.y - s.y_hat
     _lines(ax, s, residual, real, color="C3", lw=1, label="before")
     after = np.full_like(residual, np.nan)
     after[real] = s.after
     _lines(ax, s, after, real, color="C2", lw=1, label=f"after adding {effect} (out of sample)")
-    ax.axhline(0, color="k", lw=0.5)
-    ax.set_xlabel(axis_label(s.order_name))
     ax.set_ylabel(f"residual {axis_label(s.target)}")
-    ax.legend(loc="best", fontsize=8)
+    if region is not None:
+        _lines(axes[1], s, residual - after, real, color="C2", lw=1, label=f"{effect}: profile on held-out runs")
+        axes[1].set_ylabel(f"effect {axis_label(s.target)}")
+    for panel in axes:
+        if region is not None:
+            panel.axvspan(*region, color="C2", alpha=0.12, label="where the effect acts")
+        panel.axhline(0, color="k", lw=0.5)
+        panel.legend(loc="best", fontsize=8)
+    axes[-1].set_xlabel(axis_label(s.order_name))
     return _png(fig)
 
 

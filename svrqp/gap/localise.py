@@ -195,6 +195,17 @@ def _region(column: str, u: np.ndarray, e2: np.ndarray, inside: np.ndarray, held
     )
 
 
+def region_of(t: np.ndarray, e: np.ndarray, region: dict) -> Region:
+    """The ``where`` entry of a local verdict's stretch ``region`` (``{"column", "low", "high"}``) of the
+    order axis, on the real rows (order values ``t``, residual ``e``).
+
+    Its enrichment is in sample (the stretch was chosen by the transfer refits, not by an error tree).
+    """
+    inside = (t >= region["low"]) & (t <= region["high"])
+    e2 = e**2
+    return _region(region["column"], t, e2, inside, np.ones(t.size, dtype=bool), float(e2.mean()))
+
+
 def fit_half(order: np.ndarray, folds: list[np.ndarray], groups: np.ndarray) -> np.ndarray:
     """Rows the error trees are fitted on (the others score them); see the module docstring."""
     fit_rows = np.zeros(order.size, dtype=bool)

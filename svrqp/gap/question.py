@@ -34,6 +34,11 @@ class GapQuestion:
         Run/batch column; transforms restart and cross-validation is blocked per group.
     model : {"mlr", "svr", "lssvr"}
         Baseline model family (features mode; :mod:`svrqp.gap.baseline`).
+    local : bool
+        Also refit every candidate in the ``local`` form, acting in one window of the
+        ``order`` axis only (:mod:`svrqp.gap.windows`), and name that window with a verdict.
+        Off by default: offered to every diagnosis it changes some borderline verdicts of
+        global effects (docs/gap.md, "Localised effects").
     """
 
     target: str
@@ -44,3 +49,4 @@ class GapQuestion:
     order: str | None = None
     group: str | None = None
     model: str = "mlr"
+    local: bool = False

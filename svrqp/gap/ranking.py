@@ -78,9 +78,11 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     rate,
 )
+from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, permutations_can_reject, window_dictionary
 
-TRANSFORMS = ("level", "rate", "lag")
-"""Transforms refitted for every candidate (a model feature: ``rate`` and ``lag`` only)."""
+TRANSFORMS = ("level", "rate", "lag", "local")
+"""Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
+``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.windows`)."""
 
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
@@ -135,13 +137,15 @@ class Effect:
     taus: np.ndarray | None
     run_level: bool
     block: bool = False
+    windows: np.ndarray | None = None
+    """The windows ``[low, high]`` of the order axis searched (``local``, :mod:`svrqp.gap.windows`)."""
 
     @property
     def parameters(self) -> int:
-        """Columns added plus a fitted time constant."""
+        """Columns added plus a fitted time constant or window bounds."""
         if self.block:
             return 2 * PROFILE_DEGREE + 1
-        return {"level": 1, "rate": 1, "lag": 3}[self.transform]
+        return {"level": 1, "rate": 1, "lag": 3, "local": 4}[self.transform]
 
 
 @dataclass
@@ -159,6 +163,9 @@ class Ranked:
         Surrogate p-value (1 when untested) and its Benjamini–Hochberg adjustment.
     tau : float or None
         The time constant chosen most often over the fits (``lag``).
+    region : dict or None
+        ``{"column": ORDER, "low": …, "high": …}``: the window of the order axis chosen most often
+        over the fits (``local``).
     note : str or None
     """
 
@@ -171,6 +178,7 @@ class Ranked:
     note: str | None = None
     tested: bool = False
     ambiguous: bool = False
+    region: dict | None = None
 
     @property
     def significant(self) -> bool:
@@ -205,30 +213,40 @@ class TransferRanker:
     taus : ndarray
         The time-constant grid.
     rng : numpy.random.Generator
-        Source of the surrogates.
+        Source of the surrogates (the ``local`` form's from a stream spawned from it, which
+        leaves this one's draws to the other transforms).
+    local : bool
+        Whether the ``local`` form is refitted (:mod:`svrqp.gap.windows`).
     """
 
-    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator):
+    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator,
+                 local: bool = False):
         self.data, self.family, self.taus, self.rng = data, family, taus, rng
+        self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
+        self.windows = window_dictionary(data.t, family.units.code, data.groups) if local else np.zeros((0, 2))
 
     # -- effects ------------------------------------------------------------------------
 
     def effects(self) -> list[Effect]:
         """Every candidate × transform to refit."""
         data, real = self.data, self.data.is_real
+        testable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
         out = []
         for j, column in enumerate(data.candidates):
             run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
             for transform in TRANSFORMS:
                 if transform == "level" and column in data.features:
                     continue
-                if run_level and transform != "level":
+                if run_level and transform in ("rate", "lag"):
                     continue  # its rate and lag are zero but for noise
-                if run_level:  # a level scaling a profile along each run, or an offset in proportion to it
+                if transform == "local" and (not len(self.windows) or (run_level and not testable)):
+                    continue  # no window to try, or run levels too few to permute to significance
+                if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level,
+                                  windows=self.windows if transform == "local" else None))
         return out
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
@@ -249,6 +267,8 @@ class TransferRanker:
         elif effect.transform == "rate":
             own = rate(xk, t, groups)[:, None]
             variants = [np.array([0])]
+        elif effect.transform == "local":
+            own, variants = local_columns(xk, t, effect.windows)
         else:
             ell = lag(xk, t, groups, effect.taus) if ell is None else ell
             if effect.column in data.features:
@@ -292,16 +312,31 @@ class TransferRanker:
         best: dict[str, Ranked] = {}
         for effect in self.effects():
             fit = self.fit(effect)
-            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit))
+            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
+        for row in best.values():
+            if row.region is not None and self._collinear(row):
+                row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
+                            "the refits keep the minimum-norm solution")
         return sorted(best.values(), key=lambda r: -r.gain)
+
+    def _collinear(self, row: Ranked) -> bool:
+        """Whether the window a ``local`` row chose most is collinear with the family's design (:func:`collinear`)."""
+        E, _, known = self.columns(_fixed(row))
+        return collinear(self.family.A[known], E[known])
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
         if effect.taus is None:
             return None
         return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
+
+    def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
+        if effect.windows is None:
+            return None
+        low, high = effect.windows[np.bincount(fit.variant, minlength=len(effect.windows)).argmax()]
+        return {"column": self.data.order_name, "low": float(low), "high": float(high)}
 
     # -- surrogates ---------------------------------------------------------------------
 
@@ -327,19 +362,20 @@ class TransferRanker:
         x = data.C[:, data.candidates.index(effect.column)]
         known = np.flatnonzero(np.isfinite(x))
         groups = data.groups[known]
+        rng = self.local_rng if effect.windows is not None else self.rng
         out = []
         if effect.run_level:
             slices = group_slices(groups)
             means = np.array([x[known[s]].mean() for s in slices])
             if orders is None:
-                orders = [self.rng.permutation(len(slices)) for _ in range(count)]
+                orders = [rng.permutation(len(slices)) for _ in range(count)]
             for order in orders:
                 xs = x.copy()
                 for s, g in zip(slices, order):
                     xs[known[s]] += means[g] - means[slices.index(s)]
                 out.append(xs)
             return out
-        offsets = shift_offsets(groups, count, self.rng, x[known])
+        offsets = shift_offsets(groups, count, rng, x[known])
         for rows in rotated_rows(groups, offsets):
             xs = x.copy()
             xs[known] = x[known][rows]
@@ -526,15 +562,19 @@ def _besag_clifford(hits: list[bool]) -> float:
 
 
 def _fixed(row: Ranked) -> Effect:
-    """The row's effect with its time constant fixed at the one its fits chose most."""
+    """The row's effect with its time constant (or window) fixed at the one its fits chose most."""
+    if row.region is not None:
+        return dataclasses.replace(row.effect, windows=np.array([[row.region["low"], row.region["high"]]]))
     if row.tau is None:
         return row.effect
     return dataclasses.replace(row.effect, taus=np.array([row.tau]))
 
 
 def _better(row: Ranked, held: Ranked) -> bool:
-    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie)."""
+    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie; the ``local``
+    transform against a global one must be ahead by :data:`svrqp.gap.windows.LOCAL_MARGIN`)."""
     shrink = lambda r: 1 - np.sqrt(max(1 - r.gain, 0.0))
-    if abs(shrink(row) - shrink(held)) < SAME_FIT:
+    local = (row.effect.transform == "local") != (held.effect.transform == "local")
+    if abs(shrink(row) - shrink(held)) < (LOCAL_MARGIN if local else SAME_FIT):
         return row.effect.parameters < held.effect.parameters
     return row.gain > held.gain

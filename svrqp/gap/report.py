@@ -78,6 +78,7 @@ class Cause:
     within_shrink: float | None = None
     within_shrink_ci: tuple[float, float] | None = None
     family: str = "linear"
+    region: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,9 @@ class Verdict:
     untestable: str | None = None
     """A run-level column that transfers best but that too few runs can never make significant
     (:attr:`svrqp.gap.ranking.Ranking.too_thin`)."""
+    region: dict[str, Any] | None = None
+    """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis a ``local`` effect acts in
+    (:mod:`svrqp.gap.windows`); None for a global effect."""
 
 
 @dataclass(frozen=True)
@@ -247,7 +251,9 @@ class GapReport:
     def _figures(self) -> dict[str, bytes]:
         figures = {"gap": gap_figure(self.series, self._order_regions())}
         if self.verdict.column is not None and self.series.after is not None:
-            figures["before_after"] = before_after_figure(self.series, _effect_name(self.verdict))
+            region = self.verdict.region
+            figures["before_after"] = before_after_figure(self.series, _effect_name(self.verdict),
+                                                          None if region is None else (region["low"], region["high"]))
         return figures
 
     def tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:
@@ -345,6 +351,8 @@ class GapReport:
 
 
 def _effect_name(v: Verdict) -> str:
+    if v.region is not None:
+        return f"{v.column} within {v.region['low']:.3g} … {v.region['high']:.3g} of {v.region['column']}"
     if v.transform == "lag":
         return f"lag of {v.column} (τ = {v.tau:.3g})"
     return f"{v.transform} of {v.column}"

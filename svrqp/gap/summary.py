@@ -13,7 +13,7 @@ from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.figures import unit_of
 from svrqp.gap.inputs import InputUse
 from svrqp.gap.report import Verdict
-from svrqp.gap.verdict import VerdictContext, names, quantity, train_label, unit_word
+from svrqp.gap.verdict import VerdictContext, names, quantity, region_text, train_label, unit_word
 
 
 def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:
@@ -64,6 +64,8 @@ def _most_outside(uses: list[InputUse]) -> InputUse:
 
 def _short_effect(verdict: Verdict) -> str:
     """``lag of T1_C (τ 125)`` — the verdict's effect in few words."""
+    if verdict.region is not None:
+        return f"{verdict.column} term {region_text(verdict.region)}"
     text = f"{verdict.transform} of {verdict.column}"
     if verdict.evidence == EVIDENCE_BETWEEN:
         return text + " (constant within each run)"

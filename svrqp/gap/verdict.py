@@ -79,13 +79,23 @@ def names(columns: list[str]) -> str:
 
 
 def effect_text(effect: Cause | Verdict, order_name: str) -> str:
-    """``lag of T4_C (τ = 78.3 min)``, or a run-level candidate's level with how it was tested."""
+    """``lag of T4_C (τ = 78.3 min)``, a local effect with its stretch, or a run-level candidate's level with how
+    it was tested."""
+    if effect.region is not None:
+        return f"{effect.column} term {region_text(effect.region)}"
     text = f"{effect.transform} of {effect.column}"
     if effect.tau is not None:
         text += f" (τ = {quantity(effect.tau, unit_of(order_name))})"
     if effect.evidence == EVIDENCE_BETWEEN:
         text += (f" (constant within each run, scaling a profile along {order_name}; tested between runs)")
     return text
+
+
+def region_text(region: dict) -> str:
+    """``acting only between 0 and 12 mm of x_mm`` — a local effect's stretch of the order axis."""
+    unit = unit_of(region["column"])
+    high = quantity(region["high"], unit)
+    return f"acting only between {region['low']:.3g} and {high} of {region['column']}"
 
 
 def quantity(value: float, unit: str | None) -> str:
@@ -175,7 +185,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
     train_refit = refit_shrink(data, context.baseline, effect_columns(data, cause.column, cause.transform, cause.tau,
-                                                              cause.evidence))
+                                                              cause.evidence, cause.region))
     after = errors_after[cause.column]
     residual_gate = gate(after, data.groups[data.is_real], context.baseline.train_reference,
                          data.groups[data.is_train])
@@ -195,7 +205,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                    p_value=cause.p_value, ambiguous_with=list(ranking.ambiguous_with), rmse_refit=cause.rmse_refit,
                    shrink_beyond_refit=cause.shrink_beyond_refit,
                    shrink_beyond_refit_ci=cause.shrink_beyond_refit_ci, thin=units.thin,
-                   family=cause.family, untestable=ranking.untestable), residual_gate
+                   family=cause.family, untestable=ranking.untestable, region=cause.region), residual_gate
 
 
 def capitalised(text: str) -> str:

@@ -1,0 +1,155 @@
+r"""The localised transform: a candidate acting in one stretch of the order axis only.
+
+Many unmodelled effects act in one stretch of the ``--order`` axis :math:`t`: a gantry's
+synchronisation error while it accelerates, a worn patch of guideway, a start-up transient.
+The ``local`` transform of a candidate :math:`x` adds, for one window :math:`W = [t_a, t_b]`,
+
+.. math::
+
+    \mathbb{1}_W(t), \qquad x(t)\,\mathbb{1}_W(t),
+
+an offset and a slope on :math:`x` that act inside the window only (a localised effect that
+is affine in the candidate, zero outside). The window is not given: it is one of a small
+dictionary (:func:`window_dictionary`) of tiles of the order axis, of widths
+:data:`WINDOW_WIDTHS` of its range. Each leave-one-unit-out fit of
+:mod:`svrqp.gap.transfer` keeps the window with the smallest squared error on its own rows
+(one *variant* per window, as the ``lag`` transform keeps its time constant), so the window
+is chosen out of sample, and every surrogate of the transfer test searches the dictionary
+again: the test pays for the search and a local disturbance that no candidate carries gains
+the window's offset on the observed candidate and its surrogates alike.
+
+What the form costs the other transforms
+    The ``local`` form of a candidate that holds one level per run is offered only when a
+    permutation of its run levels can reach significance (:func:`permutations_can_reject`):
+    with :math:`n` runs the smallest permutation p-value is :math:`1/n!`, and
+    Benjamini–Hochberg over :math:`m` columns rejects its first only at :math:`p \le \alpha/m`,
+    so the form needs :math:`n! \ge m/\alpha` (five runs for up to six columns at
+    :math:`\alpha = 0.05`, six runs for up to 36). An untestable form could only shadow a
+    testable cause. Its surrogates come from a stream of their own, so offering it leaves the
+    Monte-Carlo p-values of the other transforms as they were.
+
+Limits: the window is one interval of the order axis shared by runs (an effect at the
+end of passes of unequal length is not one interval). A window is tried only where it is a
+stretch of at least two runs' own axis (it lies inside the order range of two groups): on a
+record whose clock runs on through the runs (each run its own stretch of time) no window is,
+and the ``local`` form is not offered, since a stretch of the clock holds no future run and a
+window across the seam of two runs would only carry the end of one into the start of the
+next. Nor is a window narrower than :data:`MIN_REGION_ROWS` rows of one unit, or with rows in
+fewer than two held-out units; the
+``--order`` column is strictly increasing within each group (:mod:`svrqp.gap.prepare` refuses
+ties and sorts reversed stretches), and gaps only leave some tiles with fewer rows.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+WINDOW_WIDTHS = (0.05, 0.1, 0.2)
+"""Widths of the dictionary's tiles, as fractions of the order axis's range."""
+
+MIN_REGION_ROWS = 5
+"""Fewest rows a window must span along the axis (in the unit where it holds most) to be tried."""
+
+LOCAL_MARGIN = 0.02
+"""Shrink by which the ``local`` transform must beat a column's best global transform to stand
+for the column (it has the most parameters: two columns and the window's two bounds)."""
+
+
+def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """The windows tried, as rows ``[low, high]`` of order values (inclusive).
+
+    Tiles of :data:`WINDOW_WIDTHS` of the range of ``t``; each window's bounds are the smallest
+    and largest order value of the rows in its tile, windows holding the same rows are kept
+    once, and a window narrower than :data:`MIN_REGION_ROWS` rows (in the unit where it holds
+    most), with rows in fewer than two units, or inside the order range of fewer than two
+    groups is dropped.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Order value of every row.
+    units : ndarray of int, shape (n,)
+        Held-out unit of every row.
+    groups : ndarray of int, shape (n,)
+        Run (group) of every row.
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+    """
+    start, span = float(np.min(t)), float(np.ptp(t))
+    out, seen = [], set()
+    if span <= 0:
+        return np.zeros((0, 2))
+    ranges = np.array([(t[groups == g].min(), t[groups == g].max()) for g in np.unique(groups)])
+    for width in WINDOW_WIDTHS:
+        edges = start + span * np.linspace(0.0, 1.0, int(round(1 / width)) + 1)
+        for i, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+            inside = (t >= a) & ((t < b) | (i == edges.size - 2))
+            per_unit = np.unique(units[inside], return_counts=True)[1]
+            if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
+                continue
+            bounds = (float(t[inside].min()), float(t[inside].max()))
+            shared = np.sum((ranges[:, 0] <= bounds[0]) & (ranges[:, 1] >= bounds[1]))
+            if shared >= 2 and bounds not in seen:
+                seen.add(bounds)
+                out.append(bounds)
+    return np.array(out).reshape(-1, 2)
+
+
+def permutations_can_reject(n_runs: int, n_columns: int, alpha: float) -> bool:
+    r"""Whether permuting ``n_runs`` run levels can give a p-value Benjamini–Hochberg rejects among ``n_columns``.
+
+    The smallest p-value of a permutation test over :math:`n` runs is :math:`1/n!` (the observed
+    arrangement among the :math:`n!`); the first threshold of Benjamini–Hochberg over :math:`m`
+    columns is :math:`\alpha/m`. So :math:`n! \ge m/\alpha`.
+    """
+    return math.factorial(n_runs) * alpha >= n_columns
+
+
+COLLINEAR_RCOND = 1e-10
+"""Smallest singular value, relative to the largest, below which a window's columns count as collinear."""
+
+
+def collinear(A: np.ndarray, E: np.ndarray) -> bool:
+    r"""Whether a window's columns ``E`` are collinear with the model's own design ``A`` (or each other).
+
+    Happens when the candidate holds one value wherever the window has rows (then
+    :math:`x\mathbb{1}_W \propto \mathbb{1}_W`) or the window holds every row (then
+    :math:`\mathbb{1}_W` is the intercept). The refits then keep the minimum-norm solution; the
+    causes table says so in the cause's note.
+    """
+    M = np.column_stack([A, E])
+    M = M / np.maximum(np.linalg.norm(M, axis=0), 1e-300)
+    s = np.linalg.svd(M, compute_uv=False)
+    return bool(s[-1] <= COLLINEAR_RCOND * s[0])
+
+
+def indicator(t: np.ndarray, low: float, high: float) -> np.ndarray:
+    r""":math:`\mathbb{1}_W(t)` of the window ``[low, high]`` (1.0 inside, 0.0 outside)."""
+    return ((t >= low) & (t <= high)).astype(float)
+
+
+def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    r"""The columns :math:`[\mathbb{1}_{W_k}, x\,\mathbb{1}_{W_k}]` of every window and the variants that use them.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        The candidate (or a surrogate of it) on the rows where it is known.
+    t : ndarray, shape (n,)
+        Order value of the same rows.
+    windows : ndarray, shape (k, 2)
+
+    Returns
+    -------
+    E : ndarray, shape (n, 2k)
+    variants : list of ndarray of int
+        Columns ``[2k, 2k + 1]`` of each window.
+    """
+    W = np.column_stack([indicator(t, low, high) for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
+    E = np.empty((t.size, 2 * W.shape[1]))
+    E[:, 0::2], E[:, 1::2] = W, x[:, None] * W
+    return E, [np.array([2 * k, 2 * k + 1]) for k in range(W.shape[1])]

@@ -1,0 +1,151 @@
+"""The localised transform of the gap diagnosis (svrqp.gap.windows): an effect in one stretch of the order axis.
+
+The reference refit is plain :func:`numpy.linalg.lstsq` on ``[1, 1_W, x 1_W]`` (``1_W`` the window's
+indicator built here from the window bounds), left one run out over all rows and scored on the real
+rows, each fit keeping the window with the smallest error on its own rows.
+"""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from support.benchmark_modules import load_benchmark
+
+from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion, diagnose
+from svrqp.gap.windows import MIN_REGION_ROWS, collinear, window_dictionary
+
+PATCH_MM = (20.0, 34.0)
+QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
+            "candidates": ["room_C", "humidity_pct"], "order": "x_mm", "group": "run", "local": True}
+
+
+def _passes(carried: bool, seed: int = 3, runs: int = 8) -> pd.DataFrame:
+    """Laser passes along 0…100 mm, one per run: a guideway patch between 20 and 34 mm whose error grows with
+    the room temperature (``carried``), or a patch of random size per pass that no column reads."""
+    rng = np.random.default_rng(seed)
+    x = np.arange(0.0, 101.0)
+    tables = []
+    for run in range(runs):
+        room = 20.0 if run == 0 else rng.uniform(19.0, 24.0)
+        size = 1.5 * (room - 20.0) if carried else rng.normal(0.0, 1.5)
+        patch = size * ((x >= PATCH_MM[0]) & (x <= PATCH_MM[1]))
+        prediction = 0.02 * x
+        tables.append(pd.DataFrame({
+            "x_mm": x, "run": run, "room_C": room + 0.01 * rng.standard_normal(x.size),
+            "humidity_pct": rng.uniform(30, 60), "prediction_um": prediction,
+            "error_um": prediction + patch + 0.3 * rng.standard_normal(x.size)}))
+    return pd.concat(tables, ignore_index=True)
+
+
+@pytest.fixture(scope="module")
+def patch():
+    df = _passes(carried=True)
+    return df, diagnose(df, GapQuestion(**QUESTION))
+
+
+def _iou(a: tuple[float, float], b: tuple[float, float], t: np.ndarray) -> float:
+    inside_a, inside_b = (t >= a[0]) & (t <= a[1]), (t >= b[0]) & (t <= b[1])
+    return float(np.sum(inside_a & inside_b) / np.sum(inside_a | inside_b))
+
+
+def test_a_local_effect_is_named_with_its_region(patch):
+    df, report = patch
+    verdict = report.verdict
+    assert verdict.column == "room_C" and verdict.transform == "local"
+    assert verdict.region["column"] == "x_mm"
+    assert _iou((verdict.region["low"], verdict.region["high"]), PATCH_MM, df["x_mm"].to_numpy()) >= 0.5
+    first = report.where[0]
+    assert (first.column, first.low, first.high) == ("x_mm", verdict.region["low"], verdict.region["high"])
+    assert "between" in report.summary and "x_mm" in report.summary
+    document = report.to_dict()  # schema-valid with the region
+    assert document["verdict"]["region"] == verdict.region
+
+
+def test_the_local_form_is_offered_only_when_asked():
+    report = diagnose(_passes(carried=True), GapQuestion(**QUESTION | {"local": False}))
+    assert report.verdict.region is None and all(c.transform != "local" for c in report.causes)
+    assert report.to_dict()["settings"]["local"] is False
+
+
+def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
+    df, report = patch
+    cause = next(c for c in report.causes if c.column == report.verdict.column)
+    t, runs = df["x_mm"].to_numpy(), df["run"].to_numpy()
+    y = (df["error_um"] - df["prediction_um"]).to_numpy()
+    x = df["room_C"].to_numpy()
+    windows = window_dictionary(t, runs, runs)
+    designs = [np.column_stack([np.ones(t.size), w, x * w]) for w in ((t >= a) & (t <= b) for a, b in windows)]
+    squared = []
+    for run in np.unique(runs[runs > 0]):
+        test = runs == run
+        fits = [(np.linalg.lstsq(D[~test], y[~test], rcond=None)[0], D) for D in designs]
+        theta, D = min(fits, key=lambda fit: np.sum((y[~test] - fit[1][~test] @ fit[0]) ** 2))
+        squared.append((y[test] - D[test] @ theta) ** 2)
+    reference = float(np.sqrt(np.mean(np.concatenate(squared))))
+    assert cause.rmse_after == pytest.approx(reference, rel=1e-9, abs=1e-12)
+    assert cause.shrink == pytest.approx(1 - reference / cause.rmse_before, abs=1e-9)
+
+
+def test_a_local_disturbance_no_candidate_carries_gets_no_verdict():
+    report = diagnose(_passes(carried=False), GapQuestion(**QUESTION))
+    assert report.verdict.column is None and report.verdict.region is None
+
+
+def test_windows_narrower_than_five_rows_are_not_tried():
+    t = np.tile(np.arange(0.0, 60.0, 1.0), 2)  # a 5 % tile holds 3 rows per run; a 10 % tile 6
+    units = np.repeat([0, 1], 60)
+    windows = window_dictionary(t, units, units)
+    inside = [np.sum((t[:60] >= a) & (t[:60] <= b)) for a, b in windows]
+    assert len(windows) and min(inside) >= MIN_REGION_ROWS  # no 3-row (5 %) tile survives
+    one_unit = window_dictionary(np.arange(0.0, 10.0), np.zeros(10, dtype=int), np.zeros(10, dtype=int))
+    assert one_unit.shape == (0, 2)  # a window seen in one unit only cannot be refitted without it
+
+
+def test_a_clock_that_runs_on_through_the_runs_offers_no_window():
+    runs = np.repeat([0, 1, 2], 60)
+    shared = window_dictionary(np.tile(np.arange(60.0), 3), runs, runs)
+    on_one_clock = window_dictionary(np.arange(180.0), runs, runs)  # each run its own stretch of time
+    assert len(shared) and on_one_clock.shape == (0, 2)  # even the tiles across a seam of two runs
+
+
+def test_ties_in_the_order_axis_are_refused():
+    df = _passes(carried=True, runs=3)
+    df.loc[5, "x_mm"] = df.loc[4, "x_mm"]
+    with pytest.raises(ProblemError, match="repeated value"):
+        diagnose(df, GapQuestion(**QUESTION))
+
+
+def test_the_report_shades_the_region_and_draws_the_profile(patch, tmp_path):
+    _, report = patch
+    text = report.to_markdown(tmp_path / "gap.md")
+    assert "acting only between" in text
+    assert (tmp_path / "gap_before_after.png").stat().st_size > 0
+    html = report.to_html(tmp_path / "gap.html").read_text(encoding="utf-8")
+    assert "acting only between" in html
+
+
+def test_a_window_collinear_with_the_model_is_detected():
+    t = np.arange(0.0, 100.0)
+    A = np.column_stack([np.ones(t.size), np.sin(t / 7)])
+    w = ((t >= 20) & (t <= 30)).astype(float)
+    x = np.where(w > 0, 21.5, np.cos(t / 3))  # constant inside the window: x 1_W = 21.5 1_W
+    assert collinear(A, np.column_stack([w, x * w]))
+    assert not collinear(A, np.column_stack([w, np.cos(t / 3) * w]))
+    assert collinear(A, np.column_stack([np.ones(t.size), np.cos(t / 3)]))  # a window holding every row
+
+
+@pytest.mark.parametrize("shared", [True, False])
+def test_the_real_data_checker_tiles_the_axis_as_the_engine_does(shared):
+    """benchmarks/gap_real.py writes the tile dictionary from its definition; the windows must be the engine's."""
+    checker = load_benchmark("gap_real")
+    cycles = ["1250", "2500", "3750", "5000", "mixed"]
+    rows = [100, 90, 100, 80, 70]
+    t = np.concatenate([np.arange(n) + (0.0 if shared else 100.0 * k) for k, n in enumerate(rows)])
+    table = pd.DataFrame({"cycle": np.repeat(cycles, rows), "time_min": t})
+    groups = np.repeat(np.arange(len(cycles)), rows)
+    units = np.where(table["cycle"] == "5000", 0, np.where(table["cycle"] == "mixed", 1, -1))  # train rows: one unit
+    engine = [((t >= low) & (t <= high)).astype(float) for low, high in window_dictionary(t, units, groups)]
+    mine = checker.windows(table)
+    assert len(mine) == len(engine) == (28 if shared else 0)
+    assert all(np.array_equal(a, b) for a, b in zip(mine, engine))
