@@ -133,6 +133,8 @@ from transfer_oracle import (
 )
 
 RESULTS = Path(__file__).resolve().parent / "results"
+#: Transforms :mod:`transfer_oracle` refits.
+ORACLE_TRANSFORMS = ("level", "rate", "lag")
 AR_PHI = 0.8
 SUMMER_DAYS = (170.0, 230.0)
 WINTER_DAYS = (0.0, 40.0)
@@ -771,10 +773,11 @@ def _rule_by_refit(s: Scenario, case: Case, report) -> bool:
     The verdict names a truth column, or a column whose leave-one-run-out refit with the verdict's
     transform transfers at least as well as the best truth column under its best transform (within
     :data:`transfer_oracle.AS_WELL`), both refitted here in the model's family. A continuous record
-    (no runs to hold out) counts the truth named only.
+    (no runs to hold out) and a ``local`` verdict (the oracle has no local family) count the truth
+    named only.
     """
     named = report.verdict.column
-    if named is None or named in case.truth or s.continuous:
+    if named is None or named in case.truth or s.continuous or report.verdict.transform not in ORACLE_TRANSFORMS:
         return named is not None and named in case.truth
     order = ORDER[s.family.split("/")[0]]
     table = case.table.sort_values(["run", order], kind="stable").reset_index(drop=True)
