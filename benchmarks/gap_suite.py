@@ -757,10 +757,11 @@ def _oracle_family(s: Scenario, table: pd.DataFrame) -> tuple[np.ndarray, np.nda
         own, before = np.ones((len(table), 1)), y[real]
     else:
         y = table["error_um"].to_numpy()
-        features = table[[c for c in NODE_SENSORS if c != s.effect]].to_numpy()
+        names = [c for c in NODE_SENSORS if c != s.effect]
+        features = table[names].to_numpy()
         own = features if kernel else np.column_stack([np.ones(len(table)), features])
         question = GapQuestion(target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
-                               order=ORDER[s.family.split("/")[0]], features=[c for c in NODE_SENSORS if c != s.effect])
+                               order=ORDER[s.family.split("/")[0]], features=names)
         data = prepare(table, question)
         before = fit_baseline(data, s.model).residual[data.is_real]
     predict = functools.partial(_lssvr_predict, gamma=_scale_gamma(own[~real])) if kernel else lstsq_predict

@@ -21,7 +21,8 @@ All Gram matrices are computed with one matrix product per row block (no Python 
 
 from __future__ import annotations
 
-from typing import Literal
+from collections.abc import Mapping
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -78,6 +79,11 @@ def rbf_conventions(gamma: float) -> dict[str, float]:
 #: Entries of one row block of a Gram matrix (1 MiB): the in-place passes after each block's
 #: matrix product then run in cache instead of streaming the whole n×m matrix through memory.
 BLOCK_ENTRIES = 2**17
+
+
+def kernel_arguments(kernel_parameters: Mapping[str, Any]) -> dict[str, Any]:
+    """``kernel``, ``gamma``, ``degree`` and ``coef0`` out of a larger settings mapping (as :func:`gram` takes them)."""
+    return {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
 
 
 def check_kernel_parameters(kernel: str, gamma: float, degree: int) -> None:

@@ -45,7 +45,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.kernels import gram
+from svrqp.kernels import gram, kernel_arguments
 
 #: Share of the points in the pilot's subsample (at least ``PILOT_MIN_POINTS``), and libsvm's
 #: tolerance for it: its residuals are only as good as its subsample, so a loose run does. Measured
@@ -111,15 +111,17 @@ def decomposition_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, 
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.svm import SVR  # libsvm: the decomposition method
 
-    parameters = {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
-    n = y.size
-    rows = np.arange(n) if rows is None else rows
-    X_rows = X[np.ix_(rows, rows)] if parameters["kernel"] == "precomputed" and rows.size < n else X[rows]
+    parameters = kernel_arguments(kernel_parameters)
+    if rows is None:  # all points: X and y as given, no copies
+        rows, X_rows, y_rows = np.arange(y.size), X, y
+    else:
+        X_rows = X[np.ix_(rows, rows)] if parameters["kernel"] == "precomputed" else X[rows]
+        y_rows = y[rows]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         smo = SVR(C=C, epsilon=epsilon, **parameters, tol=tol, cache_size=CACHE_SIZE_MB,
-                  max_iter=max_iter).fit(X_rows, y[rows])
-    beta = np.zeros(n)
+                  max_iter=max_iter).fit(X_rows, y_rows)
+    beta = np.zeros(y.size)
     beta[rows[smo.support_]] = smo.dual_coef_[0]
     return DecompositionFit(beta, float(smo.intercept_[0]), int(np.sum(smo.n_iter_)))
 
@@ -189,8 +191,8 @@ def _pilot(X, y, C, epsilon, kernel_parameters, sample) -> _Pilot | None:
     if fit.iterations >= budget:
         return None
     support = np.flatnonzero(fit.beta)
-    parameters = {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
-    fitted = gram(X[sample], X[sample[support]], **parameters) @ fit.beta[support] + fit.intercept
+    fitted = gram(X[sample], X[sample[support]], **kernel_arguments(kernel_parameters)) @ fit.beta[support]
+    fitted += fit.intercept
     return _Pilot(fit, float(_holds(y[sample] - fitted, C, epsilon)[0].mean()), sample)
 
 

@@ -17,7 +17,7 @@ rounding. SMO pays per support vector and per iteration, so a loose run is cheap
 1e-8 is what costs on smooth data, and the crossover replaces that tail by one or a few solves of
 size :math:`|F|`. Only kernel columns of support vectors are formed
 (:class:`svrqp.linalg.kernel_columns.KernelColumns`), never the n×n Gram matrix. On large problems
-the loose run first leaves out the points a pilot fit puts inside the tube
+the loose run first holds the points a pilot fit settles at zero or at ±C
 (:mod:`svrqp.solvers.screening`).
 
 The result is exact only when the crossover says so (``exact``); the caller certifies it on the
@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from svrqp.kernels import kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, crossover
 from svrqp.solvers.screening import decomposition_fit, screened_fit
@@ -62,7 +63,7 @@ class WarmStartFit:
     exact: bool
     crossover_steps: int
     smo_iterations: int
-    screened: int = 0  #: points the warm start held at zero (:mod:`svrqp.solvers.screening`)
+    screened: int = 0  #: points the warm start held at zero or ±C (:mod:`svrqp.solvers.screening`)
     times_s: dict[str, float] = field(default_factory=dict)
 
 
@@ -75,7 +76,7 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
                        kernel_parameters: Mapping[str, Any], *, smo_tol: float = WARM_START_TOL) -> WarmStartFit:
     """Loose SMO (Fan, Chen & Lin 2005) then the exact crossover (module docstring).
 
-    On a kernel of inputs the loose run first tries the screened start of
+    On a kernel of inputs the loose run first tries the held start of
     :func:`svrqp.solvers.screening.screened_fit`; when the crossover does not settle from it,
     the loose run over all points and the crossover start again.
 
@@ -98,7 +99,7 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     if kernel_parameters["kernel"] == "precomputed":
         columns, products = precomputed_columns(X), None
     else:
-        columns = KernelColumns(X, **{key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")})
+        columns = KernelColumns(X, **kernel_arguments(kernel_parameters))
         products = columns.products
         screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, products)
     warm = screened or decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
@@ -106,7 +107,7 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     result = crossover(columns, y, C, epsilon, warm.beta, products=products,
                        settings=HELD_START if screened is not None else CrossoverSettings())
     iterations = warm.iterations
-    if screened is not None and not result.exact:  # the screened start misled it: start from all points
+    if screened is not None and not result.exact:  # the held start misled it: start from all points
         warm = decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
         iterations += warm.iterations
         result = crossover(columns, y, C, epsilon, warm.beta, products=products)

@@ -202,7 +202,7 @@ def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
     return rho - b, b
 
 
-def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, stalled_steps=0) -> CrossoverResult:
+def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, stalled_steps) -> CrossoverResult:
     """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result.
 
     Gives up once the number of state changes has failed ``stalled_steps`` + 1 times to fall below

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.kernels import gram
+from svrqp.kernels import gram, kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 from svrqp.solvers.dual_ipm.crossover import (
@@ -103,7 +103,7 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     n = X.shape[0]
     _check(y, C, epsilon, n)
     tol, max_iter = settings.tol, settings.max_iter
-    parameters = {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
+    parameters = kernel_arguments(kernel_parameters)
     start = time.perf_counter()
     columns = KernelColumns(X, **parameters)
     factor = pivoted_cholesky(columns, max_rank=settings.max_rank or max(1, n // 8), tol=settings.factor_tol,
