@@ -97,7 +97,7 @@ class CompactFitMixin:
         self._fit_data = {"formulation": formulation, "C": float(self.C), "epsilon": float(self.epsilon),
                           "kernel": {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
                                      "coef0": self.coef0},
-                          "n": int(y.size), "digest": _digest(X, y)}
+                          "n": int(y.size)}
         self._store_training_rows(X, y)
 
     def with_training_data(self, X: NDArray[np.float64], y: NDArray[np.float64]):
@@ -121,11 +121,19 @@ class CompactFitMixin:
         """
         record = self._fit_record(rows=False)
         X, y = np.ascontiguousarray(X, dtype=float), np.ascontiguousarray(y, dtype=float).ravel()
-        if _digest(X, y) != record["digest"]:
+        if _digest(X, y) != self._data_digest():
             raise ValueError(f"these are not the data {type(self).__name__} was fitted on (n = {record['n']}): "
                              "problem_ and solution_ can only be rebuilt from the fit's own X and y")
         self._store_training_rows(X, y)
         return self
+
+    def _data_digest(self) -> str:
+        """The digest of the fit's data, computed from the rows held the first time it is asked for
+        (by a pickle, which leaves the rows out, or by :meth:`with_training_data`), not during ``fit``."""
+        record = self._fit_record(rows=False)
+        if "digest" not in record:
+            record["digest"] = _digest(self._training_rows(), self._fit_record()["y"])
+        return record["digest"]
 
     def _store_training_rows(self, X: NDArray[np.float64], y: NDArray[np.float64]) -> None:
         others = np.ones(X.shape[0], dtype=bool)
@@ -170,6 +178,7 @@ class CompactFitMixin:
         if record is not None and self.__dict__.get("_fit_data", {}).get("formulation") != "primal":
             state["_solution_record"] = dataclasses.replace(record, x=None, y=None, z=None, z_box=None)
         if "_fit_data" in state:
+            self._data_digest()  # recorded before the rows are left out
             state["_fit_data"] = {key: value for key, value in state["_fit_data"].items() if key not in _TRAINING_ROWS}
         return state
 
