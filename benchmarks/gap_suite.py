@@ -56,7 +56,10 @@ Scenario families
     of the speed, not of the order axis); the truth is the scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
     run that no column reads. Scored apart (:func:`summarise_local`): top-1, false attribution,
     and the row IoU on the real rows of the named stretch (``verdict.region``, else the first
-    ``where`` entry on the order axis) with the true one.
+    ``where`` entry on the order axis) with the true one. As for the withheld effects, top-1 is
+    counted on the scenarios with a gap (where the effect acts on the train run as much as on the
+    real ones, no culprit is the answer; those are counted apart), with top-1 over all of them for
+    reference.
 
 Runs use random speed/duty programmes and seasons (train runs in summer), varied record
 length, signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
@@ -831,9 +834,15 @@ def summarise_local(rows: pd.DataFrame) -> str:
     top1 = local.top1.astype(bool)
     gap = local[local.gap_detected.astype(bool)]
     correct_iou = pd.to_numeric(local[top1].region_iou, errors="coerce")
+    # As the main table: where the real rows fit no worse than the train rows (the effect acts on the train run
+    # too), naming no culprit is the answer; those are counted apart and the target row is over the rest.
     metric = {
-        "top-1 accuracy (local, truth named)": (top1.mean(), "≥ 0.85"),
-        "top-1 accuracy (local with a gap)": (gap.top1.astype(bool).mean(), ""),
+        "local with no gap (real rows no worse than train rows: no culprit is the answer)":
+            ((~local.gap_detected.astype(bool)).mean(), ""),
+        "top-1 accuracy, DESIGN §4 rule (local with a gap)": (gap.top1_rule.astype(bool).mean(), "≥ 0.85"),
+        "top-1 accuracy, truth named (local with a gap)": (gap.top1.astype(bool).mean(), ""),
+        "top-1 accuracy, truth named (all local, for reference)": (top1.mean(), ""),
+        "named where there is no gap (local)": (local[~local.gap_detected.astype(bool)].named.mean(), ""),
         "no verdict (local)": ((~local.named).mean(), ""),
         "decoy named (local, wrong column)": ((local.named & ~top1).mean(), ""),
         "false attribution (local nulls)": (nulls.named.mean(), "≤ 0.05"),
@@ -846,12 +855,13 @@ def summarise_local(rows: pd.DataFrame) -> str:
     lines = ["", f"## Localised effects ({len(local)} local withheld, {len(nulls)} local nulls)", "",
              "| metric | value | target |", "|---|---|---|"]
     lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
-    lines += ["", "| family | kind | effect | n | top-1 | named | region IoU (named stretch) | gap detected |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += ["", "| family | kind | effect | n | top-1 | top-1 (with a gap) | named | region IoU (named stretch) "
+              "| gap detected |", "|---|---|---|---|---|---|---|---|---|"]
     part_rows = rows[rows.kind.isin(LOCAL_KINDS)]
     for (family, kind, effect), part in part_rows.groupby(["family", "kind", part_rows.effect.fillna("–")]):
-        lines.append(f"| {family} | {kind} | {effect} | {len(part)} | {_fmt(part.top1)} | {part.named.mean():.2f} | "
-                     f"{_fmt(part.region_iou)} | {part.gap_detected.astype(bool).mean():.2f} |")
+        with_gap = part[part.gap_detected.astype(bool)]
+        lines.append(f"| {family} | {kind} | {effect} | {len(part)} | {_fmt(part.top1)} | {_fmt(with_gap.top1)} | "
+                     f"{part.named.mean():.2f} | {_fmt(part.region_iou)} | {part.gap_detected.astype(bool).mean():.2f} |")
     return "\n".join(lines) + "\n"
 
 
