@@ -78,7 +78,15 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     rate,
 )
-from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, permutations_can_reject, window_dictionary
+from svrqp.gap.windows import (
+    LOCAL_MARGIN,
+    collinear,
+    exchange_run_levels,
+    indicator_columns,
+    local_columns,
+    permutations_can_reject,
+    window_dictionary,
+)
 
 TRANSFORMS = ("level", "rate", "lag", "local")
 """Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
@@ -167,6 +175,9 @@ class Ranked:
         ``{"column": ORDER, "low": …, "high": …}``: the window of the order axis chosen most often
         over the fits (``local``).
     note : str or None
+    beyond_window : float or None
+        Transfer gain of a ``local`` effect over its window's indicator alone (the nested null of
+        :mod:`svrqp.gap.windows`, the window chosen inside each fit there too); None for a global one.
     """
 
     effect: Effect
@@ -179,10 +190,16 @@ class Ranked:
     tested: bool = False
     ambiguous: bool = False
     region: dict | None = None
+    beyond_window: float | None = None
+
+    @property
+    def above_floor(self) -> bool:
+        """Its transfer gain reaches the effect floor (a ``local`` effect's also beyond its window alone)."""
+        return self.gain >= MIN_GAIN and (self.beyond_window is None or self.beyond_window >= MIN_GAIN)
 
     @property
     def significant(self) -> bool:
-        return self.q_value < ALPHA and self.gain >= MIN_GAIN
+        return self.q_value < ALPHA and self.above_floor
 
 
 @dataclass
@@ -226,6 +243,7 @@ class TransferRanker:
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
         self.windows = window_dictionary(data.t, family.units.code, data.groups) if local else np.zeros((0, 2))
+        self._window_alone: dict[bytes, float] = {}
 
     # -- effects ------------------------------------------------------------------------
 
@@ -300,6 +318,15 @@ class TransferRanker:
             known = known & np.isfinite(given).all(axis=1)
         return self.family.errors(E, variants, known)
 
+    def window_alone(self, known: np.ndarray) -> float:
+        """SSE of the refit with a window's indicator alone on the rows ``known`` (each fit choosing its window)."""
+        key = np.packbits(known).tobytes()
+        if key not in self._window_alone:
+            W, variants = indicator_columns(self.data.t, self.windows)
+            fit = self.family.errors(np.where(known[:, None], W, np.nan), variants, known)
+            self._window_alone[key] = float(fit.errors @ fit.errors)
+        return self._window_alone[key]
+
     def gain(self, fit: TransferFit, reference: float | None = None) -> float:
         """Transfer gain of a fit against the refit (or against ``reference``, an SSE)."""
         base = self.sse_refit if reference is None else reference
@@ -313,6 +340,8 @@ class TransferRanker:
         for effect in self.effects():
             fit = self.fit(effect)
             row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
+            if effect.windows is not None:  # what the candidate buys beyond its window's own offset
+                row.beyond_window = self.gain(fit, self.window_alone(np.isfinite(self.columns(effect)[0]).all(axis=1)))
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
@@ -320,6 +349,9 @@ class TransferRanker:
             if row.region is not None and self._collinear(row):
                 row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
                             "the refits keep the minimum-norm solution")
+            elif row.beyond_window is not None and row.beyond_window < MIN_GAIN:
+                row.note = (f"the window's own offset transfers about as well: the column adds "
+                            f"{1 - np.sqrt(max(1 - row.beyond_window, 0.0)):.0%} beyond it (below the effect floor)")
         return sorted(best.values(), key=lambda r: -r.gain)
 
     def _collinear(self, row: Ranked) -> bool:
@@ -379,6 +411,8 @@ class TransferRanker:
         for rows in rotated_rows(groups, offsets):
             xs = x.copy()
             xs[known] = x[known][rows]
+            if effect.windows is not None:  # a local form: its run levels are exchanged as well
+                xs[known] = exchange_run_levels(xs[known], groups, rng)
             out.append(xs)
         return out
 
@@ -429,7 +463,7 @@ class TransferRanker:
         :data:`STOP_EXCEEDANCES` exceedances, when Benjamini–Hochberg over every column already
         rejects it (a p-value after a fixed number of draws stays valid), or at the last stage.
         """
-        tested = [r for r in ranked if r.gain >= MIN_GAIN][:MAX_TESTED]
+        tested = [r for r in ranked if r.above_floor][:MAX_TESTED]
         sampled = []
         for row in tested:
             orders = self.orderings(row.effect)

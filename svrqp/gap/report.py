@@ -50,7 +50,10 @@ class Cause:
     model fitted on the real rows themselves (:mod:`svrqp.gap.attribute`): what a per-run
     recalibration would remove, never a transfer number. ``family`` names the model family the
     transfer numbers were refitted with (:mod:`svrqp.gap.kernel_transfer`): the baseline's own, or
-    ``"linear"`` for the causes only the linear screen refitted.
+    ``"linear"`` for the causes only the linear screen refitted. ``shrink_beyond_window`` (a
+    ``local`` cause only) is ``1 - rmse_after / rmse_window`` by the linear screen, ``rmse_window``
+    the refit with the window's indicator alone (:mod:`svrqp.gap.windows`): what the column adds
+    beyond the window's own offset.
     """
 
     column: str
@@ -79,6 +82,7 @@ class Cause:
     within_shrink_ci: tuple[float, float] | None = None
     family: str = "linear"
     region: dict[str, Any] | None = None
+    shrink_beyond_window: float | None = None
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,26 @@ dictionary (:func:`window_dictionary`) of tiles of the order axis, of widths
 :mod:`svrqp.gap.transfer` keeps the window with the smallest squared error on its own rows
 (one *variant* per window, as the ``lag`` transform keeps its time constant), so the window
 is chosen out of sample, and every surrogate of the transfer test searches the dictionary
-again: the test pays for the search and a local disturbance that no candidate carries gains
-the window's offset on the observed candidate and its surrogates alike.
+again: the test pays for the search.
+
+Judged beyond the window alone
+    The window's own offset :math:`\mathbb{1}_W` names no column: a local disturbance that no
+    candidate carries gains it with every candidate and every surrogate alike. The nested null of
+    the form is therefore the refit with a window's indicator alone (:func:`indicator_columns`,
+    the window again chosen inside each fit), and a ``local`` cause must transfer better than it
+    by the effect floor (its *gain beyond the window*) to be tested or named; its reported
+    ``shrink`` stays the transfer number of candidate × window.
+
+Surrogates that respect what varies where
+    Inside a window an effect scales with the candidate's value there, which over a few runs is
+    mostly the candidate's level in each run. Rotating the candidate within runs keeps those
+    levels with their runs, so a surrogate keeps the very alignment under test (a reading that
+    sits at one level per run gains as much rotated as observed; a disturbance whose size per
+    run happens to line up with a reading's levels passes). A surrogate of the ``local`` form is
+    rotated within runs *and* has its run means exchanged by a random permutation of the runs
+    (:func:`exchange_run_levels`): under "this candidate carries nothing" its within-run phase
+    and which run holds which level are both arbitrary. A candidate that holds one level per run
+    is permuted across runs only, as for every transform.
 
 What the form costs the other transforms
     The ``local`` form of a candidate that holds one level per run is offered only when a
@@ -45,6 +63,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from svrqp.gap.transforms import group_slices
 
 WINDOW_WIDTHS = (0.05, 0.1, 0.2)
 """Widths of the dictionary's tiles, as fractions of the order axis's range."""
@@ -127,9 +147,34 @@ def collinear(A: np.ndarray, E: np.ndarray) -> bool:
     return bool(s[-1] <= COLLINEAR_RCOND * s[0])
 
 
+def exchange_run_levels(x: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    r"""``x`` with the run means exchanged by a random permutation :math:`\pi` of the runs.
+
+    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: applied to a
+    series already rotated within runs, a surrogate of the ``local`` form's test (module docstring).
+    """
+    slices = group_slices(groups)
+    means = np.array([x[s].mean() for s in slices])
+    shift = means[rng.permutation(len(slices))] - means
+    out = x.copy()
+    for s, d in zip(slices, shift):
+        out[s] += d
+    return out
+
+
 def indicator(t: np.ndarray, low: float, high: float) -> np.ndarray:
     r""":math:`\mathbb{1}_W(t)` of the window ``[low, high]`` (1.0 inside, 0.0 outside)."""
     return ((t >= low) & (t <= high)).astype(float)
+
+
+def indicator_columns(t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    r"""The indicators :math:`\mathbb{1}_{W_k}` of every window alone, and the variants that use them (one each).
+
+    The nested null of the ``local`` form: what the window's own offset buys, which the candidate's
+    slope :math:`x\,\mathbb{1}_W` must beat (module docstring).
+    """
+    W = np.column_stack([indicator(t, low, high) for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
+    return W, [np.array([k]) for k in range(W.shape[1])]
 
 
 def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -149,7 +194,7 @@ def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np
     variants : list of ndarray of int
         Columns ``[2k, 2k + 1]`` of each window.
     """
-    W = np.column_stack([indicator(t, low, high) for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
+    W = indicator_columns(t, windows)[0]
     E = np.empty((t.size, 2 * W.shape[1]))
     E[:, 0::2], E[:, 1::2] = W, x[:, None] * W
     return E, [np.array([2 * k, 2 * k + 1]) for k in range(W.shape[1])]

@@ -13,7 +13,7 @@ from support.benchmark_modules import load_benchmark
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.windows import MIN_REGION_ROWS, collinear, window_dictionary
+from svrqp.gap.windows import MIN_REGION_ROWS, collinear, exchange_run_levels, window_dictionary
 
 PATCH_MM = (20.0, 34.0)
 QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
@@ -68,23 +68,59 @@ def test_the_local_form_is_offered_only_when_asked():
     assert report.to_dict()["settings"]["local"] is False
 
 
-def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
-    df, report = patch
-    cause = next(c for c in report.causes if c.column == report.verdict.column)
-    t, runs = df["x_mm"].to_numpy(), df["run"].to_numpy()
-    y = (df["error_um"] - df["prediction_um"]).to_numpy()
-    x = df["room_C"].to_numpy()
-    windows = window_dictionary(t, runs, runs)
-    designs = [np.column_stack([np.ones(t.size), w, x * w]) for w in ((t >= a) & (t <= b) for a, b in windows)]
+def _leave_one_run_out_rmse(designs: list[np.ndarray], y: np.ndarray, runs: np.ndarray) -> float:
+    """Real-row RMSE of least squares left one run out, each fit keeping the design with the smallest error on its rows."""
     squared = []
     for run in np.unique(runs[runs > 0]):
         test = runs == run
         fits = [(np.linalg.lstsq(D[~test], y[~test], rcond=None)[0], D) for D in designs]
         theta, D = min(fits, key=lambda fit: np.sum((y[~test] - fit[1][~test] @ fit[0]) ** 2))
         squared.append((y[test] - D[test] @ theta) ** 2)
-    reference = float(np.sqrt(np.mean(np.concatenate(squared))))
+    return float(np.sqrt(np.mean(np.concatenate(squared))))
+
+
+def _window_designs(df: pd.DataFrame, with_candidate: bool) -> list[np.ndarray]:
+    """``[1, 1_W, x 1_W]`` (or ``[1, 1_W]``, the window alone) of every window of the dictionary."""
+    t, runs, x = df["x_mm"].to_numpy(), df["run"].to_numpy(), df["room_C"].to_numpy()
+    indicators = [((t >= a) & (t <= b)).astype(float) for a, b in window_dictionary(t, runs, runs)]
+    return [np.column_stack([np.ones(t.size), w] + ([x * w] if with_candidate else [])) for w in indicators]
+
+
+def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
+    df, report = patch
+    cause = next(c for c in report.causes if c.column == report.verdict.column)
+    y, runs = (df["error_um"] - df["prediction_um"]).to_numpy(), df["run"].to_numpy()
+    reference = _leave_one_run_out_rmse(_window_designs(df, True), y, runs)
     assert cause.rmse_after == pytest.approx(reference, rel=1e-9, abs=1e-12)
     assert cause.shrink == pytest.approx(1 - reference / cause.rmse_before, abs=1e-9)
+
+
+def test_a_local_cause_is_judged_beyond_its_window_alone(patch):
+    """``shrink_beyond_window`` = 1 − RMSE with candidate × window / RMSE with the window's indicator alone."""
+    df, report = patch
+    cause = next(c for c in report.causes if c.column == report.verdict.column)
+    y, runs = (df["error_um"] - df["prediction_um"]).to_numpy(), df["run"].to_numpy()
+    alone = _leave_one_run_out_rmse(_window_designs(df, False), y, runs)
+    assert cause.shrink_beyond_window == pytest.approx(1 - cause.rmse_after / alone, abs=1e-9)
+    assert cause.shrink_beyond_window > 0.2  # the patch grows with the room: the window alone leaves a third of it
+    assert all(c.shrink_beyond_window is None for c in report.causes if c.transform != "local")
+
+
+def test_a_local_surrogate_exchanges_the_run_levels_and_keeps_each_run_s_shape():
+    rng = np.random.default_rng(5)
+    groups = np.repeat(np.arange(4), [7, 9, 6, 8])
+    x = rng.normal(size=groups.size) + 10.0 * groups
+    means = lambda v: np.array([v[groups == g].mean() for g in range(4)])
+    draws = np.random.default_rng(1)
+    seen = []
+    for _ in range(60):
+        xs = exchange_run_levels(x, groups, draws)
+        seen.append(np.argsort(np.argsort(means(xs))))  # which of the four levels each run holds
+        assert np.allclose(np.sort(means(xs)), np.sort(means(x)))  # the same levels, in other runs
+        for g in range(4):  # within each run only the level moved
+            rows = groups == g
+            assert np.allclose(xs[rows] - xs[rows].mean(), x[rows] - x[rows].mean())
+    assert all(set(column) == {0, 1, 2, 3} for column in np.array(seen).T)  # every run gets every level
 
 
 def test_a_local_disturbance_no_candidate_carries_gets_no_verdict():
