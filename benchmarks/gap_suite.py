@@ -641,6 +641,8 @@ def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_e
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
               "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run",
               "local": local_everywhere or s.kind in LOCAL_KINDS}
+    if s.kind in LOCAL_KINDS and s.family.startswith("thermal"):  # every thermal localised scenario, nulls included
+        common["local_along"] = [LOCAL_AXIS["speed"]]
     if s.family.endswith("prediction"):
         return diagnose(case.table, GapQuestion(prediction="prediction_um", **common), surrogates=surrogates)
     question = GapQuestion(features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)

@@ -85,6 +85,7 @@ from svrqp.gap.windows import (
     indicator_columns,
     local_columns,
     permutations_can_reject,
+    threshold_dictionary,
     window_dictionary,
 )
 
@@ -146,7 +147,9 @@ class Effect:
     run_level: bool
     block: bool = False
     windows: np.ndarray | None = None
-    """The windows ``[low, high]`` of the order axis searched (``local``, :mod:`svrqp.gap.windows`)."""
+    """The windows ``[low, high]`` searched (``local``, :mod:`svrqp.gap.windows`)."""
+    axis: str | None = None
+    """The column the windows lie along (``local``): the order axis, or a ``local_along`` column."""
 
     @property
     def parameters(self) -> int:
@@ -233,7 +236,8 @@ class TransferRanker:
         Source of the surrogates (the ``local`` form's from a stream spawned from it, which
         leaves this one's draws to the other transforms).
     local : bool
-        Whether the ``local`` form is refitted (:mod:`svrqp.gap.windows`).
+        Whether the ``local`` form is refitted (:mod:`svrqp.gap.windows`): in windows of the
+        order axis, and of every ``data.along`` column.
     """
 
     def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator,
@@ -242,8 +246,14 @@ class TransferRanker:
         self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
-        self.windows = window_dictionary(data.t, family.units.code, data.groups) if local else np.zeros((0, 2))
-        self._window_alone: dict[bytes, float] = {}
+        code = family.units.code
+        self.axes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        """Each axis the ``local`` form's windows lie along: its values on every row and its windows."""
+        if local:
+            self.axes[data.order_name] = (data.t, window_dictionary(data.t, code, data.groups))
+            for name, v in data.along.items():
+                self.axes[name] = (v, threshold_dictionary(v, code, data.groups))
+        self._window_alone: dict[tuple[str, bytes], float] = {}
 
     # -- effects ------------------------------------------------------------------------
 
@@ -259,12 +269,14 @@ class TransferRanker:
                     continue
                 if run_level and transform in ("rate", "lag"):
                     continue  # its rate and lag are zero but for noise
-                if transform == "local" and (not len(self.windows) or (run_level and not testable)):
-                    continue  # no window to try, or run levels too few to permute to significance
+                if transform == "local":
+                    if not (run_level and not testable):  # run levels too few to permute to significance
+                        out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
+                                for axis, (_, windows) in self.axes.items() if len(windows)]
+                    continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level,
-                                  windows=self.windows if transform == "local" else None))
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
         return out
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
@@ -286,7 +298,7 @@ class TransferRanker:
             own = rate(xk, t, groups)[:, None]
             variants = [np.array([0])]
         elif effect.transform == "local":
-            own, variants = local_columns(xk, t, effect.windows)
+            own, variants = local_columns(xk, self.axes[effect.axis][0][known], effect.windows)
         else:
             ell = lag(xk, t, groups, effect.taus) if ell is None else ell
             if effect.column in data.features:
@@ -318,11 +330,12 @@ class TransferRanker:
             known = known & np.isfinite(given).all(axis=1)
         return self.family.errors(E, variants, known)
 
-    def window_alone(self, known: np.ndarray) -> float:
-        """SSE of the refit with a window's indicator alone on the rows ``known`` (each fit choosing its window)."""
-        key = np.packbits(known).tobytes()
+    def window_alone(self, axis: str, known: np.ndarray) -> float:
+        """SSE of the refit with a window's indicator alone along ``axis`` on the rows ``known`` (each fit
+        choosing its window)."""
+        key = (axis, np.packbits(known).tobytes())
         if key not in self._window_alone:
-            W, variants = indicator_columns(self.data.t, self.windows)
+            W, variants = indicator_columns(*self.axes[axis])
             fit = self.family.errors(np.where(known[:, None], W, np.nan), variants, known)
             self._window_alone[key] = float(fit.errors @ fit.errors)
         return self._window_alone[key]
@@ -341,7 +354,8 @@ class TransferRanker:
             fit = self.fit(effect)
             row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
             if effect.windows is not None:  # what the candidate buys beyond its window's own offset
-                row.beyond_window = self.gain(fit, self.window_alone(np.isfinite(self.columns(effect)[0]).all(axis=1)))
+                known = np.isfinite(self.columns(effect)[0]).all(axis=1)
+                row.beyond_window = self.gain(fit, self.window_alone(effect.axis, known))
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
@@ -368,7 +382,7 @@ class TransferRanker:
         if effect.windows is None:
             return None
         low, high = effect.windows[np.bincount(fit.variant, minlength=len(effect.windows)).argmax()]
-        return {"column": self.data.order_name, "low": float(low), "high": float(high)}
+        return {"column": effect.axis, "low": float(low), "high": float(high)}
 
     # -- surrogates ---------------------------------------------------------------------
 

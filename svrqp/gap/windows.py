@@ -46,6 +46,15 @@ What the form costs the other transforms
     testable cause. Its surrogates come from a stream of their own, so offering it leaves the
     Monte-Carlo p-values of the other transforms as they were.
 
+Windows along another column
+    An effect can be confined along a column other than the order axis: a sensor that matters
+    only above a spindle speed acts wherever in the run the speed is high. With
+    ``local_along`` (:class:`svrqp.gap.question.GapQuestion`) the form also tries, for each such
+    column :math:`v`, the windows :math:`\{v \ge q\}` and :math:`\{v \le q\}` at its deciles
+    (:func:`threshold_dictionary`); everything else — the window chosen inside each fit, the
+    search repeated in every surrogate, the window alone as the nested null — is as along the
+    order axis, and the verdict's region names that column.
+
 Limits: the window is one interval of the order axis shared by runs (an effect at the
 end of passes of unequal length is not one interval). A window is tried only where it is a
 stretch of at least two runs' own axis (it lies inside the order range of two groups): on a
@@ -114,6 +123,45 @@ def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> n
             bounds = (float(t[inside].min()), float(t[inside].max()))
             shared = np.sum((ranges[:, 0] <= bounds[0]) & (ranges[:, 1] >= bounds[1]))
             if shared >= 2 and bounds not in seen:
+                seen.add(bounds)
+                out.append(bounds)
+    return np.array(out).reshape(-1, 2)
+
+
+THRESHOLD_QUANTILES = np.linspace(0.1, 0.9, 9)
+"""Levels of a ``local_along`` column (its deciles) above or below which a window along it holds."""
+
+
+def threshold_dictionary(v: np.ndarray, units: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    r"""The windows tried along a ``local_along`` column ``v``, as rows ``[low, high]`` of its values (inclusive).
+
+    An effect confined along a column other than the order axis (a sensor that matters only
+    above a spindle speed) acts where the column is above, or below, a level: the rows with
+    :math:`v \ge q` and those with :math:`v \le q` for each decile :math:`q` of ``v``
+    (:data:`THRESHOLD_QUANTILES`). Each window's bounds are the smallest and largest value it
+    holds; windows holding the same rows are kept once, and one with fewer than
+    :data:`MIN_REGION_ROWS` rows in every unit, with rows in fewer than two units or in fewer
+    than two groups is dropped (the rules of :func:`window_dictionary`).
+
+    Parameters
+    ----------
+    v : ndarray, shape (n,)
+        The column's value on every row.
+    units, groups : ndarray of int, shape (n,)
+        Held-out unit and run of every row.
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+    """
+    out, seen = [], set()
+    for level in np.unique(np.quantile(v, THRESHOLD_QUANTILES)):
+        for inside in (v >= level, v <= level):
+            per_unit = np.unique(units[inside], return_counts=True)[1]
+            if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
+                continue
+            bounds = (float(v[inside].min()), float(v[inside].max()))
+            if np.unique(groups[inside]).size >= 2 and bounds not in seen:
                 seen.add(bounds)
                 out.append(bounds)
     return np.array(out).reshape(-1, 2)

@@ -13,7 +13,13 @@ from support.benchmark_modules import load_benchmark
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.windows import MIN_REGION_ROWS, collinear, exchange_run_levels, window_dictionary
+from svrqp.gap.windows import (
+    MIN_REGION_ROWS,
+    collinear,
+    exchange_run_levels,
+    threshold_dictionary,
+    window_dictionary,
+)
 
 PATCH_MM = (20.0, 34.0)
 QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
@@ -185,3 +191,55 @@ def test_the_real_data_checker_tiles_the_axis_as_the_engine_does(shared):
     mine = checker.windows(table)
     assert len(mine) == len(engine) == (28 if shared else 0)
     assert all(np.array_equal(a, b) for a, b in zip(mine, engine))
+
+
+SPEED_RPM = 6000.0
+
+
+def _speed_runs(seed: int = 4, runs: int = 6) -> pd.DataFrame:
+    """Runs of 120 min whose spindle speed steps between four levels: a sensor ``T1_C`` that adds an error only
+    while the speed is at or above 6000 rpm, wherever in the run that is."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(120.0)
+    tables = []
+    for run in range(runs):
+        speed = np.repeat(rng.permutation([2000.0, 4000.0, 6000.0, 8000.0]), 30)
+        sensor = 20.0 + 3.0 * np.sin(t / 17.0 + run) + rng.normal(0.0, 1.0) + (0.0 if run else -2.0)
+        effect = 1.2 * (sensor - 20.0) * (speed >= SPEED_RPM) if run else 0.0
+        tables.append(pd.DataFrame({
+            "time_min": t, "run": run, "speed_rpm": speed, "T1_C": sensor, "humidity_pct": rng.uniform(30, 60, t.size),
+            "prediction_um": 0.0, "error_um": effect + 0.3 * rng.standard_normal(t.size)}))
+    return pd.concat(tables, ignore_index=True)
+
+
+SPEED_QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
+                  "candidates": ["T1_C", "humidity_pct"], "order": "time_min", "group": "run", "local": True,
+                  "local_along": "speed_rpm"}
+
+
+def test_an_effect_confined_along_another_column_is_named_with_its_region_there():
+    df = _speed_runs()
+    report = diagnose(df, GapQuestion(**SPEED_QUESTION))
+    verdict = report.verdict
+    assert verdict.column == "T1_C" and verdict.transform == "local"
+    assert verdict.region["column"] == "speed_rpm"
+    speed = df["speed_rpm"].to_numpy()
+    assert _iou((verdict.region["low"], verdict.region["high"]), (SPEED_RPM, speed.max()), speed) >= 0.5
+    assert report.where[0].column == "speed_rpm" and "speed_rpm" in report.summary
+    assert report.to_dict()["settings"]["local_along"] == ["speed_rpm"]
+
+
+def test_windows_along_a_column_are_the_rows_above_or_below_its_deciles():
+    v = np.tile(np.repeat([1.0, 2.0, 3.0, 4.0], 10), 3)
+    runs = np.repeat([0, 1, 2], 40)
+    windows = threshold_dictionary(v, runs, runs)
+    assert {tuple(w) for w in windows} == {(1.0, 4.0), (2.0, 4.0), (3.0, 4.0), (4.0, 4.0), (1.0, 1.0), (1.0, 2.0),
+                                           (1.0, 3.0)}
+
+
+@pytest.mark.parametrize(("change", "message"), [({"local": False}, "ask local=True"),
+                                                 ({"local_along": "time_min"}, "order axis"),
+                                                 ({"local_along": "spindle_rpm"}, "spindle_rpm")])
+def test_bad_local_along_is_refused(change, message):
+    with pytest.raises(ProblemError, match=message):
+        diagnose(_speed_runs(runs=3), GapQuestion(**SPEED_QUESTION | change))
