@@ -175,8 +175,8 @@ class Ranked:
     tau : float or None
         The time constant chosen most often over the fits (``lag``).
     region : dict or None
-        ``{"column": ORDER, "low": …, "high": …}``: the window of the order axis chosen most often
-        over the fits (``local``).
+        ``{"column": AXIS, "low": …, "high": …}``: the window (of the order axis or a ``local_along``
+        column) chosen most often over the fits (``local``).
     note : str or None
     beyond_window : float or None
         Transfer gain of a ``local`` effect over its window's indicator alone (the nested null of
@@ -563,7 +563,7 @@ class TransferRanker:
         Its smallest reachable p-value (:meth:`smallest_p`) in place of its own must leave its
         Benjamini–Hochberg q-value at or above :data:`svrqp.gap.attribute.ALPHA` (module docstring).
         """
-        if not ranked or ranked[0].significant or ranked[0].gain < MIN_GAIN:
+        if not ranked or ranked[0].significant or not ranked[0].above_floor:
             return
         best = ranked[0]
         orders = self.orderings(best.effect)
@@ -597,7 +597,7 @@ class TransferRanker:
         for row in ranked:
             if row is top or row.gain <= top.gain:
                 break
-            if row.effect.run_level and row.gain >= MIN_GAIN and not self.adds(top, row):
+            if row.effect.run_level and row.above_floor and not self.adds(top, row):
                 return row
         return None
 

@@ -139,7 +139,8 @@ def threshold_dictionary(v: np.ndarray, units: np.ndarray, groups: np.ndarray) -
     above a spindle speed) acts where the column is above, or below, a level: the rows with
     :math:`v \ge q` and those with :math:`v \le q` for each decile :math:`q` of ``v``
     (:data:`THRESHOLD_QUANTILES`). Each window's bounds are the smallest and largest value it
-    holds; windows holding the same rows are kept once, and one with fewer than
+    holds; windows holding the same rows are kept once, one holding every row (the global form) is
+    not a window, and one with fewer than
     :data:`MIN_REGION_ROWS` rows in every unit, with rows in fewer than two units or in fewer
     than two groups is dropped (the rules of :func:`window_dictionary`).
 
@@ -157,6 +158,8 @@ def threshold_dictionary(v: np.ndarray, units: np.ndarray, groups: np.ndarray) -
     out, seen = [], set()
     for level in np.unique(np.quantile(v, THRESHOLD_QUANTILES)):
         for inside in (v >= level, v <= level):
+            if inside.all():  # every row: the global form, not a window
+                continue
             per_unit = np.unique(units[inside], return_counts=True)[1]
             if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
                 continue
