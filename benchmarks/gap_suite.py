@@ -53,8 +53,10 @@ Scenario families
     acceleration zone scaled by ``accel_mm_s2`` (gantry), a guideway patch scaled by
     ``ambient_C`` and a load bump scaled by ``load_kg`` (axis, 111 positions), and a sensor that
     matters only above a spindle speed (``T1_C`` where ``speed_rpm`` is above a threshold: a stretch
-    of the speed, not of the order axis); the truth is the scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
-    run that no column reads. Scored apart (:func:`summarise_local`): top-1, false attribution,
+    of the speed, not of the order axis); the truth is the scaling column and the stretch. A
+    ``local-null`` is the same stretch with a random size per run that no column reads. Every one is
+    diagnosed with ``GapQuestion(local=True)``, and every thermal one, nulls included, also with
+    ``local_along=["speed_rpm"]`` (windows along the speed as well). Scored apart (:func:`summarise_local`): top-1, false attribution,
     and the row IoU on the real rows of the named stretch (``verdict.region``, else the first
     ``where`` entry on the order axis) with the true one. As for the withheld effects, top-1 is
     counted on the scenarios with a gap (where the effect acts on the train run as much as on the
