@@ -80,13 +80,13 @@ from svrqp.gap.transforms import (
 )
 from svrqp.gap.windows import (
     LOCAL_MARGIN,
-    collinear,
+    WindowAlone,
+    chosen_region,
     exchange_run_levels,
-    indicator_columns,
     local_columns,
+    local_note,
     permutations_can_reject,
-    threshold_dictionary,
-    window_dictionary,
+    window_axes,
 )
 
 TRANSFORMS = ("level", "rate", "lag", "local")
@@ -246,14 +246,8 @@ class TransferRanker:
         self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
-        code = family.units.code
-        self.axes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        """Each axis the ``local`` form's windows lie along: its values on every row and its windows."""
-        if local:
-            self.axes[data.order_name] = (data.t, window_dictionary(data.t, code, data.groups))
-            for name, v in data.along.items():
-                self.axes[name] = (v, threshold_dictionary(v, code, data.groups))
-        self._window_alone: dict[tuple[str, bytes], float] = {}
+        self.axes = window_axes(data, family.units.code) if local else {}
+        self.window_alone = WindowAlone(family, self.axes)
 
     # -- effects ------------------------------------------------------------------------
 
@@ -330,16 +324,6 @@ class TransferRanker:
             known = known & np.isfinite(given).all(axis=1)
         return self.family.errors(E, variants, known)
 
-    def window_alone(self, axis: str, known: np.ndarray) -> float:
-        """SSE of the refit with a window's indicator alone along ``axis`` on the rows ``known`` (each fit
-        choosing its window)."""
-        key = (axis, np.packbits(known).tobytes())
-        if key not in self._window_alone:
-            W, variants = indicator_columns(*self.axes[axis])
-            fit = self.family.errors(np.where(known[:, None], W, np.nan), variants, known)
-            self._window_alone[key] = float(fit.errors @ fit.errors)
-        return self._window_alone[key]
-
     def gain(self, fit: TransferFit, reference: float | None = None) -> float:
         """Transfer gain of a fit against the refit (or against ``reference``, an SSE)."""
         base = self.sse_refit if reference is None else reference
@@ -354,24 +338,15 @@ class TransferRanker:
             fit = self.fit(effect)
             row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
             if effect.windows is not None:  # what the candidate buys beyond its window's own offset
-                known = np.isfinite(self.columns(effect)[0]).all(axis=1)
-                row.beyond_window = self.gain(fit, self.window_alone(effect.axis, known))
+                row.beyond_window = self.gain(fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
         for row in best.values():
-            if row.region is not None and self._collinear(row):
-                row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
-                            "the refits keep the minimum-norm solution")
-            elif row.beyond_window is not None and row.beyond_window < MIN_GAIN:
-                row.note = (f"the window's own offset transfers about as well: the column adds "
-                            f"{1 - np.sqrt(max(1 - row.beyond_window, 0.0)):.0%} beyond it (below the effect floor)")
+            if row.region is not None:  # the window it chose most: collinear with the design, or no better alone
+                E, _, known = self.columns(_fixed(row))
+                row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
         return sorted(best.values(), key=lambda r: -r.gain)
-
-    def _collinear(self, row: Ranked) -> bool:
-        """Whether the window a ``local`` row chose most is collinear with the family's design (:func:`collinear`)."""
-        E, _, known = self.columns(_fixed(row))
-        return collinear(self.family.A[known], E[known])
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
         if effect.taus is None:
@@ -379,10 +354,7 @@ class TransferRanker:
         return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
 
     def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
-        if effect.windows is None:
-            return None
-        low, high = effect.windows[np.bincount(fit.variant, minlength=len(effect.windows)).argmax()]
-        return {"column": effect.axis, "low": float(low), "high": float(high)}
+        return None if effect.windows is None else chosen_region(effect.windows, effect.axis, fit.variant)
 
     # -- surrogates ---------------------------------------------------------------------
 

@@ -73,6 +73,8 @@ import math
 
 import numpy as np
 
+from svrqp.gap.prepare import GapData
+from svrqp.gap.transfer import LinearTransfer
 from svrqp.gap.transforms import group_slices
 
 WINDOW_WIDTHS = (0.05, 0.1, 0.2)
@@ -249,3 +251,64 @@ def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np
     E = np.empty((t.size, 2 * W.shape[1]))
     E[:, 0::2], E[:, 1::2] = W, x[:, None] * W
     return E, [np.array([2 * k, 2 * k + 1]) for k in range(W.shape[1])]
+
+
+def window_axes(data: GapData, code: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each axis the ``local`` form's windows lie along, with its values on every row and its windows: the
+    order axis (:func:`window_dictionary`) and every ``local_along`` column (:func:`threshold_dictionary`).
+
+    ``code`` is the held-out unit of every row.
+    """
+    axes = {data.order_name: (data.t, window_dictionary(data.t, code, data.groups))}
+    axes.update({name: (v, threshold_dictionary(v, code, data.groups)) for name, v in data.along.items()})
+    return axes
+
+
+class WindowAlone:
+    """The ``local`` form's nested null: SSE of the leave-one-unit-out refit with a window's indicator alone
+    (:func:`indicator_columns`, the window chosen inside each fit), per axis and rows known, computed once.
+
+    Parameters
+    ----------
+    family : LinearTransfer
+        The family's refits.
+    axes : dict
+        :func:`window_axes`.
+    """
+
+    def __init__(self, family: LinearTransfer, axes: dict[str, tuple[np.ndarray, np.ndarray]]):
+        self.family, self.axes = family, axes
+        self._sse: dict[tuple[str, bytes], float] = {}
+
+    def sse(self, axis: str, known: np.ndarray) -> float:
+        """SSE on the real rows with the windows along ``axis`` alone, fitted on the rows ``known``."""
+        key = (axis, np.packbits(known).tobytes())
+        if key not in self._sse:
+            W, variants = indicator_columns(*self.axes[axis])
+            fit = self.family.errors(np.where(known[:, None], W, np.nan), variants, known)
+            self._sse[key] = float(fit.errors @ fit.errors)
+        return self._sse[key]
+
+
+def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
+    """``{"column": axis, "low": …, "high": …}``: the window the leave-one-unit-out fits chose most (``variant``:
+    each fit's window)."""
+    low, high = windows[np.bincount(variant, minlength=len(windows)).argmax()]
+    return {"column": axis, "low": float(low), "high": float(high)}
+
+
+def local_note(A: np.ndarray, E: np.ndarray, beyond_window: float, floor: float) -> str | None:
+    """The causes table's note on a ``local`` cause, from its chosen window's columns ``E`` on the rows fitted.
+
+    Either they are collinear with the family's design ``A`` (:func:`collinear`: the refits keep the
+    minimum-norm solution), or the cause's gain beyond its window alone is below the effect ``floor``
+    (the window's own offset transfers about as well); else None.
+    """
+    if collinear(A, E):
+        return ("its window's columns are collinear with the model's own inputs on the rows fitted: "
+                "the refits keep the minimum-norm solution")
+    if beyond_window < floor:
+        shrink = 1 - np.sqrt(max(1 - beyond_window, 0.0))
+        return (f"the window's own offset transfers about as well: the column adds {shrink:.0%} beyond it "
+                "(below the effect floor)")
+    return None
