@@ -53,10 +53,15 @@ Scenario families
     acceleration zone scaled by ``accel_mm_s2`` (gantry), a guideway patch scaled by
     ``ambient_C`` and a load bump scaled by ``load_kg`` (axis, 111 positions), and a sensor that
     matters only above a spindle speed (``T1_C`` where ``speed_rpm`` is above a threshold: a stretch
-    of the speed, not of the order axis); the truth is the scaling column and the stretch. A ``local-null`` is the same stretch with a random size per
-    run that no column reads. Scored apart (:func:`summarise_local`): top-1, false attribution,
+    of the speed, not of the order axis); the truth is the scaling column and the stretch. A
+    ``local-null`` is the same stretch with a random size per run that no column reads. Every one is
+    diagnosed with ``GapQuestion(local=True)``, and every thermal one, nulls included, also with
+    ``local_along=["speed_rpm"]`` (windows along the speed as well). Scored apart (:func:`summarise_local`): top-1, false attribution,
     and the row IoU on the real rows of the named stretch (``verdict.region``, else the first
-    ``where`` entry on the order axis) with the true one.
+    ``where`` entry on the order axis) with the true one. As for the withheld effects, top-1 is
+    counted on the scenarios with a gap (where the effect acts on the train run as much as on the
+    real ones, no culprit is the answer; those are counted apart), with top-1 over all of them for
+    reference.
 
 Runs use random speed/duty programmes and seasons (train runs in summer), varied record
 length, signal-to-noise ratio and white or AR(1) noise (φ = 0.8). The SNR is the std of the
@@ -638,6 +643,8 @@ def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_e
     common = {"target": "error_um", "train": train_query(s), "candidates": list(case.candidates),
               "order": ORDER[s.family.split("/")[0]], "group": None if s.continuous else "run",
               "local": local_everywhere or s.kind in LOCAL_KINDS}
+    if s.kind in LOCAL_KINDS and s.family.startswith("thermal"):  # every thermal localised scenario, nulls included
+        common["local_along"] = [LOCAL_AXIS["speed"]]
     if s.family.endswith("prediction"):
         return diagnose(case.table, GapQuestion(prediction="prediction_um", **common), surrogates=surrogates)
     question = GapQuestion(features=[c for c in NODE_SENSORS if c != s.effect], model=s.model, **common)
@@ -831,9 +838,15 @@ def summarise_local(rows: pd.DataFrame) -> str:
     top1 = local.top1.astype(bool)
     gap = local[local.gap_detected.astype(bool)]
     correct_iou = pd.to_numeric(local[top1].region_iou, errors="coerce")
+    # As the main table: where the real rows fit no worse than the train rows (the effect acts on the train run
+    # too), naming no culprit is the answer; those are counted apart and the target row is over the rest.
     metric = {
-        "top-1 accuracy (local, truth named)": (top1.mean(), "≥ 0.85"),
-        "top-1 accuracy (local with a gap)": (gap.top1.astype(bool).mean(), ""),
+        "local with no gap (real rows no worse than train rows: no culprit is the answer)":
+            ((~local.gap_detected.astype(bool)).mean(), ""),
+        "top-1 accuracy, DESIGN §4 rule (local with a gap)": (gap.top1_rule.astype(bool).mean(), "≥ 0.85"),
+        "top-1 accuracy, truth named (local with a gap)": (gap.top1.astype(bool).mean(), ""),
+        "top-1 accuracy, truth named (all local, for reference)": (top1.mean(), ""),
+        "named where there is no gap (local)": (local[~local.gap_detected.astype(bool)].named.mean(), ""),
         "no verdict (local)": ((~local.named).mean(), ""),
         "decoy named (local, wrong column)": ((local.named & ~top1).mean(), ""),
         "false attribution (local nulls)": (nulls.named.mean(), "≤ 0.05"),
@@ -846,12 +859,13 @@ def summarise_local(rows: pd.DataFrame) -> str:
     lines = ["", f"## Localised effects ({len(local)} local withheld, {len(nulls)} local nulls)", "",
              "| metric | value | target |", "|---|---|---|"]
     lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
-    lines += ["", "| family | kind | effect | n | top-1 | named | region IoU (named stretch) | gap detected |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += ["", "| family | kind | effect | n | top-1 | top-1 (with a gap) | named | region IoU (named stretch) "
+              "| gap detected |", "|---|---|---|---|---|---|---|---|---|"]
     part_rows = rows[rows.kind.isin(LOCAL_KINDS)]
     for (family, kind, effect), part in part_rows.groupby(["family", "kind", part_rows.effect.fillna("–")]):
-        lines.append(f"| {family} | {kind} | {effect} | {len(part)} | {_fmt(part.top1)} | {part.named.mean():.2f} | "
-                     f"{_fmt(part.region_iou)} | {part.gap_detected.astype(bool).mean():.2f} |")
+        with_gap = part[part.gap_detected.astype(bool)]
+        lines.append(f"| {family} | {kind} | {effect} | {len(part)} | {_fmt(part.top1)} | {_fmt(with_gap.top1)} | "
+                     f"{part.named.mean():.2f} | {_fmt(part.region_iou)} | {part.gap_detected.astype(bool).mean():.2f} |")
     return "\n".join(lines) + "\n"
 
 

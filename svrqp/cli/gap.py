@@ -7,10 +7,11 @@
               --candidates COL[,COL…] [--order COL] [--group COL]
               --json OUT.json [--report OUT.html]
 
-``--seed``, ``--surrogates``, ``--local`` and ``--force`` are additions: the seed of the surrogates
-and bootstrap, how the significance tests draw surrogates (:mod:`svrqp.gap.surrogate_tests`), the
-localised form of every candidate (:mod:`svrqp.gap.windows`), and permission to overwrite existing
-output files.
+``--seed``, ``--surrogates``, ``--local``, ``--local-along`` and ``--force`` are additions: the seed
+of the surrogates and bootstrap, how the significance tests draw surrogates
+(:mod:`svrqp.gap.surrogate_tests`), the localised form of every candidate and the columns other than
+the order axis its windows may lie along (:mod:`svrqp.gap.windows`), and permission to overwrite
+existing output files.
 """
 
 from __future__ import annotations
@@ -65,6 +66,9 @@ def gap(
     local: bool = typer.Option(
         False, "--local", help="Also try each candidate acting in one window of the --order axis only (a start-up "
         "transient, an acceleration zone, a guideway patch) and name the window."),
+    local_along: str = typer.Option(
+        None, "--local-along", help="With --local, also try windows along these columns, comma-separated: the rows "
+        "above or below one of the column's deciles (a sensor that matters only above a spindle speed)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
 ) -> None:
     """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
@@ -95,6 +99,7 @@ def gap(
             group=_one(group, table, "--group"),
             model=model or "mlr",
             local=local,
+            local_along=split_columns(local_along, table, "--local-along") or None,
         )
         result = diagnose(
             table,

@@ -157,6 +157,12 @@ def transform_columns(
     return ell, (None if column in data.features else x)
 
 
+def region_axis(data: GapData, region: dict) -> np.ndarray:
+    """Values, on every row, of the column a ``local`` effect's ``region`` lies along (the order axis or a
+    ``local_along`` column)."""
+    return data.t if region["column"] == data.order_name else data.along[region["column"]]
+
+
 def effect_columns(data: GapData, column: str, transform: str, tau: float | None, evidence: str,
                    region: dict | None = None) -> np.ndarray:
     r"""Raw columns of one effect on every row — what a refit of the model adds as inputs.
@@ -167,7 +173,7 @@ def effect_columns(data: GapData, column: str, transform: str, tau: float | None
     """
     if region is not None:
         x = data.C[:, data.candidates.index(column)]
-        return local_columns(x, data.t, np.array([[region["low"], region["high"]]]))[0]
+        return local_columns(x, region_axis(data, region), np.array([[region["low"], region["high"]]]))[0]
     if evidence == EVIDENCE_BETWEEN:
         return run_level_columns(data.C[:, data.candidates.index(column)], data.t, data.groups)
     own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))

@@ -55,6 +55,7 @@ from svrqp.gap.blocks import blocked_folds
 from svrqp.gap.candidates import (
     build_banks,
     constant_on_real_rows,
+    region_axis,
     untestable_between_runs,
 )
 from svrqp.gap.figures import Series
@@ -159,11 +160,11 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
         findings = _search_causes(problem, taus, context, seed, report_progress, question.local)
     report_progress("reporting", 0.98)
     if findings.verdict.region is not None:  # a local verdict: where it acts comes first
-        where = [region_of(data.t[real], r, findings.verdict.region), *where]
+        where = [region_of(region_axis(data, findings.verdict.region)[real], r, findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
                 "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
-                "local": question.local}
+                "local": question.local, "local_along": list(data.along)}
     report = _report(context, question, where, findings, summary(context, findings.verdict, exact), settings)
     report.runtime_s = time.perf_counter() - started
     report_progress("done", 1.0)
@@ -311,7 +312,8 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
-            region=row.region,
+            region=row.region, shrink_beyond_window=None if row.beyond_window is None
+            else 1 - float(np.sqrt(max(1 - row.beyond_window, 0.0))),
         ))
         errors_after[effect.column] = after
     return causes, errors_after

@@ -197,7 +197,7 @@ def _region(column: str, u: np.ndarray, e2: np.ndarray, inside: np.ndarray, held
 
 def region_of(t: np.ndarray, e: np.ndarray, region: dict) -> Region:
     """The ``where`` entry of a local verdict's stretch ``region`` (``{"column", "low", "high"}``) of the
-    order axis, on the real rows (order values ``t``, residual ``e``).
+    order axis or a ``local_along`` column, on the real rows (that column's values ``t``, residual ``e``).
 
     Its enrichment is in sample (the stretch was chosen by the transfer refits, not by an error tree).
     """

@@ -22,7 +22,7 @@ Rows are returned sorted by group (in order of first appearance) and by order wi
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -101,6 +101,8 @@ class GapData:
     row_index: np.ndarray
     n_dropped: int
     n_dropped_short_groups: int
+    along: dict[str, np.ndarray] = field(default_factory=dict)
+    """Values of the ``local_along`` columns (:class:`svrqp.gap.question.GapQuestion`) on the rows."""
 
     @property
     def is_real(self) -> np.ndarray:
@@ -146,9 +148,11 @@ def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
     if not isinstance(df, pd.DataFrame):
         raise ProblemError("df: expected a pandas DataFrame")
     features, candidates = _as_list(question.features), _as_list(question.candidates)
+    along = _as_list(question.local_along)
     _check_columns(df, question, features, candidates)
+    _check_along(df, question, along)
     # Needed on every row; candidates only on the real rows (module docstring).
-    every_row = [question.target, *features] + ([question.prediction] if question.prediction else [])
+    every_row = [question.target, *features, *along] + ([question.prediction] if question.prediction else [])
     if question.order is not None:
         every_row.append(question.order)
     is_train = _train_mask(df, question.train)
@@ -184,7 +188,22 @@ def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
         row_index=table.index.to_numpy(),
         n_dropped=int((~keep).sum()),
         n_dropped_short_groups=int((~long_enough).sum()),
+        along={name: table[name].astype(float).to_numpy() for name in along},
     )
+
+
+def _check_along(df: pd.DataFrame, question: GapQuestion, along: list[str]) -> None:
+    """Raise :class:`ProblemError` for ``local_along`` without ``local``, or a missing or non-numeric column."""
+    if not along:
+        return
+    if not question.local:
+        raise ProblemError("local_along: windows along a column are a part of the local form; ask local=True too")
+    if question.order is not None and question.order in along:
+        raise ProblemError(f"local_along: {question.order!r} is the order axis, whose windows the local form tries")
+    if len(set(along)) != len(along):
+        raise ProblemError("local_along: a column is listed twice")
+    check_present(df, along, "local_along")
+    check_numeric(df, along, "local_along")
 
 
 def _check_columns(df: pd.DataFrame, question: GapQuestion, features: list[str], candidates: list[str]) -> None:

@@ -39,6 +39,10 @@ class GapQuestion:
         ``order`` axis only (:mod:`svrqp.gap.windows`), and name that window with a verdict.
         Off by default: offered to every diagnosis it changes some borderline verdicts of
         global effects (docs/gap.md, "Localised effects").
+    local_along : str or list of str, optional
+        With ``local``, columns along which the ``local`` form also tries windows: the rows where
+        the column is above, or below, one of its deciles (a sensor that matters only above a
+        spindle speed). A string is split at commas.
     """
 
     target: str
@@ -50,3 +54,4 @@ class GapQuestion:
     group: str | None = None
     model: str = "mlr"
     local: bool = False
+    local_along: str | list[str] | None = None

@@ -78,7 +78,16 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     rate,
 )
-from svrqp.gap.windows import LOCAL_MARGIN, collinear, local_columns, permutations_can_reject, window_dictionary
+from svrqp.gap.windows import (
+    LOCAL_MARGIN,
+    WindowAlone,
+    chosen_region,
+    exchange_run_levels,
+    local_columns,
+    local_note,
+    permutations_can_reject,
+    window_axes,
+)
 
 TRANSFORMS = ("level", "rate", "lag", "local")
 """Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
@@ -138,7 +147,9 @@ class Effect:
     run_level: bool
     block: bool = False
     windows: np.ndarray | None = None
-    """The windows ``[low, high]`` of the order axis searched (``local``, :mod:`svrqp.gap.windows`)."""
+    """The windows ``[low, high]`` searched (``local``, :mod:`svrqp.gap.windows`)."""
+    axis: str | None = None
+    """The column the windows lie along (``local``): the order axis, or a ``local_along`` column."""
 
     @property
     def parameters(self) -> int:
@@ -164,9 +175,12 @@ class Ranked:
     tau : float or None
         The time constant chosen most often over the fits (``lag``).
     region : dict or None
-        ``{"column": ORDER, "low": …, "high": …}``: the window of the order axis chosen most often
-        over the fits (``local``).
+        ``{"column": AXIS, "low": …, "high": …}``: the window (of the order axis or a ``local_along``
+        column) chosen most often over the fits (``local``).
     note : str or None
+    beyond_window : float or None
+        Transfer gain of a ``local`` effect over its window's indicator alone (the nested null of
+        :mod:`svrqp.gap.windows`, the window chosen inside each fit there too); None for a global one.
     """
 
     effect: Effect
@@ -179,10 +193,16 @@ class Ranked:
     tested: bool = False
     ambiguous: bool = False
     region: dict | None = None
+    beyond_window: float | None = None
+
+    @property
+    def above_floor(self) -> bool:
+        """Its transfer gain reaches the effect floor (a ``local`` effect's also beyond its window alone)."""
+        return self.gain >= MIN_GAIN and (self.beyond_window is None or self.beyond_window >= MIN_GAIN)
 
     @property
     def significant(self) -> bool:
-        return self.q_value < ALPHA and self.gain >= MIN_GAIN
+        return self.q_value < ALPHA and self.above_floor
 
 
 @dataclass
@@ -216,7 +236,8 @@ class TransferRanker:
         Source of the surrogates (the ``local`` form's from a stream spawned from it, which
         leaves this one's draws to the other transforms).
     local : bool
-        Whether the ``local`` form is refitted (:mod:`svrqp.gap.windows`).
+        Whether the ``local`` form is refitted (:mod:`svrqp.gap.windows`): in windows of the
+        order axis, and of every ``data.along`` column.
     """
 
     def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator,
@@ -225,7 +246,8 @@ class TransferRanker:
         self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
-        self.windows = window_dictionary(data.t, family.units.code, data.groups) if local else np.zeros((0, 2))
+        self.axes = window_axes(data, family.units.code) if local else {}
+        self.window_alone = WindowAlone(family, self.axes)
 
     # -- effects ------------------------------------------------------------------------
 
@@ -241,12 +263,14 @@ class TransferRanker:
                     continue
                 if run_level and transform in ("rate", "lag"):
                     continue  # its rate and lag are zero but for noise
-                if transform == "local" and (not len(self.windows) or (run_level and not testable)):
-                    continue  # no window to try, or run levels too few to permute to significance
+                if transform == "local":
+                    if not (run_level and not testable):  # run levels too few to permute to significance
+                        out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
+                                for axis, (_, windows) in self.axes.items() if len(windows)]
+                    continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level,
-                                  windows=self.windows if transform == "local" else None))
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level))
         return out
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
@@ -268,7 +292,7 @@ class TransferRanker:
             own = rate(xk, t, groups)[:, None]
             variants = [np.array([0])]
         elif effect.transform == "local":
-            own, variants = local_columns(xk, t, effect.windows)
+            own, variants = local_columns(xk, self.axes[effect.axis][0][known], effect.windows)
         else:
             ell = lag(xk, t, groups, effect.taus) if ell is None else ell
             if effect.column in data.features:
@@ -313,19 +337,16 @@ class TransferRanker:
         for effect in self.effects():
             fit = self.fit(effect)
             row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
+            if effect.windows is not None:  # what the candidate buys beyond its window's own offset
+                row.beyond_window = self.gain(fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
         for row in best.values():
-            if row.region is not None and self._collinear(row):
-                row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
-                            "the refits keep the minimum-norm solution")
+            if row.region is not None:  # the window it chose most: collinear with the design, or no better alone
+                E, _, known = self.columns(_fixed(row))
+                row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
         return sorted(best.values(), key=lambda r: -r.gain)
-
-    def _collinear(self, row: Ranked) -> bool:
-        """Whether the window a ``local`` row chose most is collinear with the family's design (:func:`collinear`)."""
-        E, _, known = self.columns(_fixed(row))
-        return collinear(self.family.A[known], E[known])
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
         if effect.taus is None:
@@ -333,10 +354,7 @@ class TransferRanker:
         return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
 
     def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
-        if effect.windows is None:
-            return None
-        low, high = effect.windows[np.bincount(fit.variant, minlength=len(effect.windows)).argmax()]
-        return {"column": self.data.order_name, "low": float(low), "high": float(high)}
+        return None if effect.windows is None else chosen_region(effect.windows, effect.axis, fit.variant)
 
     # -- surrogates ---------------------------------------------------------------------
 
@@ -379,6 +397,8 @@ class TransferRanker:
         for rows in rotated_rows(groups, offsets):
             xs = x.copy()
             xs[known] = x[known][rows]
+            if effect.windows is not None:  # a local form: its run levels are exchanged as well
+                xs[known] = exchange_run_levels(xs[known], groups, rng)
             out.append(xs)
         return out
 
@@ -429,7 +449,7 @@ class TransferRanker:
         :data:`STOP_EXCEEDANCES` exceedances, when Benjamini–Hochberg over every column already
         rejects it (a p-value after a fixed number of draws stays valid), or at the last stage.
         """
-        tested = [r for r in ranked if r.gain >= MIN_GAIN][:MAX_TESTED]
+        tested = [r for r in ranked if r.above_floor][:MAX_TESTED]
         sampled = []
         for row in tested:
             orders = self.orderings(row.effect)
@@ -515,7 +535,7 @@ class TransferRanker:
         Its smallest reachable p-value (:meth:`smallest_p`) in place of its own must leave its
         Benjamini–Hochberg q-value at or above :data:`svrqp.gap.attribute.ALPHA` (module docstring).
         """
-        if not ranked or ranked[0].significant or ranked[0].gain < MIN_GAIN:
+        if not ranked or ranked[0].significant or not ranked[0].above_floor:
             return
         best = ranked[0]
         orders = self.orderings(best.effect)
@@ -549,7 +569,7 @@ class TransferRanker:
         for row in ranked:
             if row is top or row.gain <= top.gain:
                 break
-            if row.effect.run_level and row.gain >= MIN_GAIN and not self.adds(top, row):
+            if row.effect.run_level and row.above_floor and not self.adds(top, row):
                 return row
         return None
 

@@ -50,7 +50,10 @@ class Cause:
     model fitted on the real rows themselves (:mod:`svrqp.gap.attribute`): what a per-run
     recalibration would remove, never a transfer number. ``family`` names the model family the
     transfer numbers were refitted with (:mod:`svrqp.gap.kernel_transfer`): the baseline's own, or
-    ``"linear"`` for the causes only the linear screen refitted.
+    ``"linear"`` for the causes only the linear screen refitted. ``shrink_beyond_window`` (a
+    ``local`` cause only) is ``1 - rmse_after / rmse_window`` by the linear screen, ``rmse_window``
+    the refit with the window's indicator alone (:mod:`svrqp.gap.windows`): what the column adds
+    beyond the window's own offset.
     """
 
     column: str
@@ -79,6 +82,7 @@ class Cause:
     within_shrink_ci: tuple[float, float] | None = None
     family: str = "linear"
     region: dict[str, Any] | None = None
+    shrink_beyond_window: float | None = None
 
 
 @dataclass(frozen=True)
@@ -106,8 +110,8 @@ class Verdict:
     """A run-level column that transfers best but that too few runs can never make significant
     (:attr:`svrqp.gap.ranking.Ranking.too_thin`)."""
     region: dict[str, Any] | None = None
-    """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis a ``local`` effect acts in
-    (:mod:`svrqp.gap.windows`); None for a global effect."""
+    """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis (or of a ``local_along``
+    column) a ``local`` effect acts in (:mod:`svrqp.gap.windows`); None for a global effect."""
 
 
 @dataclass(frozen=True)
@@ -251,9 +255,10 @@ class GapReport:
     def _figures(self) -> dict[str, bytes]:
         figures = {"gap": gap_figure(self.series, self._order_regions())}
         if self.verdict.column is not None and self.series.after is not None:
-            region = self.verdict.region
+            region = self.verdict.region  # shaded where it is a stretch of the figure's axis, the order axis
+            along_order = region is not None and region["column"] == self.order
             figures["before_after"] = before_after_figure(self.series, _effect_name(self.verdict),
-                                                          None if region is None else (region["low"], region["high"]))
+                                                          (region["low"], region["high"]) if along_order else None)
         return figures
 
     def tables(self) -> dict[str, tuple[list[str], list[list[str]]]]:

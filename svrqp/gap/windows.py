@@ -15,8 +15,26 @@ dictionary (:func:`window_dictionary`) of tiles of the order axis, of widths
 :mod:`svrqp.gap.transfer` keeps the window with the smallest squared error on its own rows
 (one *variant* per window, as the ``lag`` transform keeps its time constant), so the window
 is chosen out of sample, and every surrogate of the transfer test searches the dictionary
-again: the test pays for the search and a local disturbance that no candidate carries gains
-the window's offset on the observed candidate and its surrogates alike.
+again: the test pays for the search.
+
+Judged beyond the window alone
+    The window's own offset :math:`\mathbb{1}_W` names no column: a local disturbance that no
+    candidate carries gains it with every candidate and every surrogate alike. The nested null of
+    the form is therefore the refit with a window's indicator alone (:func:`indicator_columns`,
+    the window again chosen inside each fit), and a ``local`` cause must transfer better than it
+    by the effect floor (its *gain beyond the window*) to be tested or named; its reported
+    ``shrink`` stays the transfer number of candidate × window.
+
+Surrogates that respect what varies where
+    Inside a window an effect scales with the candidate's value there, which over a few runs is
+    mostly the candidate's level in each run. Rotating the candidate within runs keeps those
+    levels with their runs, so a surrogate keeps the very alignment under test (a reading that
+    sits at one level per run gains as much rotated as observed; a disturbance whose size per
+    run happens to line up with a reading's levels passes). A surrogate of the ``local`` form is
+    rotated within runs *and* has its run means exchanged by a random permutation of the runs
+    (:func:`exchange_run_levels`): under "this candidate carries nothing" its within-run phase
+    and which run holds which level are both arbitrary. A candidate that holds one level per run
+    is permuted across runs only, as for every transform.
 
 What the form costs the other transforms
     The ``local`` form of a candidate that holds one level per run is offered only when a
@@ -27,6 +45,15 @@ What the form costs the other transforms
     :math:`\alpha = 0.05`, six runs for up to 36). An untestable form could only shadow a
     testable cause. Its surrogates come from a stream of their own, so offering it leaves the
     Monte-Carlo p-values of the other transforms as they were.
+
+Windows along another column
+    An effect can be confined along a column other than the order axis: a sensor that matters
+    only above a spindle speed acts wherever in the run the speed is high. With
+    ``local_along`` (:class:`svrqp.gap.question.GapQuestion`) the form also tries, for each such
+    column :math:`v`, the windows :math:`\{v \ge q\}` and :math:`\{v \le q\}` at its deciles
+    (:func:`threshold_dictionary`); everything else — the window chosen inside each fit, the
+    search repeated in every surrogate, the window alone as the nested null — is as along the
+    order axis, and the verdict's region names that column.
 
 Limits: the window is one interval of the order axis shared by runs (an effect at the
 end of passes of unequal length is not one interval). A window is tried only where it is a
@@ -45,6 +72,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from svrqp.gap.prepare import GapData
+from svrqp.gap.transfer import LinearTransfer
+from svrqp.gap.transforms import group_slices
 
 WINDOW_WIDTHS = (0.05, 0.1, 0.2)
 """Widths of the dictionary's tiles, as fractions of the order axis's range."""
@@ -99,6 +130,48 @@ def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> n
     return np.array(out).reshape(-1, 2)
 
 
+THRESHOLD_QUANTILES = np.linspace(0.1, 0.9, 9)
+"""Levels of a ``local_along`` column (its deciles) above or below which a window along it holds."""
+
+
+def threshold_dictionary(v: np.ndarray, units: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    r"""The windows tried along a ``local_along`` column ``v``, as rows ``[low, high]`` of its values (inclusive).
+
+    An effect confined along a column other than the order axis (a sensor that matters only
+    above a spindle speed) acts where the column is above, or below, a level: the rows with
+    :math:`v \ge q` and those with :math:`v \le q` for each decile :math:`q` of ``v``
+    (:data:`THRESHOLD_QUANTILES`). Each window's bounds are the smallest and largest value it
+    holds; windows holding the same rows are kept once, one holding every row (the global form) is
+    not a window, and one with fewer than
+    :data:`MIN_REGION_ROWS` rows in every unit, with rows in fewer than two units or in fewer
+    than two groups is dropped (the rules of :func:`window_dictionary`).
+
+    Parameters
+    ----------
+    v : ndarray, shape (n,)
+        The column's value on every row.
+    units, groups : ndarray of int, shape (n,)
+        Held-out unit and run of every row.
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+    """
+    out, seen = [], set()
+    for level in np.unique(np.quantile(v, THRESHOLD_QUANTILES)):
+        for inside in (v >= level, v <= level):
+            if inside.all():  # every row: the global form, not a window
+                continue
+            per_unit = np.unique(units[inside], return_counts=True)[1]
+            if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
+                continue
+            bounds = (float(v[inside].min()), float(v[inside].max()))
+            if np.unique(groups[inside]).size >= 2 and bounds not in seen:
+                seen.add(bounds)
+                out.append(bounds)
+    return np.array(out).reshape(-1, 2)
+
+
 def permutations_can_reject(n_runs: int, n_columns: int, alpha: float) -> bool:
     r"""Whether permuting ``n_runs`` run levels can give a p-value Benjamini–Hochberg rejects among ``n_columns``.
 
@@ -127,9 +200,34 @@ def collinear(A: np.ndarray, E: np.ndarray) -> bool:
     return bool(s[-1] <= COLLINEAR_RCOND * s[0])
 
 
+def exchange_run_levels(x: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    r"""``x`` with the run means exchanged by a random permutation :math:`\pi` of the runs.
+
+    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: applied to a
+    series already rotated within runs, a surrogate of the ``local`` form's test (module docstring).
+    """
+    slices = group_slices(groups)
+    means = np.array([x[s].mean() for s in slices])
+    shift = means[rng.permutation(len(slices))] - means
+    out = x.copy()
+    for s, d in zip(slices, shift):
+        out[s] += d
+    return out
+
+
 def indicator(t: np.ndarray, low: float, high: float) -> np.ndarray:
     r""":math:`\mathbb{1}_W(t)` of the window ``[low, high]`` (1.0 inside, 0.0 outside)."""
     return ((t >= low) & (t <= high)).astype(float)
+
+
+def indicator_columns(t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    r"""The indicators :math:`\mathbb{1}_{W_k}` of every window alone, and the variants that use them (one each).
+
+    The nested null of the ``local`` form: what the window's own offset buys, which the candidate's
+    slope :math:`x\,\mathbb{1}_W` must beat (module docstring).
+    """
+    W = np.column_stack([indicator(t, low, high) for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
+    return W, [np.array([k]) for k in range(W.shape[1])]
 
 
 def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -149,7 +247,68 @@ def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np
     variants : list of ndarray of int
         Columns ``[2k, 2k + 1]`` of each window.
     """
-    W = np.column_stack([indicator(t, low, high) for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
+    W = indicator_columns(t, windows)[0]
     E = np.empty((t.size, 2 * W.shape[1]))
     E[:, 0::2], E[:, 1::2] = W, x[:, None] * W
     return E, [np.array([2 * k, 2 * k + 1]) for k in range(W.shape[1])]
+
+
+def window_axes(data: GapData, code: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each axis the ``local`` form's windows lie along, with its values on every row and its windows: the
+    order axis (:func:`window_dictionary`) and every ``local_along`` column (:func:`threshold_dictionary`).
+
+    ``code`` is the held-out unit of every row.
+    """
+    axes = {data.order_name: (data.t, window_dictionary(data.t, code, data.groups))}
+    axes.update({name: (v, threshold_dictionary(v, code, data.groups)) for name, v in data.along.items()})
+    return axes
+
+
+class WindowAlone:
+    """The ``local`` form's nested null: SSE of the leave-one-unit-out refit with a window's indicator alone
+    (:func:`indicator_columns`, the window chosen inside each fit), per axis and rows known, computed once.
+
+    Parameters
+    ----------
+    family : LinearTransfer
+        The family's refits.
+    axes : dict
+        :func:`window_axes`.
+    """
+
+    def __init__(self, family: LinearTransfer, axes: dict[str, tuple[np.ndarray, np.ndarray]]):
+        self.family, self.axes = family, axes
+        self._sse: dict[tuple[str, bytes], float] = {}
+
+    def sse(self, axis: str, known: np.ndarray) -> float:
+        """SSE on the real rows with the windows along ``axis`` alone, fitted on the rows ``known``."""
+        key = (axis, np.packbits(known).tobytes())
+        if key not in self._sse:
+            W, variants = indicator_columns(*self.axes[axis])
+            fit = self.family.errors(np.where(known[:, None], W, np.nan), variants, known)
+            self._sse[key] = float(fit.errors @ fit.errors)
+        return self._sse[key]
+
+
+def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
+    """``{"column": axis, "low": …, "high": …}``: the window the leave-one-unit-out fits chose most (``variant``:
+    each fit's window)."""
+    low, high = windows[np.bincount(variant, minlength=len(windows)).argmax()]
+    return {"column": axis, "low": float(low), "high": float(high)}
+
+
+def local_note(A: np.ndarray, E: np.ndarray, beyond_window: float, floor: float) -> str | None:
+    """The causes table's note on a ``local`` cause, from its chosen window's columns ``E`` on the rows fitted.
+
+    Either they are collinear with the family's design ``A`` (:func:`collinear`: the refits keep the
+    minimum-norm solution), or the cause's gain beyond its window alone is below the effect ``floor``
+    (the window's own offset transfers about as well); else None.
+    """
+    if collinear(A, E):
+        return ("its window's columns are collinear with the model's own inputs on the rows fitted: "
+                "the refits keep the minimum-norm solution")
+    if beyond_window < floor:
+        shrink = 1 - np.sqrt(max(1 - beyond_window, 0.0))
+        return (f"the window's own offset transfers about as well: the column adds {shrink:.0%} beyond it "
+                "(below the effect floor)")
+    return None

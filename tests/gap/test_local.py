@@ -13,7 +13,13 @@ from support.benchmark_modules import load_benchmark
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.windows import MIN_REGION_ROWS, collinear, window_dictionary
+from svrqp.gap.windows import (
+    MIN_REGION_ROWS,
+    collinear,
+    exchange_run_levels,
+    threshold_dictionary,
+    window_dictionary,
+)
 
 PATCH_MM = (20.0, 34.0)
 QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
@@ -68,23 +74,59 @@ def test_the_local_form_is_offered_only_when_asked():
     assert report.to_dict()["settings"]["local"] is False
 
 
-def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
-    df, report = patch
-    cause = next(c for c in report.causes if c.column == report.verdict.column)
-    t, runs = df["x_mm"].to_numpy(), df["run"].to_numpy()
-    y = (df["error_um"] - df["prediction_um"]).to_numpy()
-    x = df["room_C"].to_numpy()
-    windows = window_dictionary(t, runs, runs)
-    designs = [np.column_stack([np.ones(t.size), w, x * w]) for w in ((t >= a) & (t <= b) for a, b in windows)]
+def _leave_one_run_out_rmse(designs: list[np.ndarray], y: np.ndarray, runs: np.ndarray) -> float:
+    """Real-row RMSE of least squares left one run out, each fit keeping the design with the smallest error on its rows."""
     squared = []
     for run in np.unique(runs[runs > 0]):
         test = runs == run
         fits = [(np.linalg.lstsq(D[~test], y[~test], rcond=None)[0], D) for D in designs]
         theta, D = min(fits, key=lambda fit: np.sum((y[~test] - fit[1][~test] @ fit[0]) ** 2))
         squared.append((y[test] - D[test] @ theta) ** 2)
-    reference = float(np.sqrt(np.mean(np.concatenate(squared))))
+    return float(np.sqrt(np.mean(np.concatenate(squared))))
+
+
+def _window_designs(df: pd.DataFrame, with_candidate: bool) -> list[np.ndarray]:
+    """``[1, 1_W, x 1_W]`` (or ``[1, 1_W]``, the window alone) of every window of the dictionary."""
+    t, runs, x = df["x_mm"].to_numpy(), df["run"].to_numpy(), df["room_C"].to_numpy()
+    indicators = [((t >= a) & (t <= b)).astype(float) for a, b in window_dictionary(t, runs, runs)]
+    return [np.column_stack([np.ones(t.size), w] + ([x * w] if with_candidate else [])) for w in indicators]
+
+
+def test_local_shrink_equals_an_independent_leave_one_run_out_refit(patch):
+    df, report = patch
+    cause = next(c for c in report.causes if c.column == report.verdict.column)
+    y, runs = (df["error_um"] - df["prediction_um"]).to_numpy(), df["run"].to_numpy()
+    reference = _leave_one_run_out_rmse(_window_designs(df, True), y, runs)
     assert cause.rmse_after == pytest.approx(reference, rel=1e-9, abs=1e-12)
     assert cause.shrink == pytest.approx(1 - reference / cause.rmse_before, abs=1e-9)
+
+
+def test_a_local_cause_is_judged_beyond_its_window_alone(patch):
+    """``shrink_beyond_window`` = 1 − RMSE with candidate × window / RMSE with the window's indicator alone."""
+    df, report = patch
+    cause = next(c for c in report.causes if c.column == report.verdict.column)
+    y, runs = (df["error_um"] - df["prediction_um"]).to_numpy(), df["run"].to_numpy()
+    alone = _leave_one_run_out_rmse(_window_designs(df, False), y, runs)
+    assert cause.shrink_beyond_window == pytest.approx(1 - cause.rmse_after / alone, abs=1e-9)
+    assert cause.shrink_beyond_window > 0.2  # the patch grows with the room: the window alone leaves a third of it
+    assert all(c.shrink_beyond_window is None for c in report.causes if c.transform != "local")
+
+
+def test_a_local_surrogate_exchanges_the_run_levels_and_keeps_each_run_s_shape():
+    rng = np.random.default_rng(5)
+    groups = np.repeat(np.arange(4), [7, 9, 6, 8])
+    x = rng.normal(size=groups.size) + 10.0 * groups
+    means = lambda v: np.array([v[groups == g].mean() for g in range(4)])
+    draws = np.random.default_rng(1)
+    seen = []
+    for _ in range(60):
+        xs = exchange_run_levels(x, groups, draws)
+        seen.append(np.argsort(np.argsort(means(xs))))  # which of the four levels each run holds
+        assert np.allclose(np.sort(means(xs)), np.sort(means(x)))  # the same levels, in other runs
+        for g in range(4):  # within each run only the level moved
+            rows = groups == g
+            assert np.allclose(xs[rows] - xs[rows].mean(), x[rows] - x[rows].mean())
+    assert all(set(column) == {0, 1, 2, 3} for column in np.array(seen).T)  # every run gets every level
 
 
 def test_a_local_disturbance_no_candidate_carries_gets_no_verdict():
@@ -149,3 +191,55 @@ def test_the_real_data_checker_tiles_the_axis_as_the_engine_does(shared):
     mine = checker.windows(table)
     assert len(mine) == len(engine) == (28 if shared else 0)
     assert all(np.array_equal(a, b) for a, b in zip(mine, engine))
+
+
+SPEED_RPM = 6000.0
+
+
+def _speed_runs(seed: int = 4, runs: int = 6) -> pd.DataFrame:
+    """Runs of 120 min whose spindle speed steps between four levels: a sensor ``T1_C`` that adds an error only
+    while the speed is at or above 6000 rpm, wherever in the run that is."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(120.0)
+    tables = []
+    for run in range(runs):
+        speed = np.repeat(rng.permutation([2000.0, 4000.0, 6000.0, 8000.0]), 30)
+        sensor = 20.0 + 3.0 * np.sin(t / 17.0 + run) + rng.normal(0.0, 1.0) + (0.0 if run else -2.0)
+        effect = 1.2 * (sensor - 20.0) * (speed >= SPEED_RPM) if run else 0.0
+        tables.append(pd.DataFrame({
+            "time_min": t, "run": run, "speed_rpm": speed, "T1_C": sensor, "humidity_pct": rng.uniform(30, 60, t.size),
+            "prediction_um": 0.0, "error_um": effect + 0.3 * rng.standard_normal(t.size)}))
+    return pd.concat(tables, ignore_index=True)
+
+
+SPEED_QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
+                  "candidates": ["T1_C", "humidity_pct"], "order": "time_min", "group": "run", "local": True,
+                  "local_along": "speed_rpm"}
+
+
+def test_an_effect_confined_along_another_column_is_named_with_its_region_there():
+    df = _speed_runs()
+    report = diagnose(df, GapQuestion(**SPEED_QUESTION))
+    verdict = report.verdict
+    assert verdict.column == "T1_C" and verdict.transform == "local"
+    assert verdict.region["column"] == "speed_rpm"
+    speed = df["speed_rpm"].to_numpy()
+    assert _iou((verdict.region["low"], verdict.region["high"]), (SPEED_RPM, speed.max()), speed) >= 0.5
+    assert report.where[0].column == "speed_rpm" and "speed_rpm" in report.summary
+    assert report.to_dict()["settings"]["local_along"] == ["speed_rpm"]
+
+
+def test_windows_along_a_column_are_the_rows_above_or_below_its_deciles():
+    v = np.tile(np.repeat([1.0, 2.0, 3.0, 4.0], 10), 3)
+    runs = np.repeat([0, 1, 2], 40)
+    windows = threshold_dictionary(v, runs, runs)
+    assert {tuple(w) for w in windows} == {(2.0, 4.0), (3.0, 4.0), (4.0, 4.0), (1.0, 1.0), (1.0, 2.0), (1.0, 3.0)}
+    assert threshold_dictionary(np.full(120, 7.0), runs, runs).shape == (0, 2)  # a constant column: no window
+
+
+@pytest.mark.parametrize(("change", "message"), [({"local": False}, "ask local=True"),
+                                                 ({"local_along": "time_min"}, "order axis"),
+                                                 ({"local_along": "spindle_rpm"}, "spindle_rpm")])
+def test_bad_local_along_is_refused(change, message):
+    with pytest.raises(ProblemError, match=message):
+        diagnose(_speed_runs(runs=3), GapQuestion(**SPEED_QUESTION | change))
