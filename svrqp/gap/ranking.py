@@ -67,8 +67,8 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.between import MIN_RUNS, PROFILE_DEGREE, is_run_level, run_level_columns
-from svrqp.gap.blocks import rotated_rows, shift_offsets
+from svrqp.gap.between import MIN_RUNS, PROFILE_DEGREE, is_run_level, run_level_columns, varies_within
+from svrqp.gap.blocks import lift_steps, rotated_rows, shift_offsets, wrapped_part
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, TransferFit
 from svrqp.gap.transforms import (
@@ -179,6 +179,8 @@ class Ranked:
     tested: bool = False
     ambiguous: bool = False
     region: dict | None = None
+    chosen_from: tuple[Effect, ...] = ()
+    """The column's transforms whose surrogates are drawn alike, among which :attr:`effect` was chosen."""
 
     @property
     def significant(self) -> bool:
@@ -226,6 +228,8 @@ class TransferRanker:
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
         self.windows = window_dictionary(data.t, family.units.code, data.groups) if local else np.zeros((0, 2))
+        # One record cut into blocks: its readings drift over the record, rotated plainly they jump at the seam.
+        self.lift = family.units.kind == "blocks"
 
     # -- effects ------------------------------------------------------------------------
 
@@ -236,16 +240,18 @@ class TransferRanker:
         out = []
         for j, column in enumerate(data.candidates):
             run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
+            moves = varies_within(data.C[:, j], data.groups)
             for transform in TRANSFORMS:
                 if transform == "level" and column in data.features:
                     continue
-                if run_level and transform in ("rate", "lag"):
-                    continue  # its rate and lag are zero but for noise
+                if run_level and transform in ("rate", "lag") and not moves:
+                    continue  # its rate and lag are zero
                 if transform == "local" and (not len(self.windows) or (run_level and not testable)):
                     continue  # no window to try, or run levels too few to permute to significance
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level,
+                within = transform in ("rate", "lag")  # rotated within runs whatever its run levels do
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within,
                                   windows=self.windows if transform == "local" else None))
         return out
 
@@ -316,7 +322,10 @@ class TransferRanker:
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
+        every = self.effects()
         for row in best.values():
+            # The surrogates pay for the choice among the transforms they can redraw (module docstring).
+            row.chosen_from = tuple(e for e in every if e.column == row.effect.column and _same_surrogates(e, row.effect))
             if row.region is not None and self._collinear(row):
                 row.note = ("its window's columns are collinear with the model's own inputs on the rows fitted: "
                             "the refits keep the minimum-norm solution")
@@ -375,33 +384,55 @@ class TransferRanker:
                     xs[known[s]] += means[g] - means[slices.index(s)]
                 out.append(xs)
             return out
-        offsets = shift_offsets(groups, count, rng, x[known])
+        # The part of the candidate that the family's other inputs explain stays where it is; the rest rotates.
+        A = self._other_inputs(effect.column)[known]
+        explained = A @ np.linalg.lstsq(A, x[known], rcond=None)[0]
+        own = x[known] - explained
+        offsets = shift_offsets(groups, count, rng, own)
+        step = lift_steps(own, groups) if self.lift else None
         for rows in rotated_rows(groups, offsets):
             xs = x.copy()
-            xs[known] = x[known][rows]
+            xs[known] = explained + (own[rows] if step is None else own[rows] + wrapped_part(rows, groups) * step)
             out.append(xs)
         return out
 
+    def best_gains(self, effects: tuple[Effect, ...], xs: list[np.ndarray], given: np.ndarray | None = None,
+                   reference: float | None = None) -> np.ndarray:
+        """The best transfer gain over ``effects`` (transforms of one column) of each series in ``xs``."""
+        best = np.full(len(xs), -np.inf)
+        for effect in effects:
+            for i, (x, ell) in enumerate(zip(xs, self.lags(effect, xs))):
+                best[i] = max(best[i], self.gain(self.fit(effect, x, given, ell), reference))
+        return best
+
+    def _other_inputs(self, column: str) -> np.ndarray:
+        """The family's design without the candidate itself (a model feature whose rate or lag is tested)."""
+        A, features = self.family.A, self.data.features
+        if column in features and A.shape[1] == 1 + len(features):  # [1, X] of the features mode
+            return np.delete(A, 1 + features.index(column), axis=1)
+        return A
+
     def draw(self, effect: Effect, observed: float, count: int, given: np.ndarray | None = None,
-             reference: float | None = None) -> list[bool]:
+             reference: float | None = None, chosen_from: tuple[Effect, ...] = ()) -> list[bool]:
         """Whether each of ``count`` surrogates reaches the observed gain (stopping at the
-        :data:`STOP_EXCEEDANCES`-th that does)."""
+        :data:`STOP_EXCEEDANCES`-th that does); a surrogate's gain is its best over ``chosen_from``
+        when the observed one was chosen among those transforms."""
         hits: list[bool] = []
         surrogates = self.surrogate(effect, count)
         for start in range(0, count, LAG_BATCH):
-            batch = surrogates[start:start + LAG_BATCH]
-            for xs, ell in zip(batch, self.lags(effect, batch)):
-                hits.append(self.gain(self.fit(effect, xs, given, ell), reference) >= observed - 1e-12)
+            for g in self.best_gains(chosen_from or (effect,), surrogates[start:start + LAG_BATCH], given, reference):
+                hits.append(bool(g >= observed - 1e-12))
                 if sum(hits) >= STOP_EXCEEDANCES:
                     return hits
         return hits
 
     def exact_p(self, effect: Effect, observed: float, orders: list[np.ndarray], given: np.ndarray | None = None,
-                reference: float | None = None) -> float:
-        """Exact permutation p-value over every ordering of the run levels (the observed one included)."""
+                reference: float | None = None, chosen_from: tuple[Effect, ...] = ()) -> float:
+        """Exact permutation p-value over every ordering of the run levels (the observed one included;
+        ``chosen_from`` as in :meth:`draw`)."""
         surrogates = self.surrogate(effect, len(orders), orders)
-        hits = sum(self.gain(self.fit(effect, xs, given), reference) >= observed - 1e-12 for xs in surrogates)
-        return hits / len(orders)
+        gains = self.best_gains(chosen_from or (effect,), surrogates, given, reference)
+        return int(np.sum(gains >= observed - 1e-12)) / len(orders)
 
     def smallest_p(self, effect: Effect, orders: list[np.ndarray]) -> float:
         """The smallest p-value :meth:`exact_p` can give: the orderings that leave the run levels unchanged."""
@@ -436,7 +467,7 @@ class TransferRanker:
             if orders is None:
                 sampled.append(row)
             else:
-                row.p_raw, row.tested = self.exact_p(row.effect, row.gain, orders), True
+                row.p_raw, row.tested = self.exact_p(row.effect, row.gain, orders, chosen_from=row.chosen_from), True
         self._adjust(ranked)
         tested = sampled
         hits: dict[int, list[bool]] = {id(r): [] for r in tested}
@@ -445,7 +476,7 @@ class TransferRanker:
             if not open_rows:
                 break
             for row in open_rows:
-                hits[id(row)] += self.draw(row.effect, row.gain, stage)
+                hits[id(row)] += self.draw(row.effect, row.gain, stage, chosen_from=row.chosen_from)
                 row.p_raw, row.tested = _besag_clifford(hits[id(row)]), True
             self._adjust(ranked)
 
@@ -568,6 +599,12 @@ def _fixed(row: Ranked) -> Effect:
     if row.tau is None:
         return row.effect
     return dataclasses.replace(row.effect, taus=np.array([row.tau]))
+
+
+def _same_surrogates(a: Effect, b: Effect) -> bool:
+    """Whether one surrogate of the column serves both effects (run levels permuted, or rotated within runs;
+    the ``local`` form draws from a stream of its own)."""
+    return a.run_level == b.run_level and (a.windows is None) == (b.windows is None)
 
 
 def _better(row: Ranked, held: Ranked) -> bool:

@@ -177,10 +177,11 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
                   f"cause is named.{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
-    if cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin:
+    if cause.shrink_beyond_refit <= 0.0 or (cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin):
+        # Thin evidence excuses the interval, never an effect that leaves the same-input refit no better.
+        where = "" if cause.shrink_beyond_refit <= 0.0 else f" on every resample of the held-out {unit_word(units)}s"
         reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}), "
-                  f"but what it adds to a refit is not above zero on every resample of the held-out "
-                  f"{unit_word(units)}s: {cause.shrink_beyond_refit:.0%} (95 % CI "
+                  f"but what it adds to a refit is not above zero{where}: {cause.shrink_beyond_refit:.0%} (95 % CI "
                   f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
                   f"{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
