@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 from support.benchmark_modules import load_benchmark
 
-from svrqp.gap import GapQuestion, diagnose
+from svrqp.gap import GapQuestion
 from svrqp.gap.prepare import prepare
 from svrqp.gap.ranking import TransferRanker
 from svrqp.gap.transfer import LinearTransfer, Units
