@@ -106,6 +106,13 @@ def is_run_level(x: np.ndarray, groups: np.ndarray) -> bool:
     return within_share(x, groups) <= RUN_LEVEL_SHARE
 
 
+def varies_within(x: np.ndarray, groups: np.ndarray) -> bool:
+    """Whether ``x`` (NaN where unknown) moves within any run beyond rounding (:func:`negligible`)."""
+    known = np.isfinite(x)
+    x, groups = x[known], groups[known]
+    return any(not negligible(np.ptp(x[rows]), x[rows]) for rows in group_slices(groups) if rows.stop > rows.start)
+
+
 def run_phase(t: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """Position along each run, from -1 at its first row to 1 at its last."""
     u = np.zeros(t.size)

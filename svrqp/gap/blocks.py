@@ -146,6 +146,22 @@ def rotated_rows(groups: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return index
 
 
+def lift_steps(x: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Every row's group end-minus-start change of ``x``: what lifts the part of a rotation that
+    wraps round (:func:`wrapped_part`) so that the rotated series is continuous at the seam."""
+    step = np.empty(x.size)
+    for rows in group_slices(groups):
+        step[rows] = x[rows.stop - 1] - x[rows.start]
+    return step
+
+
+def wrapped_part(rows: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Whether each row of a rotation ``rows`` (one row of :func:`rotated_rows`) reads from before
+    its group's rotation point (and so has wrapped round)."""
+    first = np.concatenate([np.full(sl.stop - sl.start, sl.start) for sl in group_slices(groups)])
+    return rows < rows[first]
+
+
 def circular_autocorrelation(x: np.ndarray) -> np.ndarray:
     """Correlation of ``x`` with itself rotated by every lag 0 … m−1 (by FFT)."""
     centred = x - x.mean()

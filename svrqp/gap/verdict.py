@@ -3,8 +3,8 @@
 :func:`decide` applies the contract's rules (``docs/gap.md``) to the ranked causes
 (:mod:`svrqp.gap.ranking`): no gap, no culprit; no culprit when refitting with the same inputs leaves only noise
 (:func:`refit_closes`); otherwise the best-transferring significant cause, if its transfer
-shrink is positive and, with enough held-out units, its shrink beyond the refit has an
-interval above zero. The wording helpers here are shared with :mod:`svrqp.gap.summary`.
+shrink is positive, its shrink beyond the refit (in the model's own family) is positive and,
+with enough held-out units, has an interval above zero. The wording helpers here are shared with :mod:`svrqp.gap.summary`.
 """
 
 from __future__ import annotations
@@ -135,9 +135,11 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
     """The cause the engine stands behind: the best-transferring significant one (:mod:`svrqp.gap.ranking`).
 
     It must come with a gap (one-sided gate), pass the transfer test, leave the real rows better
-    than the given model does (``shrink > 0``), and — with enough held-out units for a
-    bootstrap over them to mean anything (:data:`svrqp.gap.transfer.THIN_UNITS`) — its shrink
-    beyond the refit must have an interval above zero. With thin evidence the reason and the
+    than the given model does (``shrink > 0``), add to the same-input refit of the model's own
+    family (``shrink_beyond_refit > 0``: a kernel family may disagree with the linear screen),
+    and — with enough held-out units for a bootstrap over them to mean anything
+    (:data:`svrqp.gap.transfer.THIN_UNITS`) — its shrink beyond the refit must have an interval
+    above zero. With thin evidence the reason and the
     summary say so instead.
     """
     data, gap, base, units = context.data, context.gap, context.base, context.units
@@ -177,10 +179,11 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
                   f"cause is named.{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
-    if cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin:
+    if cause.shrink_beyond_refit <= 0.0 or (cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin):
+        # Thin evidence excuses the interval, never an effect that leaves the same-input refit no better.
+        where = "" if cause.shrink_beyond_refit <= 0.0 else f" on every resample of the held-out {unit_word(units)}s"
         reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}), "
-                  f"but what it adds to a refit is not above zero on every resample of the held-out "
-                  f"{unit_word(units)}s: {cause.shrink_beyond_refit:.0%} (95 % CI "
+                  f"but what it adds to a refit is not above zero{where}: {cause.shrink_beyond_refit:.0%} (95 % CI "
                   f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
                   f"{family_text(cause, context)}{thin}{recalibration}")
         return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None

@@ -95,9 +95,11 @@ def test_a_gap_the_refit_alone_closes_names_no_cause(suite, name):
 
 
 def test_a_cause_explained_by_a_stronger_untestable_one_is_not_named(suite):
-    """tf-bed_C-3: the withheld bed_C holds a level per run and transfers best, but two real runs cannot
-    test it; speed_rpm passes its own test yet adds nothing beyond bed_C, so it is not named in its place."""
-    scenario = _scenario(suite, "tf-bed_C-3")
+    """gp-motor_heating-3: the withheld motor_C holds a level per pass and transfers best, but three real
+    passes cannot test it (nor its lag within the passes); feed_mm_min passes its own test yet adds nothing
+    beyond motor_C, so it is not named in its place."""
+    scenario = _scenario(suite, "gp-motor_heating-3")
     report = suite.diagnose_case(scenario, suite.case_for(scenario))
-    assert report.causes[0].column == "bed_C" and not report.causes[0].significant
-    assert report.verdict.column is None and "bed_C transfers better" in report.verdict.reason
+    assert report.causes[0].column == "motor_C" and not report.causes[0].significant
+    assert any(c.significant for c in report.causes[1:])
+    assert report.verdict.column is None and "motor_C transfers better" in report.verdict.reason
