@@ -199,6 +199,10 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
               f"({cause.rmse_refit:.3g}; CI {cause.shrink_beyond_refit_ci[0]:.0%} … "
               f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q = {cause.p_value:.2g}. "
               + capitalised(refit_text(train_refit, cause.column)) + family_text(cause, context) + thin + recalibration)
+    if top.tested_by is not None:  # a level too few runs can permute, tested through its dynamics within runs
+        reason += (f" Its run levels are too few for any ordering of them to reach significance; the transfer test is "
+                   f"that of its {top.tested_by.effect.transform}, rotated within runs (as valid under \"it carries "
+                   "nothing\").")
     if ranking.ambiguous_with:
         reason += (f" On held-out runs it cannot be told apart from {names(ranking.ambiguous_with)} (neither adds "
                    "to the other in a conditional transfer test); it stays named because it transfers best.")

@@ -48,6 +48,7 @@ def test_a_level_too_few_runs_cannot_permute_is_tested_by_its_lag_within_runs(su
     report = suite.diagnose_case(scenario, suite.case_for(scenario))
     assert report.verdict.column == "bed_C" and report.verdict.transform == "level"
     assert report.causes[0].significant and report.verdict.untestable is None
+    assert "the transfer test is that of its lag, rotated within runs" in report.verdict.reason
 
 
 def _pure_null(suite, k: int):
