@@ -37,11 +37,11 @@ def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:
         second = (f"The model is used outside its data ({worst.column} on {worst.outside:.0%} of real rows); "
                   f"refitting with the new runs removes {transfer['shrink_refit']:.0%}")
         if verdict.column is not None:
-            second += f", adding the {_short_effect(verdict)} {verdict.shrink:.0%}"
+            second += f", adding the {_short_effect(verdict, data.order_name)} {verdict.shrink:.0%}"
         return f"{first}. {second} on {held}" + (f" ({caveat[2:]})." if caveat else ".")
     if verdict.column is not None:
         refit_alone = 1 - verdict.rmse_refit / verdict.rmse_before  # the verdict's own family (kernel_transfer)
-        second = (f"Adding the {_short_effect(verdict)} and refitting shrinks it by {verdict.shrink:.0%} on "
+        second = (f"Adding the {_short_effect(verdict, data.order_name)} and refitting shrinks it by {verdict.shrink:.0%} on "
                   f"{held} (refit alone: {refit_alone:.0%}{caveat})")
         if verdict.ambiguous_with:
             second += (f"; {names(verdict.ambiguous_with[:2])} "
@@ -62,14 +62,14 @@ def _most_outside(uses: list[InputUse]) -> InputUse:
     return max(uses, key=lambda u: (u.outside, u.recalibration_shrink))
 
 
-def _short_effect(verdict: Verdict) -> str:
-    """``lag of T1_C (τ 125)`` — the verdict's effect in few words."""
+def _short_effect(verdict: Verdict, order_name: str) -> str:
+    """``lag of T1_C (τ 125 min)`` — the verdict's effect in few words."""
     if verdict.region is not None:
         return f"{verdict.column} term {region_text(verdict.region)}"
     text = f"{verdict.transform} of {verdict.column}"
     if verdict.evidence == EVIDENCE_BETWEEN:
         return text + " (constant within each run)"
-    return text + (f" (τ {verdict.tau:.3g})" if verdict.tau is not None else "")
+    return text + (f" (τ {quantity(verdict.tau, unit_of(order_name))})" if verdict.tau is not None else "")
 
 
 def extrapolation_text(context: VerdictContext) -> str:
