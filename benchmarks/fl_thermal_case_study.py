@@ -117,8 +117,7 @@ def effect_inputs(table: pd.DataFrame, column: str, transform: str, tau: float |
                   order: str, region: dict | None = None) -> np.ndarray:
     """The named effect as model inputs, computed here from its definition (not by the engine).
 
-    ``level``: the reading; ``rate``: its time derivative (per group, :func:`numpy.gradient`); ``rise``:
-    its change since the group's first row;
+    ``level``: the reading; ``rate``: its time derivative (per group, :func:`numpy.gradient`);
     ``lag``: the reading and its first-order low-pass with time constant ``tau`` (restarted in
     equilibrium at each group start), which span the reading and the lag term; ``local``: the
     indicator of the window ``region`` of the order axis and the reading inside it (the window
@@ -131,8 +130,6 @@ def effect_inputs(table: pd.DataFrame, column: str, transform: str, tau: float |
             out.append(x[:, None])
         elif transform == "rate":
             out.append(np.gradient(x, t)[:, None])
-        elif transform == "rise":
-            out.append((x - x[0])[:, None])
         elif transform == "local":
             inside = ((t >= region["low"]) & (t <= region["high"])).astype(float)
             out.append(np.column_stack([inside, x * inside]))

@@ -139,7 +139,7 @@ from transfer_oracle import (
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: Transforms :mod:`transfer_oracle` refits.
-ORACLE_TRANSFORMS = ("level", "rate", "rise", "lag")
+ORACLE_TRANSFORMS = ("level", "rate", "lag")
 AR_PHI = 0.8
 SUMMER_DAYS = (170.0, 230.0)
 WINTER_DAYS = (0.0, 40.0)

@@ -13,8 +13,7 @@ least as well as the truth's. The benchmarks score that rule here with plain lea
 (:func:`numpy.linalg.lstsq`), so that the engine's numbers are checked, not reused.
 
 Transforms of a column ``x`` along the order axis ``t``, restarted in every group: ``level``
-:math:`[x]`; ``rate`` :math:`[\dot x]` (:func:`numpy.gradient`); ``rise`` :math:`[x - x_0]`, the change since the
-group's first row; ``lag`` :math:`[x, x_\tau]`,
+:math:`[x]`; ``rate`` :math:`[\dot x]` (:func:`numpy.gradient`); ``lag`` :math:`[x, x_\tau]`,
 the first-order low-pass :math:`x_{\tau,k} = x_{\tau,k-1} + (1 - e^{-(t_k - t_{k-1})/\tau})
 (x_k - x_{\tau,k-1})` from equilibrium, one variant per :math:`\tau` of :func:`tau_grid`;
 the variant (the :math:`\tau`) is chosen inside each fit by its own rows' squared error.
@@ -64,18 +63,17 @@ def transform_variants(x: np.ndarray, t: np.ndarray, groups: np.ndarray,
     Rows must be sorted by ``t`` within each group.
     """
     x = np.asarray(x, dtype=float)
-    rate, rise, lowpass = np.empty_like(x), np.empty_like(x), np.empty((x.size, taus.size))
+    rate, lowpass = np.empty_like(x), np.empty((x.size, taus.size))
     for g in pd.unique(groups):
         rows = np.flatnonzero(groups == g)
         tg = t[rows]
         rate[rows] = np.gradient(x[rows], tg) if rows.size > 1 else 0.0
-        rise[rows] = x[rows] - x[rows[0]]
         state = np.full(taus.size, x[rows[0]])
         lowpass[rows[0]] = state
         for k in range(1, rows.size):
             state = state + (1 - np.exp(-(tg[k] - tg[k - 1]) / taus)) * (x[rows[k]] - state)
             lowpass[rows[k]] = state
-    return {"level": [x[:, None]], "rate": [rate[:, None]], "rise": [rise[:, None]],
+    return {"level": [x[:, None]], "rate": [rate[:, None]],
             "lag": [np.column_stack([x, lowpass[:, j]]) for j in range(taus.size)]}
 
 

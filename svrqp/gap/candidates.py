@@ -40,7 +40,6 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     negligible,
     rate,
-    rise,
     standardised,
 )
 
@@ -145,7 +144,7 @@ def transform_columns(
     Returns
     -------
     own : ndarray, shape (n, v)
-        ``level``: :math:`x`; ``rate``: :math:`\\dot x`; ``rise``: :math:`x - x(t_0)`; ``lag``: :math:`\\ell_\\tau` per ``tau``.
+        ``level``: :math:`x`; ``rate``: :math:`\\dot x`; ``lag``: :math:`\\ell_\\tau` per ``tau``.
     partner : ndarray, shape (n,) or None
         :math:`x` for ``lag`` of a candidate that is not a model feature, else None.
     """
@@ -154,8 +153,6 @@ def transform_columns(
         return x[:, None], None
     if transform == "rate":
         return rate(x, data.t, data.groups)[:, None], None
-    if transform == "rise":
-        return rise(x, data.groups)[:, None], None
     ell = lag(x, data.t, data.groups, taus)
     return ell, (None if column in data.features else x)
 

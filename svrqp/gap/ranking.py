@@ -19,8 +19,8 @@ Significance by surrogates that respect what varies where
     :mod:`svrqp.gap.between` (a profile along the run that it scales, :attr:`Effect.block`) and as
     the plain column (an offset in proportion to it, one parameter: with two or three held-out
     runs the block's seven columns extrapolate where the plain level transfers); the column's row
-    is the better of the two (the plain one on a near tie). Its ``rate``, ``rise`` and ``lag`` are
-    refitted too unless it is constant within every run (a reading that holds the season's level through a
+    is the better of the two (the plain one on a near tie). Its ``rate`` and ``lag`` are refitted
+    too unless it is constant within every run (a reading that holds the season's level through a
     run may still follow an effect's dynamics within it), and rotated within runs like any other
     candidate's.
 
@@ -55,7 +55,7 @@ Exact permutation tests for few runs
 
     When :func:`svrqp.gap.windows.permutations_can_reject` says that no ordering of the runs can
     reach Benjamini–Hochberg's first threshold, and the column's best transform rotated within
-    runs (``rate``, ``rise`` or ``lag``) clears the effect floor, that transform's rotation test stands for
+    runs (``rate`` or ``lag``) clears the effect floor, that transform's rotation test stands for
     the column (:attr:`Ranked.tested_by`): under "the column carries nothing" it is as valid a
     test as the permutation, and it can decide. The column's row keeps its best-transferring
     transform and its numbers.
@@ -102,7 +102,6 @@ from svrqp.gap.transforms import (
     lag,
     lowpass_columns,
     rate,
-    rise,
 )
 from svrqp.gap.windows import (
     LOCAL_MARGIN,
@@ -114,12 +113,9 @@ from svrqp.gap.windows import (
     window_axes,
 )
 
-TRANSFORMS = ("level", "rate", "rise", "lag", "local")
-"""Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate constant
-within every run: ``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.windows`)."""
-
-WITHIN_RUNS = ("rate", "rise", "lag")
-"""Transforms that vary within runs: rotated within runs, whatever the candidate's run levels do."""
+TRANSFORMS = ("level", "rate", "lag", "local")
+"""Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
+``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.windows`)."""
 
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
@@ -179,7 +175,7 @@ class Effect:
         """Columns added plus a fitted time constant or window bounds."""
         if self.block:
             return 2 * PROFILE_DEGREE + 1
-        return {"level": 1, "rate": 1, "rise": 1, "lag": 3, "local": 4}[self.transform]
+        return {"level": 1, "rate": 1, "lag": 3, "local": 4}[self.transform]
 
 
 @dataclass
@@ -290,8 +286,8 @@ class TransferRanker:
             for transform in TRANSFORMS:
                 if transform == "level" and column in data.features:
                     continue
-                if run_level and transform in WITHIN_RUNS and not moves:
-                    continue  # its rate, rise and lag are zero
+                if run_level and transform in ("rate", "lag") and not moves:
+                    continue  # its rate and lag are zero
                 if transform == "local":
                     if not (run_level and not testable):  # run levels too few to permute to significance
                         out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
@@ -299,7 +295,7 @@ class TransferRanker:
                     continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                within = transform in WITHIN_RUNS  # rotated within runs whatever its run levels do
+                within = transform in ("rate", "lag")  # rotated within runs whatever its run levels do
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
         return out
 
@@ -320,9 +316,6 @@ class TransferRanker:
             variants = [np.array([0])]
         elif effect.transform == "rate":
             own = rate(xk, t, groups)[:, None]
-            variants = [np.array([0])]
-        elif effect.transform == "rise":
-            own = rise(xk, groups)[:, None]
             variants = [np.array([0])]
         elif effect.transform == "local":
             own, variants = local_columns(xk, self.axes[effect.axis][0][known], effect.windows)

@@ -115,7 +115,7 @@ class TransferSurrogates:
         return out
 
     def _other_inputs(self, column: str) -> np.ndarray:
-        """The family's design without the candidate itself (a model feature whose rate, rise or lag is tested)."""
+        """The family's design without the candidate itself (a model feature whose rate or lag is tested)."""
         A, features = self.design, self.data.features
         if column in features and A.shape[1] == 1 + len(features):  # [1, X] of the features mode
             return np.delete(A, 1 + features.index(column), axis=1)

@@ -1,7 +1,7 @@
 r"""Transforms of a candidate column that an unmodelled effect may follow.
 
 A thermal error rarely follows a sensor reading one-to-one. The diagnosis therefore tests
-each candidate column :math:`x(t)` in four forms, all computed along the ``--order`` axis
+each candidate column :math:`x(t)` in three forms, all computed along the ``--order`` axis
 :math:`t` and restarted at the start of every ``--group`` (run):
 
 ``level``
@@ -10,11 +10,6 @@ each candidate column :math:`x(t)` in four forms, all computed along the ``--ord
     :math:`\dot x(t) = \mathrm{d}x/\mathrm{d}t`, by second-order central differences on the
     possibly uneven grid of :math:`t` (one-sided at the ends of a group) —
     :func:`numpy.gradient`. Thermal gradients during warm-up follow the rate.
-``rise``
-    :math:`x(t) - x(t_0)`, the change since the first row of the run. A machine starts each run
-    near its own equilibrium, so a thermal error grows with how far a temperature has risen
-    since the start, while the reading's level also carries the season (the room, the coolant)
-    that the model's offset cannot follow from run to run.
 ``lag``
     thermal inertia: the first-order low-pass response :math:`x_\tau` of a body with time
     constant :math:`\tau` driven by :math:`x`, minus the signal,
@@ -42,7 +37,7 @@ from scipy.signal import lfilter, savgol_filter
 
 from svrqp.exceptions import ProblemError
 
-TRANSFORMS = ("level", "rate", "rise", "lag")
+TRANSFORMS = ("level", "rate", "lag")
 """Names of the transforms, in the order they are reported."""
 
 N_TAU = 8
@@ -129,28 +124,6 @@ def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
     out = np.empty_like(x)
     for rows in group_slices(group_codes):
         out[rows] = np.gradient(x[rows], t[rows], axis=0)
-    return out
-
-
-def rise(x: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
-    """Change :math:`x(t) - x(t_0)` since the first row of each group.
-
-    Parameters
-    ----------
-    x : ndarray, shape (n,) or (n, c)
-        Signal(s), rows sorted by group.
-    group_codes : ndarray of int, shape (n,)
-        Group code of each row.
-
-    Returns
-    -------
-    ndarray, same shape as ``x``
-        Zero on the first row of every group.
-    """
-    x = np.asarray(x, dtype=float)
-    out = np.empty_like(x)
-    for rows in group_slices(group_codes):
-        out[rows] = x[rows] - x[rows.start]
     return out
 
 

@@ -1,4 +1,4 @@
-"""Transforms of candidate columns: rate, rise, first-order lag, time-constant grid (svrqp.gap.transforms)."""
+"""Transforms of candidate columns: rate, first-order lag, time-constant grid (svrqp.gap.transforms)."""
 
 import numpy as np
 import pytest
@@ -15,7 +15,6 @@ from svrqp.gap.transforms import (
     lowpass_columns,
     negligible,
     rate,
-    rise,
     standardised,
     tau_grid,
 )
@@ -42,14 +41,6 @@ def test_rate_matches_the_analytic_derivative_within_each_group():
     inner = np.ones_like(T, bool)
     inner[[0, 200, 201, 401]] = False
     np.testing.assert_allclose(rate(x, T, GROUPS)[inner], np.cos(T)[inner], atol=5e-3)
-
-
-def test_rise_is_the_change_since_each_groups_first_row():
-    # a run-level offset (the season) drops out; what is left starts at zero in every group
-    x = np.sin(T) + np.where(GROUPS == 0, 20.0, 35.0)
-    expected = np.r_[np.sin(T_RUN1) - np.sin(T_RUN1[0]), np.sin(T_RUN2) - np.sin(T_RUN2[0])]
-    np.testing.assert_allclose(rise(x, GROUPS), expected, atol=1e-12)
-    np.testing.assert_allclose(rise(np.column_stack([x, 2 * x]), GROUPS)[:, 1], 2 * expected, atol=1e-12)
 
 
 def test_rate_restarts_per_group():
