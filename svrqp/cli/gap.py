@@ -72,7 +72,10 @@ def gap(
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
 ) -> None:
     """Where the gap between a model and real data lies, which unmodelled effect causes it, how far it shrinks."""
-    from svrqp.gap import GapQuestion, diagnose  # imported when the command runs: `svrqp gap --help` stays quick
+    from svrqp.gap import (  # imported when the command runs: `svrqp gap --help` stays quick
+        GapQuestion,
+        diagnose,
+    )
 
     if (features is None) == (prediction is None):
         raise ProblemError("give exactly one of --features (a model is fitted) or --prediction (a column)")

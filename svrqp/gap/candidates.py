@@ -32,7 +32,6 @@ from svrqp.gap.between import (
 )
 from svrqp.gap.discrepancy import nested_errors
 from svrqp.gap.prepare import GapData
-from svrqp.gap.windows import local_columns
 from svrqp.gap.transforms import (
     filter_coefficients,
     group_slices,
@@ -42,6 +41,7 @@ from svrqp.gap.transforms import (
     rate,
     standardised,
 )
+from svrqp.gap.windows import local_columns
 
 
 @dataclass(frozen=True)

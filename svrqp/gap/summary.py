@@ -13,7 +13,14 @@ from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.figures import unit_of
 from svrqp.gap.inputs import InputUse
 from svrqp.gap.report import Verdict
-from svrqp.gap.verdict import VerdictContext, names, quantity, region_text, train_label, unit_word
+from svrqp.gap.verdict import (
+    VerdictContext,
+    names,
+    quantity,
+    region_text,
+    train_label,
+    unit_word,
+)
 
 
 def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:

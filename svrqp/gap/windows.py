@@ -69,6 +69,7 @@ ties and sorts reversed stretches), and gaps only leave some tiles with fewer ro
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -116,8 +117,8 @@ def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> n
         return np.zeros((0, 2))
     ranges = np.array([(t[groups == g].min(), t[groups == g].max()) for g in np.unique(groups)])
     for width in WINDOW_WIDTHS:
-        edges = start + span * np.linspace(0.0, 1.0, int(round(1 / width)) + 1)
-        for i, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+        edges = start + span * np.linspace(0.0, 1.0, round(1 / width) + 1)
+        for i, (a, b) in enumerate(itertools.pairwise(edges)):
             inside = (t >= a) & ((t < b) | (i == edges.size - 2))
             per_unit = np.unique(units[inside], return_counts=True)[1]
             if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:

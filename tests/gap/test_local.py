@@ -8,7 +8,6 @@ rows, each fit keeping the window with the smallest error on its own rows.
 import numpy as np
 import pandas as pd
 import pytest
-
 from support.benchmark_modules import load_benchmark
 
 from svrqp.exceptions import ProblemError
