@@ -128,6 +128,10 @@ def solve_cholesky_schur(
     if fit_intercept:
         nu_mu = scipy.linalg.cho_solve(factor, np.column_stack([np.ones_like(y), y]), check_finite=False)
         nu, mu = nu_mu[:, 0], nu_mu[:, 1]
+        # 1^T H^-1 1 > 0 for a positive definite H; anything else is a factor that broke down numerically.
+        if not (np.isfinite(nu_mu).all() and nu.sum() > 0):
+            raise SingularSystemError("Omega + I/C is numerically singular: 1^T (Omega + I/C)^-1 1 is not a "
+                                      "finite positive number (scale the inputs, or lower C)")
         b = float(mu.sum() / nu.sum())
         alpha = mu - b * nu
     else:

@@ -49,6 +49,12 @@ def test_non_psd_kernel_is_a_singular_system():
         solve_cholesky_schur(np.eye(2), np.ones(2), C=0.0)
 
 
+def test_a_factor_that_breaks_down_numerically_is_a_singular_system_not_a_nan_bias():
+    # check_finite=False lets LAPACK factor an infinite diagonal; the Schur step must not divide by it
+    with pytest.raises(SingularSystemError, match="numerically singular"):
+        solve_cholesky_schur(np.eye(3) * np.inf, np.arange(3.0), C=1.0)
+
+
 @pytest.mark.parametrize("fit_intercept", [True, False])
 def test_in_place_factorisation_gives_the_same_solution_and_only_then_destroys_k(fit_intercept):
     case = SVR_CASES[0]()
