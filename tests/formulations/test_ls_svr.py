@@ -52,7 +52,7 @@ def test_non_psd_kernel_is_a_singular_system():
 def test_a_factor_that_breaks_down_numerically_is_a_singular_system_not_a_nan_bias():
     # check_finite=False lets LAPACK factor an infinite diagonal; the Schur step must not divide by it
     with pytest.raises(SingularSystemError, match="numerically singular"):
-        solve_cholesky_schur(np.eye(3) * np.inf, np.arange(3.0), C=1.0)
+        solve_cholesky_schur(np.diag(np.full(3, np.inf)), np.arange(3.0), C=1.0)
 
 
 @pytest.mark.parametrize("fit_intercept", [True, False])
