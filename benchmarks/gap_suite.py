@@ -800,10 +800,16 @@ def _rule_by_refit(s: Scenario, case: Case, report) -> bool:
 
 
 def _truth_transfers(s: Scenario, case: Case) -> bool:
-    """Whether a truth column offered as a candidate, under its best transform (level, rate or lag),
-    transfers beyond the same-input refit, both refitted leave one run out here in the model's family (by
-    more than :data:`transfer_oracle.AS_WELL`). Where none does, DESIGN §4 leaves no offered cause to
-    name: the effect as measured buys nothing on a run the fit never saw."""
+    """Whether a truth column offered as a candidate, under its best transform, transfers beyond the
+    same-input refit, both refitted leave one run out here in the model's family (by more than
+    :data:`transfer_oracle.AS_WELL`). Where none does, DESIGN §4 leaves no offered cause to name: the
+    effect as measured buys nothing on a run the fit never saw.
+
+    The transforms are level, rate and lag (:func:`transfer_oracle.transform_variants`) and the
+    between-run block of a reading's run mean :math:`\bar c` scaling a profile along the run,
+    :math:`[P, \bar c, \bar c P]` with :math:`P` the Legendre polynomials of degree 1 to 3 of the
+    run phase (−1 at a run's first row, 1 at its last), written here from that definition.
+    """
     order = ORDER[s.family.split("/")[0]]
     table = case.table.sort_values(["run", order], kind="stable").reset_index(drop=True)
     real = ~table.eval(train_query(s)).to_numpy()
@@ -811,7 +817,17 @@ def _truth_transfers(s: Scenario, case: Case) -> bool:
     runs = table["run"].to_numpy()
     refit = 1 - logo_rmse(y, own, [np.zeros((len(table), 0))], runs, real, predict) / before
     truth = tuple(c for c in case.truth if c in case.candidates)
-    return best_shrink(table, y, own, before, truth, order, "run", real, predict) > refit + AS_WELL
+    t = table[order].to_numpy(float)
+    first, last = (table.groupby("run")[order].transform(f).to_numpy(float) for f in ("first", "last"))
+    phase = 2.0 * (t - first) / np.where(last > first, last - first, 1.0) - 1.0
+    profile = np.polynomial.legendre.legvander(phase, 3)[:, 1:]
+    blocks = []
+    for column in truth:
+        level = table.groupby("run")[column].transform("mean").to_numpy(float)[:, None]
+        blocks.append(1 - logo_rmse(y, own, [np.column_stack([profile, level, level * profile])], runs, real,
+                                    predict) / before)
+    best = max([best_shrink(table, y, own, before, truth, order, "run", real, predict), *blocks])
+    return best > refit + AS_WELL
 
 
 def _scale_gamma(X_train: np.ndarray) -> float:
