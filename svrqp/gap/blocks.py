@@ -155,11 +155,11 @@ def lift_steps(x: np.ndarray, groups: np.ndarray) -> np.ndarray:
     return step
 
 
-def wrapped_part(rows: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    """Whether each row of a rotation ``rows`` (one row of :func:`rotated_rows`) reads from before
-    its group's rotation point (and so has wrapped round)."""
+def wrapped_part(index: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Whether each row of each rotation in ``index`` (:func:`rotated_rows`) reads from before its
+    group's rotation point (and so has wrapped round)."""
     first = np.concatenate([np.full(sl.stop - sl.start, sl.start) for sl in group_slices(groups)])
-    return rows < rows[first]
+    return index < index[..., first]
 
 
 def circular_autocorrelation(x: np.ndarray) -> np.ndarray:

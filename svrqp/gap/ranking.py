@@ -142,6 +142,7 @@ LAG_BATCH = 20
 CONDITIONAL_SURROGATES = 99
 """Surrogates of a conditional test."""
 
+
 @dataclass(frozen=True)
 class Effect:
     r"""One candidate transform as the refits add it.
@@ -213,14 +214,14 @@ class Ranked:
     ambiguous: bool = False
     region: dict | None = None
     beyond_window: float | None = None
+    tested_by: Ranked | None = None
+    """The column's best transform rotated within runs, whose test stands for a level too few runs leave
+    untestable by permutation (module docstring)."""
 
     @property
     def above_floor(self) -> bool:
         """Its transfer gain reaches the effect floor (a ``local`` effect's also beyond its window alone)."""
         return self.gain >= MIN_GAIN and (self.beyond_window is None or self.beyond_window >= MIN_GAIN)
-    tested_by: Ranked | None = None
-    """The column's best transform rotated within runs, whose test stands for a level too few runs leave
-    untestable by permutation (module docstring)."""
 
     @property
     def significant(self) -> bool:
@@ -272,13 +273,14 @@ class TransferRanker:
         self.window_alone = WindowAlone(family, self.axes)
         # One record cut into blocks: its readings drift over the record, rotated plainly they jump at the seam.
         self.surrogates = TransferSurrogates(data, family.A, rng, self.local_rng, lift=family.units.kind == "blocks")
+        # Whether some ordering of the run levels can reach Benjamini–Hochberg's first threshold at all.
+        self.permutable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
 
     # -- effects ------------------------------------------------------------------------
 
     def effects(self) -> list[Effect]:
         """Every candidate × transform to refit."""
         data, real = self.data, self.data.is_real
-        testable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
         out = []
         for j, column in enumerate(data.candidates):
             run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
@@ -289,7 +291,7 @@ class TransferRanker:
                 if run_level and transform in ("rate", "lag") and not moves:
                     continue  # its rate and lag are zero
                 if transform == "local":
-                    if not (run_level and not testable):  # run levels too few to permute to significance
+                    if not (run_level and not self.permutable):  # run levels too few to permute to significance
                         out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
                                 for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
@@ -373,7 +375,7 @@ class TransferRanker:
                 held = rotated.get(effect.column)
                 if held is None or _better(row, held):
                     rotated[effect.column] = row
-        if not permutations_can_reject(len(group_slices(self.data.groups)), len(self.data.candidates), ALPHA):
+        if not self.permutable:
             for column, row in best.items():
                 alt = rotated.get(column)
                 if row.effect.run_level and alt is not None and alt.gain >= MIN_GAIN:

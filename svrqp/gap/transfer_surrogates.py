@@ -91,13 +91,13 @@ class TransferSurrogates:
         out = []
         if effect.run_level:
             slices = group_slices(groups)
-            means = np.array([x[known[s]].mean() for s in slices])
+            means = self.run_levels(effect)
             if orders is None:
                 orders = [rng.permutation(len(slices)) for _ in range(count)]
             for order in orders:
                 xs = x.copy()
-                for s, g in zip(slices, order):
-                    xs[known[s]] += means[g] - means[slices.index(s)]
+                for i, (s, g) in enumerate(zip(slices, order)):
+                    xs[known[s]] += means[g] - means[i]
                 out.append(xs)
             return out
         # The part of the candidate that the family's other inputs explain stays where it is; the rest rotates.
@@ -105,10 +105,11 @@ class TransferSurrogates:
         explained = A @ np.linalg.lstsq(A, x[known], rcond=None)[0]
         own = x[known] - explained
         offsets = shift_offsets(groups, count, rng, own)
-        step = lift_steps(own, groups) if self.lift else None
-        for rows in rotated_rows(groups, offsets):
+        index = rotated_rows(groups, offsets)
+        lifted = wrapped_part(index, groups) * lift_steps(own, groups) if self.lift else None
+        for i, rows in enumerate(index):
             xs = x.copy()
-            xs[known] = explained + (own[rows] if step is None else own[rows] + wrapped_part(rows, groups) * step)
+            xs[known] = explained + (own[rows] if lifted is None else own[rows] + lifted[i])
             if effect.windows is not None:  # a local form: its run levels are exchanged as well
                 xs[known] = exchange_run_levels(xs[known], groups, rng)
             out.append(xs)
@@ -122,7 +123,8 @@ class TransferSurrogates:
         return A
 
     def smallest_p(self, effect: Effect, orders: list[np.ndarray]) -> float:
-        """The smallest p-value an exact test (:meth:`svrqp.gap.ranking.TransferRanker.exact_p`) can give: the orderings that leave the run levels unchanged."""
+        """The smallest p-value an exact test (:meth:`svrqp.gap.ranking.TransferRanker.exact_p`) can give: the
+        orderings that leave the run levels unchanged."""
         levels = self.run_levels(effect)
         same = sum(bool(np.allclose(levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())))
                    for order in orders)
