@@ -75,6 +75,7 @@ from svrqp.gap.transfer import (
     LinearTransfer,
     Units,
     bootstrap_index,
+    shrink_of_gain,
     transfer_shrink,
     transfer_units,
 )
@@ -313,7 +314,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
             region=row.region, shrink_beyond_window=None if row.beyond_window is None
-            else 1 - float(np.sqrt(max(1 - row.beyond_window, 0.0))),
+            else shrink_of_gain(row.beyond_window),
         ))
         errors_after[effect.column] = after
     return causes, errors_after

@@ -94,7 +94,7 @@ from svrqp.gap.between import (
     varies_within,
 )
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transfer import LinearTransfer, TransferFit
+from svrqp.gap.transfer import LinearTransfer, TransferFit, shrink_of_gain
 from svrqp.gap.transfer_surrogates import TransferSurrogates
 from svrqp.gap.transforms import (
     filter_coefficients,
@@ -535,7 +535,7 @@ class TransferRanker:
         if q_min < ALPHA:
             return
         k, column = len(orders[0]), best.effect.column
-        shrink = 1 - np.sqrt(max(1 - best.gain, 0.0))
+        shrink = shrink_of_gain(best.gain)
         result.untestable = column
         result.too_thin = (
             f" The level of {column}, one level per run, transfers best ({shrink:.0%} beyond the refit), but its "
@@ -581,8 +581,7 @@ def _fixed(row: Ranked) -> Effect:
 def _better(row: Ranked, held: Ranked) -> bool:
     """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie; the ``local``
     transform against a global one must be ahead by :data:`svrqp.gap.windows.LOCAL_MARGIN`)."""
-    shrink = lambda r: 1 - np.sqrt(max(1 - r.gain, 0.0))
     local = (row.effect.transform == "local") != (held.effect.transform == "local")
-    if abs(shrink(row) - shrink(held)) < (LOCAL_MARGIN if local else SAME_FIT):
+    if abs(shrink_of_gain(row.gain) - shrink_of_gain(held.gain)) < (LOCAL_MARGIN if local else SAME_FIT):
         return row.effect.parameters < held.effect.parameters
     return row.gain > held.gain

@@ -164,6 +164,13 @@ def transfer_units(groups: np.ndarray, is_real: np.ndarray, residual: np.ndarray
     return Units(code, "blocks", n_blocks, int(np.ceil(real_rows.size / n_blocks)), length, short)
 
 
+def shrink_of_gain(gain: float) -> float:
+    r"""The RMSE shrink :math:`1 - \sqrt{1 - g}` that a transfer gain :math:`g = 1 - \mathrm{SSE}_1 / \mathrm{SSE}_0`
+    (a relative drop of squared error, :mod:`svrqp.gap.ranking`) amounts to; a gain above 1 cannot happen
+    but for rounding and counts as 1."""
+    return 1 - float(np.sqrt(max(1 - gain, 0.0)))
+
+
 @dataclass(frozen=True)
 class TransferFit:
     """Leave-one-unit-out errors on the real rows of one design.

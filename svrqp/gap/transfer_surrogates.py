@@ -88,16 +88,12 @@ class TransferSurrogates:
         known = np.flatnonzero(np.isfinite(x))
         groups = data.groups[known]
         rng = self.local_rng if effect.windows is not None else self.rng
+        k = len(group_slices(groups))
         out = []
         if effect.run_level:
-            slices = group_slices(groups)
-            means = self.run_levels(effect)
-            if orders is None:
-                orders = [rng.permutation(len(slices)) for _ in range(count)]
-            for order in orders:
+            for order in orders if orders is not None else [rng.permutation(k) for _ in range(count)]:
                 xs = x.copy()
-                for i, (s, g) in enumerate(zip(slices, order)):
-                    xs[known[s]] += means[g] - means[i]
+                xs[known] = exchange_run_levels(x[known], groups, order)
                 out.append(xs)
             return out
         # The part of the candidate that the family's other inputs explain stays where it is; the rest rotates.
@@ -111,7 +107,7 @@ class TransferSurrogates:
             xs = x.copy()
             xs[known] = explained + (own[rows] if lifted is None else own[rows] + lifted[i])
             if effect.windows is not None:  # a local form: its run levels are exchanged as well
-                xs[known] = exchange_run_levels(xs[known], groups, rng)
+                xs[known] = exchange_run_levels(xs[known], groups, rng.permutation(k))
             out.append(xs)
         return out
 

@@ -75,7 +75,7 @@ import math
 import numpy as np
 
 from svrqp.gap.prepare import GapData
-from svrqp.gap.transfer import LinearTransfer
+from svrqp.gap.transfer import LinearTransfer, shrink_of_gain
 from svrqp.gap.transforms import group_slices
 
 WINDOW_WIDTHS = (0.05, 0.1, 0.2)
@@ -201,15 +201,16 @@ def collinear(A: np.ndarray, E: np.ndarray) -> bool:
     return bool(s[-1] <= COLLINEAR_RCOND * s[0])
 
 
-def exchange_run_levels(x: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    r"""``x`` with the run means exchanged by a random permutation :math:`\pi` of the runs.
+def exchange_run_levels(x: np.ndarray, groups: np.ndarray, order: np.ndarray) -> np.ndarray:
+    r"""``x`` with the run means exchanged by the permutation :math:`\pi` = ``order`` of the runs.
 
-    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: applied to a
-    series already rotated within runs, a surrogate of the ``local`` form's test (module docstring).
+    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: the surrogate of a
+    run-level candidate, and applied to a series already rotated within runs (with a random
+    ``order``), a surrogate of the ``local`` form's test (module docstring).
     """
     slices = group_slices(groups)
     means = np.array([x[s].mean() for s in slices])
-    shift = means[rng.permutation(len(slices))] - means
+    shift = means[order] - means
     out = x.copy()
     for s, d in zip(slices, shift):
         out[s] += d
@@ -309,7 +310,7 @@ def local_note(A: np.ndarray, E: np.ndarray, beyond_window: float, floor: float)
         return ("its window's columns are collinear with the model's own inputs on the rows fitted: "
                 "the refits keep the minimum-norm solution")
     if beyond_window < floor:
-        shrink = 1 - np.sqrt(max(1 - beyond_window, 0.0))
-        return (f"the window's own offset transfers about as well: the column adds {shrink:.0%} beyond it "
+        return (f"the window's own offset transfers about as well: the column adds "
+                f"{shrink_of_gain(beyond_window):.0%} beyond it "
                 "(below the effect floor)")
     return None

@@ -119,7 +119,7 @@ def test_a_local_surrogate_exchanges_the_run_levels_and_keeps_each_run_s_shape()
     draws = np.random.default_rng(1)
     seen = []
     for _ in range(60):
-        xs = exchange_run_levels(x, groups, draws)
+        xs = exchange_run_levels(x, groups, draws.permutation(4))
         seen.append(np.argsort(np.argsort(means(xs))))  # which of the four levels each run holds
         assert np.allclose(np.sort(means(xs)), np.sort(means(x)))  # the same levels, in other runs
         for g in range(4):  # within each run only the level moved
