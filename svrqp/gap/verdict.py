@@ -165,20 +165,24 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
         return Verdict(column=None, reason=reason + thin, thin=units.thin), None
     top = ranking.top
     thin = (ranking.too_thin or "") + thin
+
+    def no_cause(reason: str) -> tuple[Verdict, None]:
+        return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
+
     if top is None:
         reason = ("No candidate improves the model on held-out runs beyond chance (transfer surrogate test, "
                   f"false-discovery rate {ALPHA:g}, effect floor {MIN_GAIN:.0%} of the refit's squared "
                   f"error).{thin}{recalibration}")
         if ranking.withheld:
             reason = ranking.withheld + thin + recalibration
-        return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
+        return no_cause(reason)
     cause = next(c for c in causes if c.column == top.effect.column)
     if cause.shrink <= 0.0:
         reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}) and "
                   f"adds {cause.shrink_beyond_refit:.0%} to a refit, but the refit with it still leaves the real-row "
                   f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
                   f"cause is named.{family_text(cause, context)}{thin}{recalibration}")
-        return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
+        return no_cause(reason)
     if cause.shrink_beyond_refit <= 0.0 or (cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin):
         # Thin evidence excuses the interval, never an effect that leaves the same-input refit no better.
         where = "" if cause.shrink_beyond_refit <= 0.0 else f" on every resample of the held-out {unit_word(units)}s"
@@ -186,7 +190,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"but what it adds to a refit is not above zero{where}: {cause.shrink_beyond_refit:.0%} (95 % CI "
                   f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
                   f"{family_text(cause, context)}{thin}{recalibration}")
-        return Verdict(column=None, reason=reason, thin=units.thin, untestable=ranking.untestable), None
+        return no_cause(reason)
     train_refit = refit_shrink(data, context.baseline, effect_columns(data, cause.column, cause.transform, cause.tau,
                                                               cause.evidence, cause.region))
     after = errors_after[cause.column]
