@@ -66,6 +66,7 @@ from svrqp.bench.report import markdown_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import ASSESS_CYCLES, CHANNELS, DEFAULT_DATA, REPO, TEMPERATURES, TRAIN_CYCLES, load_fl  # noqa: E402
+from transfer_oracle import tau_grid, transform_variants  # noqa: E402
 
 RESULTS = REPO / "benchmarks" / "results"
 EVERY = 4
@@ -86,18 +87,6 @@ def lstsq_predict(D_fit: np.ndarray, y_fit: np.ndarray, D_new: np.ndarray) -> tu
     """Least-squares prediction of ``D_new`` and the fit's own squared error."""
     coef, *_ = np.linalg.lstsq(D_fit, y_fit, rcond=None)
     return D_new @ coef, float(np.sum((y_fit - D_fit @ coef) ** 2))
-
-
-def tau_grid(table: pd.DataFrame) -> np.ndarray:
-    """The geometric grid of time constants (module docstring)."""
-    steps, spans = [], []
-    for _, part in table.groupby("cycle", sort=False):
-        t = part["time_min"].to_numpy()
-        steps.extend(np.diff(t))
-        spans.append(t[-1] - t[0])
-    span = float(np.median(spans))
-    low = max(2 * float(np.median(steps)), span / 100)
-    return np.geomspace(low, max(span / 2, 2 * low), N_TAU)
 
 
 def windows(table: pd.DataFrame) -> list[np.ndarray]:
@@ -124,20 +113,10 @@ def windows(table: pd.DataFrame) -> list[np.ndarray]:
 
 def transforms(table: pd.DataFrame, column: str, taus: np.ndarray,
                tiles: list[np.ndarray]) -> dict[str, list[np.ndarray]]:
-    """Each transform's variants as input columns (``lag``: one per time constant; ``local``: one per window)."""
+    """Each transform's variants as input columns (``lag``: one per time constant, from
+    :func:`transfer_oracle.transform_variants`; ``local``: one per window)."""
     x = table[column].to_numpy(float)
-    rate, lagged = np.empty_like(x), np.empty((x.size, taus.size))
-    for _, rows in table.groupby("cycle", sort=False).indices.items():
-        t = table["time_min"].to_numpy()[rows]
-        rate[rows] = np.gradient(x[rows], t)
-        for j, tau in enumerate(taus):
-            state = x[rows[0]]
-            for k, row in enumerate(rows):
-                if k:
-                    state += (1 - np.exp(-(t[k] - t[k - 1]) / tau)) * (x[row] - state)
-                lagged[row, j] = state
-    bank = {"level": [x[:, None]], "rate": [rate[:, None]],
-            "lag": [np.column_stack([x, lagged[:, j]]) for j in range(taus.size)]}
+    bank = transform_variants(x, table["time_min"].to_numpy(float), table["cycle"].to_numpy(), taus)
     if tiles:
         bank["local"] = [np.column_stack([w, x * w]) for w in tiles]
     return bank
@@ -255,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     table = load_fl(args.data, EVERY)
     train = table[table["cycle"].isin(TRAIN_CYCLES)]
-    taus = tau_grid(table)
+    taus = tau_grid(table["time_min"].to_numpy(float), table["cycle"].to_numpy(), N_TAU)
     tiles = windows(table)
     banks = {c: transforms(table, c, taus, tiles) for c in TEMPERATURES + ["speed_rpm"]}
     rows = []
