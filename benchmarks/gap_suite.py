@@ -777,6 +777,13 @@ def _oracle_family(s: Scenario, table: pd.DataFrame) -> tuple[np.ndarray, np.nda
     return y, own, predict, float(np.sqrt(np.mean(before**2)))
 
 
+def _oracle_rows(s: Scenario, case: Case) -> tuple[str, pd.DataFrame, np.ndarray, tuple]:
+    """The order column, the table sorted by run and order, its real rows and :func:`_oracle_family` on it."""
+    order = ORDER[s.family.split("/")[0]]
+    table = case.table.sort_values(["run", order], kind="stable").reset_index(drop=True)
+    return order, table, ~table.eval(train_query(s)).to_numpy(), _oracle_family(s, table)
+
+
 def _rule_by_refit(s: Scenario, case: Case, report) -> bool:
     """DESIGN §4's acceptance by independent refits (:func:`transfer_oracle.as_well_as_truth`).
 
@@ -789,10 +796,7 @@ def _rule_by_refit(s: Scenario, case: Case, report) -> bool:
     named = report.verdict.column
     if named is None or named in case.truth or s.continuous or report.verdict.transform not in ORACLE_TRANSFORMS:
         return named is not None and named in case.truth
-    order = ORDER[s.family.split("/")[0]]
-    table = case.table.sort_values(["run", order], kind="stable").reset_index(drop=True)
-    real = ~table.eval(train_query(s)).to_numpy()
-    y, own, predict, before = _oracle_family(s, table)
+    order, table, real, (y, own, predict, before) = _oracle_rows(s, case)
     truth = tuple(c for c in case.truth if c in table)
     truth_shrink = best_shrink(table, y, own, before, truth, order, "run", real, predict)
     return as_well_as_truth(table, y, own, before, named, report.verdict.transform, truth, truth_shrink, order, "run",
@@ -810,10 +814,7 @@ def _truth_transfers(s: Scenario, case: Case) -> bool:
     :math:`[P, \bar c, \bar c P]` with :math:`P` the Legendre polynomials of degree 1 to 3 of the
     run phase (−1 at a run's first row, 1 at its last), written here from that definition.
     """
-    order = ORDER[s.family.split("/")[0]]
-    table = case.table.sort_values(["run", order], kind="stable").reset_index(drop=True)
-    real = ~table.eval(train_query(s)).to_numpy()
-    y, own, predict, before = _oracle_family(s, table)
+    order, table, real, (y, own, predict, before) = _oracle_rows(s, case)
     runs = table["run"].to_numpy()
     refit = 1 - logo_rmse(y, own, [np.zeros((len(table), 0))], runs, real, predict) / before
     truth = tuple(c for c in case.truth if c in case.candidates)
