@@ -556,6 +556,9 @@ FRESH = {"seed": 41000, "snr": (1.0, 0.75, 2.0, 5.0, 1.25), "runs": (3, 4, 5), "
 GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH}
 """Every grid by name."""
 
+CONTINUOUS_NULLS = 20
+"""Null scenarios recorded as one continuous record, per grid."""
+
 
 def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
     """The fixed scenario grid of :data:`GRIDS` (deterministic seeds)."""
@@ -609,6 +612,11 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
             out.append(Scenario(f"au-{effect}-{i}", "axis/prediction", "unmeasured", effect, **design(i) | passes(i)))
     out += transfer_scenarios(design)
     out += local_scenarios(design)
+    # Added last, so that every seed above stays as it was: with six continuous nulls a single chance verdict
+    # reads 0.167, and their false-attribution row could not show the 0.05 of its target.
+    for i in range(6, CONTINUOUS_NULLS):
+        out.append(Scenario(f"tc-null-{i}", "thermal/features", "null", None, n_decoys=4, continuous=True,
+                            **design(i) | {"null_noise_um": (0.1, 0.3, 1.0)[i % 3]}))
     return out[::10] if quick else out
 
 
