@@ -87,6 +87,13 @@ effect column as the added input (:func:`_oracle_shrink`: the model's family ref
 leave-one-run-out over all rows, scored on the real runs — plain least squares, or for an LS-SVR
 model its KKT system solved by numpy with the baseline's C and γ).
 
+Reference rows, beside the targets and never instead of them: ``truth_transfers`` — whether an offered truth
+column transfers beyond the same-input refit by the suite's own refit (:func:`_truth_transfers`; for a localised
+effect, its driver in its true stretch, :func:`_local_truth_transfers`); ``named_transfers`` — whether the column
+a verdict names on a scenario with nothing withheld does (:func:`_named_transfers`); and top-1 with DESIGN §4's
+own answers (:func:`_section4_answers`), which also counts as right a silence where no offered truth transfers
+or the verdict calls the truth too thin to test.
+
 Three grids: :data:`DEVELOPMENT`, on which the method was developed (its numbers are optimistic
 by construction); :data:`HOLDOUT` — other seeds, other SNR levels, run counts and lengths — run
 to check the first versions of the method and again after later changes (so no longer quite
