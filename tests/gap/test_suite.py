@@ -6,6 +6,7 @@ readings constant through each pass (a motor's warm-up state, an axis temperatur
 runs), a null scenario and effects that no candidate measures (the right answer is no verdict).
 """
 
+import pandas as pd
 import pytest
 from support.benchmark_modules import load_benchmark
 
@@ -103,3 +104,24 @@ def test_a_cause_explained_by_a_stronger_untestable_one_is_not_named(suite):
     assert report.causes[0].column == "motor_C" and not report.causes[0].significant
     assert any(c.significant for c in report.causes[1:])
     assert report.verdict.column is None and "motor_C transfers better" in report.verdict.reason
+
+
+def test_a_named_column_on_a_null_record_is_refitted_by_the_suite_itself(suite):
+    """Held-out tf-null-1: the model's inputs are read with noise, and the T8_C the engine names really
+    transfers beyond the same-input refit by the suite's own leave-one-run-out refit; the reference row
+    then leaves it out, the target row does not."""
+    row = suite.evaluate(next(s for s in suite.scenarios(grid="holdout") if s.name == "tf-null-1"))
+    assert row["verdict"] == "T8_C" and row["named_transfers"] is True
+    nulls = pd.DataFrame([row, {**row, "named_transfers": False}, {**row, "named": False}])
+    assert suite._not_transferring(nulls).tolist() == [False, True, False]
+
+
+def test_section4_answers_count_a_silence_only_where_no_truth_transfers_or_it_is_too_thin(suite):
+    gap = pd.DataFrame({
+        "top1_rule": [True, False, False, False, False],
+        "verdict": ["T1_C", None, None, None, "T5_C"],
+        "truth_transfers": [True, False, True, True, False],
+        "untestable": [None, None, "T4_C", None, None],
+        "truth": ["T1_C", "T4_C", "T4_C", "T4_C", "T4_C"],
+    })
+    assert suite._section4_answers(gap, suite._too_thin(gap)).tolist() == [True, True, True, False, False]
