@@ -965,8 +965,8 @@ def summarise_local(rows: pd.DataFrame) -> str:
     lines = ["", f"## Localised effects ({len(local)} local withheld, {len(nulls)} local nulls)", "",
              "| metric | value | target |", "|---|---|---|"]
     lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
-    lines += ["", "| family | kind | effect | n | top-1 | top-1 (with a gap) | named | region IoU (named stretch) "
-              "| gap detected |", "|---|---|---|---|---|---|---|---|---|"]
+    lines += ["", ("| family | kind | effect | n | top-1 | top-1 (with a gap) | named | region IoU (named stretch) "
+                   "| gap detected |"), "|---|---|---|---|---|---|---|---|---|"]
     part_rows = rows[rows.kind.isin(LOCAL_KINDS)]
     for (family, kind, effect), part in part_rows.groupby(["family", "kind", part_rows.effect.fillna("–")]):
         with_gap = part[part.gap_detected.astype(bool)]
