@@ -66,7 +66,7 @@ from svrqp.bench.report import markdown_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import ASSESS_CYCLES, CHANNELS, DEFAULT_DATA, REPO, TEMPERATURES, TRAIN_CYCLES, load_fl  # noqa: E402
-from transfer_oracle import tau_grid, transform_variants  # noqa: E402
+from transfer_oracle import logo_rmse, lstsq_predict, tau_grid, transform_variants  # noqa: E402
 
 RESULTS = REPO / "benchmarks" / "results"
 EVERY = 4
@@ -82,12 +82,6 @@ SHRINK_TARGET, HIT_TARGET = 0.05, 0.9
 
 
 # -- the checker's own computations ------------------------------------------------------------------
-
-def lstsq_predict(D_fit: np.ndarray, y_fit: np.ndarray, D_new: np.ndarray) -> tuple[np.ndarray, float]:
-    """Least-squares prediction of ``D_new`` and the fit's own squared error."""
-    coef, *_ = np.linalg.lstsq(D_fit, y_fit, rcond=None)
-    return D_new @ coef, float(np.sum((y_fit - D_fit @ coef) ** 2))
-
 
 def windows(table: pd.DataFrame) -> list[np.ndarray]:
     """The indicator of every window of the ``local`` family's tile dictionary (module docstring)."""
@@ -122,35 +116,20 @@ def transforms(table: pd.DataFrame, column: str, taus: np.ndarray,
     return bank
 
 
-def loco_rmse(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, variants: list[np.ndarray]) -> float:
-    """Real-row RMSE of the leave-one-cycle-out refit of ``y`` on ``base`` + the best variant per fit."""
-    cycle = table["cycle"].to_numpy()
-    squared = []
-    for held in ASSESS_CYCLES:
-        test = cycle == held
-        best = None
-        for extra in variants:
-            D = np.column_stack([base, extra])
-            prediction, sse = lstsq_predict(D[~test], y[~test], D[test])
-            if best is None or sse < best[1]:
-                best = (prediction, sse)
-        squared.append((y[test] - best[0]) ** 2)
-    return float(np.sqrt(np.mean(np.concatenate(squared))))
-
-
 def checker(table: pd.DataFrame, target: str, features: list[str], candidates: list[str],
             banks: dict[str, dict[str, list[np.ndarray]]]) -> tuple[dict[str, float], pd.DataFrame]:
     """The checker's numbers for one model: train CV, before, refit, and every candidate × transform."""
     y = table[target].to_numpy(float)
     train = table["cycle"].isin(TRAIN_CYCLES).to_numpy()
     base = np.column_stack([np.ones(y.size), table[features].to_numpy(float)])
-    prediction, _ = lstsq_predict(base[train], y[train], base[~train])
+    prediction = lstsq_predict(base[train], y[train], base[~train])
     before = float(np.sqrt(np.mean((y[~train] - prediction) ** 2)))
-    refit = loco_rmse(table, y, base, [np.zeros((y.size, 0))])
+    cycle, assessed = table["cycle"].to_numpy(), table["cycle"].isin(ASSESS_CYCLES).to_numpy()
+    refit = logo_rmse(y, base, [np.zeros((y.size, 0))], cycle, assessed)
     rows = []
     for column in candidates:
         for transform, variants in banks[column].items():
-            after = loco_rmse(table, y, base, variants)
+            after = logo_rmse(y, base, variants, cycle, assessed)
             rows.append({"column": column, "transform": transform, "rmse_after": after,
                          "shrink": 1 - after / before, "beyond_refit": 1 - after / refit})
     train_cv = cv_rmse(table[train], target, features)
@@ -164,7 +143,7 @@ def cv_rmse(train: pd.DataFrame, target: str, features: list[str]) -> float:
         fit, test = train[train["cycle"] != held], train[train["cycle"] == held]
         D_fit = np.column_stack([np.ones(len(fit)), fit[features].to_numpy(float)])
         D_new = np.column_stack([np.ones(len(test)), test[features].to_numpy(float)])
-        prediction, _ = lstsq_predict(D_fit, fit[target].to_numpy(float), D_new)
+        prediction = lstsq_predict(D_fit, fit[target].to_numpy(float), D_new)
         squared.append((test[target].to_numpy(float) - prediction) ** 2)
     return float(np.sqrt(np.mean(np.concatenate(squared))))
 
