@@ -776,8 +776,7 @@ def _oracle_shrink(s: Scenario, case: Case) -> float:
     table = case.table
     real = ~table.eval(train_query(s)).to_numpy()
     y, own, predict, before = _oracle_family(s, table)
-    after = logo_rmse(y, own, [table[["true_effect_um"]].to_numpy()], table["run"].to_numpy(), real, predict)
-    return 1 - after / before
+    return _shrink_with(table[["true_effect_um"]].to_numpy(), y, own, before, table["run"].to_numpy(), real, predict)
 
 
 def _oracle_family(s: Scenario, table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, Predict, float]:
@@ -839,7 +838,7 @@ def _truth_transfers(s: Scenario, case: Case) -> bool:
     """
     order, table, real, (y, own, predict, before) = _oracle_rows(s, case)
     runs = table["run"].to_numpy()
-    refit = 1 - logo_rmse(y, own, [np.zeros((len(table), 0))], runs, real, predict) / before
+    refit = _shrink_with(None, y, own, before, runs, real, predict)
     truth = tuple(c for c in case.truth if c in case.candidates)
     t = table[order].to_numpy(float)
     first, last = (table.groupby("run")[order].transform(f).to_numpy(float) for f in ("first", "last"))
@@ -848,8 +847,8 @@ def _truth_transfers(s: Scenario, case: Case) -> bool:
     blocks = []
     for column in truth:
         level = table.groupby("run")[column].transform("mean").to_numpy(float)[:, None]
-        blocks.append(1 - logo_rmse(y, own, [np.column_stack([profile, level, level * profile])], runs, real,
-                                    predict) / before)
+        blocks.append(_shrink_with(np.column_stack([profile, level, level * profile]), y, own, before, runs, real,
+                                   predict))
     best = max([best_shrink(table, y, own, before, truth, order, "run", real, predict), *blocks])
     return best > refit + AS_WELL
 
@@ -872,7 +871,7 @@ def _named_transfers(s: Scenario, case: Case, report) -> bool | None:
         rows = np.flatnonzero(real)
         groups = np.full(len(table), -1)
         groups[rows] = np.arange(rows.size) * ORACLE_BLOCKS // rows.size
-    refit = 1 - logo_rmse(y, own, [np.zeros((len(table), 0))], groups, real, predict) / before
+    refit = _shrink_with(None, y, own, before, groups, real, predict)
     shrinks = column_shrinks(table.assign(unit=groups), y, own, before, report.verdict.column, order, "unit", real,
                              predict)
     return shrinks[report.verdict.transform] > refit + AS_WELL
@@ -891,12 +890,18 @@ def _local_truth_transfers(s: Scenario, case: Case) -> bool:
     low, high = window_bounds(table, s)
     axis = table[local_axis(s)].to_numpy(float)
     w = ((axis >= low) & (axis <= high)).astype(float)
+    runs = table["run"].to_numpy()
+    best = max(_shrink_with(np.column_stack([w, table[c].to_numpy(float) * w]), y, own, before, runs, real, predict)
+               for c in case.truth)
+    return best > _shrink_with(None, y, own, before, runs, real, predict) + AS_WELL
 
-    def shrink(extra: np.ndarray) -> float:
-        return 1 - logo_rmse(y, own, [extra], table["run"].to_numpy(), real, predict) / before
 
-    best = max(shrink(np.column_stack([w, table[c].to_numpy(float) * w])) for c in case.truth)
-    return best > shrink(np.zeros((len(table), 0))) + AS_WELL
+def _shrink_with(extra: np.ndarray | None, y: np.ndarray, own: np.ndarray, before: float, groups: np.ndarray,
+                 real: np.ndarray, predict: Predict) -> float:
+    """Transfer shrink of the family refitted leave one group out with the columns ``extra`` added (None: the
+    same-input refit), scored on the real rows against the given model's real-row RMSE ``before``."""
+    extra = np.zeros((y.size, 0)) if extra is None else extra
+    return 1 - logo_rmse(y, own, [extra], groups, real, predict) / before
 
 
 def _scale_gamma(X_train: np.ndarray) -> float:
