@@ -138,14 +138,9 @@ def checker(table: pd.DataFrame, target: str, features: list[str], candidates: l
 
 def cv_rmse(train: pd.DataFrame, target: str, features: list[str]) -> float:
     """Leave-one-cycle-out RMSE of the linear model on the train cycles."""
-    squared = []
-    for held in TRAIN_CYCLES:
-        fit, test = train[train["cycle"] != held], train[train["cycle"] == held]
-        D_fit = np.column_stack([np.ones(len(fit)), fit[features].to_numpy(float)])
-        D_new = np.column_stack([np.ones(len(test)), test[features].to_numpy(float)])
-        prediction = lstsq_predict(D_fit, fit[target].to_numpy(float), D_new)
-        squared.append((test[target].to_numpy(float) - prediction) ** 2)
-    return float(np.sqrt(np.mean(np.concatenate(squared))))
+    D = np.column_stack([np.ones(len(train)), train[features].to_numpy(float)])
+    return logo_rmse(train[target].to_numpy(float), D, [np.zeros((len(train), 0))], train["cycle"].to_numpy(),
+                     np.ones(len(train), dtype=bool))
 
 
 def best_pairs(train: pd.DataFrame, target: str) -> list[tuple[str, str]]:
