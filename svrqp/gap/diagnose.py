@@ -66,8 +66,9 @@ from svrqp.gap.localise import localise, region_of
 from svrqp.gap.prepare import GapData, prepare
 from svrqp.gap.quantify import estimate_shrink
 from svrqp.gap.question import GapQuestion
+from svrqp.gap.ranked import Ranking
 from svrqp.gap.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
-from svrqp.gap.ranking import Ranking, TransferRanker
+from svrqp.gap.ranking import TransferRanker
 from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
 from svrqp.gap.summary import extrapolation_text, summary
 from svrqp.gap.surrogate_tests import MAX_SURROGATES, check_surrogates

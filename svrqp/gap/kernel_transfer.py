@@ -42,7 +42,8 @@ import numpy as np
 
 from svrqp.gap.baseline import Baseline, fit_predict
 from svrqp.gap.prepare import GapData
-from svrqp.gap.ranking import Ranking, TransferRanker
+from svrqp.gap.ranked import Ranking
+from svrqp.gap.ranking import TransferRanker
 from svrqp.gap.transfer import TransferFit, Units
 
 LINEAR = "linear"

@@ -51,7 +51,10 @@ Exact permutation tests for few runs
     Benjamini–Hochberg q-value at or above :math:`\alpha` — with three runs in all
     :math:`p_{\min} = 1/6` — no data could have made it significant: if it is the
     best-transferring cause, the verdict's reason and the summary say that the evidence is too
-    thin (:attr:`Ranking.too_thin`) instead of only "not beyond chance".
+    thin (:attr:`Ranking.too_thin`) instead of only "not beyond chance". The ``local`` form of such a
+    candidate is never tested or ranked (:mod:`svrqp.gap.windows`), but it is refitted: when it
+    transfers better than every ranked cause, beyond its window alone and beyond the column's global
+    forms, it is the best-transferring cause of that sentence, which names its window.
 
     When :func:`svrqp.gap.windows.permutations_can_reject` says that no ordering of the runs can
     reach Benjamini–Hochberg's first threshold, and the column's best transform rotated within
@@ -80,7 +83,6 @@ Confounded pairs
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import false_discovery_control
@@ -88,12 +90,12 @@ from scipy.stats import false_discovery_control
 from svrqp.gap.attribute import ALPHA, MIN_GAIN
 from svrqp.gap.between import (
     MIN_RUNS,
-    PROFILE_DEGREE,
     is_run_level,
     run_level_columns,
     varies_within,
 )
 from svrqp.gap.prepare import GapData
+from svrqp.gap.ranked import Effect, Ranked, Ranking
 from svrqp.gap.transfer import LinearTransfer, TransferFit, shrink_of_gain
 from svrqp.gap.transfer_surrogates import TransferSurrogates
 from svrqp.gap.transforms import (
@@ -110,6 +112,7 @@ from svrqp.gap.windows import (
     local_columns,
     local_note,
     permutations_can_reject,
+    region_text,
     window_axes,
 )
 
@@ -143,107 +146,6 @@ CONDITIONAL_SURROGATES = 99
 """Surrogates of a conditional test."""
 
 
-@dataclass(frozen=True)
-class Effect:
-    r"""One candidate transform as the refits add it.
-
-    Attributes
-    ----------
-    column, transform : str
-        The candidate and its transform.
-    taus : ndarray or None
-        The time-constant grid (``lag``).
-    run_level : bool
-        The candidate holds one level per run: surrogates permute its run levels.
-    block : bool
-        Its ``level`` enters as the block :math:`[\Psi, \bar c, \bar c\Psi]` of
-        :mod:`svrqp.gap.between` (a level scaling a profile along each run) rather than as the
-        plain column (a run-level candidate is refitted both ways).
-    """
-
-    column: str
-    transform: str
-    taus: np.ndarray | None
-    run_level: bool
-    block: bool = False
-    windows: np.ndarray | None = None
-    """The windows ``[low, high]`` searched (``local``, :mod:`svrqp.gap.windows`)."""
-    axis: str | None = None
-    """The column the windows lie along (``local``): the order axis, or a ``local_along`` column."""
-
-    @property
-    def parameters(self) -> int:
-        """Columns added plus a fitted time constant or window bounds."""
-        if self.block:
-            return 2 * PROFILE_DEGREE + 1
-        return {"level": 1, "rate": 1, "lag": 3, "local": 4}[self.transform]
-
-
-@dataclass
-class Ranked:
-    """One column's best-transferring effect and its errors.
-
-    Attributes
-    ----------
-    effect : Effect
-    fit : TransferFit
-        Leave-one-unit-out errors with the effect (and the time constant each fit chose).
-    gain : float
-        Transfer gain (module docstring).
-    p_raw, q_value : float
-        Surrogate p-value (1 when untested) and its Benjamini–Hochberg adjustment.
-    tau : float or None
-        The time constant chosen most often over the fits (``lag``).
-    region : dict or None
-        ``{"column": AXIS, "low": …, "high": …}``: the window (of the order axis or a ``local_along``
-        column) chosen most often over the fits (``local``).
-    note : str or None
-    beyond_window : float or None
-        Transfer gain of a ``local`` effect over its window's indicator alone (the nested null of
-        :mod:`svrqp.gap.windows`, the window chosen inside each fit there too); None for a global one.
-    """
-
-    effect: Effect
-    fit: TransferFit
-    gain: float
-    p_raw: float = 1.0
-    q_value: float = 1.0
-    tau: float | None = None
-    note: str | None = None
-    tested: bool = False
-    ambiguous: bool = False
-    region: dict | None = None
-    beyond_window: float | None = None
-    tested_by: Ranked | None = None
-    """The column's best transform rotated within runs, whose test stands for a level too few runs leave
-    untestable by permutation (module docstring)."""
-
-    @property
-    def above_floor(self) -> bool:
-        """Its transfer gain reaches the effect floor (a ``local`` effect's also beyond its window alone)."""
-        return self.gain >= MIN_GAIN and (self.beyond_window is None or self.beyond_window >= MIN_GAIN)
-
-    @property
-    def significant(self) -> bool:
-        return self.q_value < ALPHA and self.above_floor
-
-
-@dataclass
-class Ranking:
-    """Causes by transfer gain, tested, with the verdict candidate and its confounded rivals."""
-
-    ranked: list[Ranked]
-    top: Ranked | None = None
-    ambiguous_with: list[str] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    withheld: str | None = None
-    """Why no verdict is named although a cause is significant (a stronger untestable cause explains it)."""
-    too_thin: str | None = None
-    """The sentence on a best-transferring run-level cause that too few runs can never make significant."""
-    untestable: str | None = None
-    """That cause's column (:attr:`too_thin`)."""
-
-
 class TransferRanker:
     """Refits every candidate transform leave-one-unit-out and tests the best (module docstring).
 
@@ -275,6 +177,8 @@ class TransferRanker:
         self.surrogates = TransferSurrogates(data, family.A, rng, self.local_rng, lift=family.units.kind == "blocks")
         # Whether some ordering of the run levels can reach Benjamini–Hochberg's first threshold at all.
         self.permutable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
+        self.unpermutable: list[Ranked] = []
+        """The local forms of :meth:`unpermutable_local`, best first (set by :meth:`rank`)."""
 
     # -- effects ------------------------------------------------------------------------
 
@@ -292,14 +196,35 @@ class TransferRanker:
                     continue  # its rate and lag are zero
                 if transform == "local":
                     if not (run_level and not self.permutable):  # run levels too few to permute to significance
-                        out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
-                                for axis, (_, windows) in self.axes.items() if len(windows)]
+                        out += self.local_effects(column, run_level)
                     continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
                 within = transform in ("rate", "lag")  # rotated within runs whatever its run levels do
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
         return out
+
+    def local_effects(self, column: str, run_level: bool) -> list[Effect]:
+        """The ``local`` form of a column along every window axis."""
+        return [Effect(column, "local", None, run_level, windows=windows, axis=axis)
+                for axis, (_, windows) in self.axes.items() if len(windows)]
+
+    def unpermutable_local(self) -> list[Ranked]:
+        """The ``local`` form of every run-level candidate whose run levels are too few to permute to significance,
+        refitted but never tested: it only says why a diagnosis names nothing (:meth:`thin_evidence`)."""
+        data, real = self.data, self.data.is_real
+        if self.permutable or len(group_slices(data.groups[real])) < 2:
+            return []
+        rows = []
+        for j, column in enumerate(data.candidates):
+            if column in data.features or not is_run_level(data.C[real, j], data.groups[real]):
+                continue
+            for effect in self.local_effects(column, True):
+                fit = self.fit(effect)
+                row = Ranked(effect, fit, self.gain(fit), region=self._region(effect, fit))
+                row.beyond_window = self.gain(fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
+                rows.append(row)
+        return sorted(rows, key=lambda r: -r.gain)
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
                 ell: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
@@ -384,6 +309,7 @@ class TransferRanker:
             if row.region is not None:  # the window it chose most: collinear with the design, or no better alone
                 E, _, known = self.columns(_fixed(row))
                 row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
+        self.unpermutable = self.unpermutable_local()
         return sorted(best.values(), key=lambda r: -r.gain)
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
@@ -520,28 +446,49 @@ class TransferRanker:
     def thin_evidence(self, ranked: list[Ranked], result: Ranking) -> None:
         """Say so when the best-transferring cause is run-level and too few runs can ever make it significant.
 
-        Its smallest reachable p-value (:meth:`smallest_p`) in place of its own must leave its
-        Benjamini–Hochberg q-value at or above :data:`svrqp.gap.attribute.ALPHA` (module docstring).
+        The cause is the best of the ranked causes, or the ``local`` form of a run-level column that no ordering
+        of the runs can make significant (:meth:`unpermutable_local`) when it transfers better than every ranked
+        cause, beyond its window alone and beyond its column's global forms. Its smallest reachable p-value
+        (:meth:`smallest_p`) in place of its column's must leave its Benjamini–Hochberg q-value at or above
+        :data:`svrqp.gap.attribute.ALPHA` (module docstring).
         """
-        if not ranked or ranked[0].significant or not ranked[0].above_floor:
+        if not ranked or ranked[0].significant:
             return
-        best = ranked[0]
+        best = self.untestable_local(ranked) or (ranked[0] if ranked[0].above_floor else None)
+        if best is None:
+            return
         orders = self.surrogates.orderings(best.effect)
         if orders is None:
             return
+        column = best.effect.column
         p_min = self.surrogates.smallest_p(best.effect, orders)
-        p = [p_min if r is best else r.p_raw for r in ranked]
-        q_min = float(false_discovery_control(p, method="bh")[0])
+        p = [p_min if r.effect.column == column else r.p_raw for r in ranked]
+        q_min = float(min(q for q, r in zip(false_discovery_control(p, method="bh"), ranked) if r.effect.column == column))
         if q_min < ALPHA:
             return
-        k, column = len(orders[0]), best.effect.column
-        shrink = shrink_of_gain(best.gain)
         result.untestable = column
+        shrink = f"{shrink_of_gain(best.gain):.0%} beyond the refit"
+        if best.region is not None:
+            what = f"The {column} term {region_text(best.region)}"
+            shrink += f", {shrink_of_gain(best.beyond_window):.0%} beyond the window alone"
+        else:
+            what = f"The level of {column}"
         result.too_thin = (
-            f" The level of {column}, one level per run, transfers best ({shrink:.0%} beyond the refit), but its "
-            f"{k} run levels have only {len(orders)} orderings: no permutation test can give it a p-value below "
-            f"{p_min:.2g}, which over {len(ranked)} candidate columns leaves q ≥ {q_min:.2g} (above {ALPHA:g}). "
-            "The transfer evidence is too thin to name it; more runs are needed.")
+            f" {what}, one level per run, transfers best ({shrink}), but its {len(orders[0])} run levels have only "
+            f"{len(orders)} orderings: no permutation test can give it a p-value below {p_min:.2g}, which over "
+            f"{len(ranked)} candidate columns leaves q ≥ {q_min:.2g} (above {ALPHA:g}). The transfer evidence is too "
+            "thin to name it; more runs are needed.")
+
+    def untestable_local(self, ranked: list[Ranked]) -> Ranked | None:
+        """The best :meth:`unpermutable_local` form above the floor that transfers better than every ranked cause and
+        than its own column's row (by :data:`svrqp.gap.windows.LOCAL_MARGIN`), or None."""
+        rows = {r.effect.column: r for r in ranked}
+        for row in self.unpermutable:
+            if row.gain <= ranked[0].gain:
+                return None
+            if row.above_floor and _better(row, rows[row.effect.column]):
+                return row
+        return None
 
     def stronger_unproven(self, ranked: list[Ranked], top: Ranked) -> Ranked | None:
         """An untestable cause that transfers better than ``top`` and explains it away.

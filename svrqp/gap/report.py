@@ -108,7 +108,7 @@ class Verdict:
     family: str | None = None
     untestable: str | None = None
     """A run-level column that transfers best but that too few runs can never make significant
-    (:attr:`svrqp.gap.ranking.Ranking.too_thin`)."""
+    (:attr:`svrqp.gap.ranked.Ranking.too_thin`)."""
     region: dict[str, Any] | None = None
     """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis (or of a ``local_along``
     column) a ``local`` effect acts in (:mod:`svrqp.gap.windows`); None for a global effect."""

@@ -17,10 +17,10 @@ from svrqp.gap.verdict import (
     VerdictContext,
     names,
     quantity,
-    region_text,
     train_label,
     unit_word,
 )
+from svrqp.gap.windows import region_text
 
 
 def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:
@@ -58,7 +58,7 @@ def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:
         return (f"{first}. Refitting with the new {unit_word(units)}s removes {transfer['shrink_refit']:.0%} and "
                 f"leaves only noise on {held}, so no cause is named" + (f" ({caveat[2:]})." if caveat else "."))
     second = f"{first}. No candidate improves a refit on {held} beyond chance"
-    if verdict.untestable is not None:  # the evidence is too thin by design (svrqp.gap.ranking.Ranking.too_thin)
+    if verdict.untestable is not None:  # the evidence is too thin by design (svrqp.gap.ranked.Ranking.too_thin)
         return second + (f"; {verdict.untestable}, one level per run, transfers best, but too few runs to test it: "
                          "the evidence is too thin.")
     return second + (f" ({caveat[2:]})." if caveat else ".")

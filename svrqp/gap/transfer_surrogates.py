@@ -34,7 +34,7 @@ from svrqp.gap.windows import exchange_run_levels
 
 
 class Effect(Protocol):
-    """What a surrogate needs of a candidate × transform (:class:`svrqp.gap.ranking.Effect`)."""
+    """What a surrogate needs of a candidate × transform (:class:`svrqp.gap.ranked.Effect`)."""
 
     column: str
     run_level: bool

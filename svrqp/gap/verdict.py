@@ -23,9 +23,10 @@ from svrqp.gap.inputs import InputUse
 from svrqp.gap.kernel_transfer import LINEAR
 from svrqp.gap.prepare import GapData
 from svrqp.gap.quantify import refit_shrink
-from svrqp.gap.ranking import Ranking
+from svrqp.gap.ranked import Ranking
 from svrqp.gap.report import BaseFit, Cause, Verdict
 from svrqp.gap.transfer import MIN_BLOCKS, Units
+from svrqp.gap.windows import region_text
 
 
 @dataclass(frozen=True)
@@ -89,13 +90,6 @@ def effect_text(effect: Cause | Verdict, order_name: str) -> str:
     if effect.evidence == EVIDENCE_BETWEEN:
         text += (f" (constant within each run, scaling a profile along {order_name}; tested between runs)")
     return text
-
-
-def region_text(region: dict) -> str:
-    """``acting only between 0 and 12 mm of x_mm`` — a local effect's stretch of the order axis."""
-    unit = unit_of(region["column"])
-    high = quantity(region["high"], unit)
-    return f"acting only between {region['low']:.3g} and {high} of {region['column']}"
 
 
 def quantity(value: float, unit: str | None) -> str:

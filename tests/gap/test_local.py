@@ -5,6 +5,8 @@ indicator built here from the window bounds), left one run out over all rows and
 rows, each fit keeping the window with the smallest error on its own rows.
 """
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -242,3 +244,26 @@ def test_windows_along_a_column_are_the_rows_above_or_below_its_deciles():
 def test_bad_local_along_is_refused(change, message):
     with pytest.raises(ProblemError, match=message):
         diagnose(_speed_runs(runs=3), GapQuestion(**SPEED_QUESTION | change))
+
+
+def test_a_local_effect_of_a_run_level_reading_over_three_runs_is_called_too_thin_to_test():
+    """Three passes: the room temperature's three levels have 3! = 6 orderings, so its local form cannot reach
+    Benjamini–Hochberg's first threshold and is not tested; the engine names nothing and says why, with the window."""
+    df = _passes(carried=True, runs=3)
+    report = diagnose(df, GapQuestion(**QUESTION))
+    verdict = report.verdict
+    assert verdict.column is None and verdict.untestable == "room_C"
+    assert all(c.transform != "local" or c.column != "room_C" for c in report.causes)  # refitted, never ranked
+    found = re.search(r"The room_C term acting only between (\S+) and (\S+) mm of x_mm, one level per run, transfers "
+                      r"best \(\d+% beyond the refit, \d+% beyond the window alone\), but its 3 run levels have only 6 "
+                      r"orderings", verdict.reason)
+    assert found is not None, verdict.reason
+    assert _iou((float(found[1]), float(found[2])), PATCH_MM, df["x_mm"].to_numpy()) >= 0.5
+    assert report.to_dict()["verdict"]["untestable"] == "room_C"
+    assert "room_C, one level per run, transfers best" in report.summary
+
+
+def test_without_the_local_form_the_same_passes_call_the_level_too_thin():
+    report = diagnose(_passes(carried=True, runs=3), GapQuestion(**QUESTION | {"local": False}))
+    assert report.verdict.untestable == "room_C"
+    assert "The level of room_C, one level per run" in report.verdict.reason and "term acting" not in report.verdict.reason
