@@ -125,3 +125,26 @@ def test_section4_answers_count_a_silence_only_where_no_truth_transfers_or_it_is
         "truth": ["T1_C", "T4_C", "T4_C", "T4_C", "T4_C"],
     })
     assert suite._section4_answers(gap, suite._too_thin(gap)).tolist() == [True, True, True, False, False]
+
+
+def test_a_coolant_window_over_three_runs_is_beyond_a_test_told_its_stretch(suite):
+    """Held-out lt-window-1: the coolant reading holds one level per run over three runs, so not even the suite's
+    permutation test told the true stretch and profile names it; the engine is silent, and the local table's
+    DESIGN §4 row counts that silence as right while the target row counts it as a miss."""
+    row = suite.evaluate(next(s for s in suite.scenarios(grid="holdout") if s.name == "lt-window-1"))
+    assert row["gap_detected"] and row["truth_transfers"] is True
+    assert row["verdict"] is None and row["told_verdict"] is None and row["truth_q"] >= suite.FDR
+    gap = pd.DataFrame([row, {**row, "told_verdict": "coolant_C"}, {**row, "verdict": "nut_C"},
+                        {**row, "told_verdict": "nut_C"}])
+    assert suite._told_names_driver(gap).tolist() == [False, True, False, False]
+    assert suite._section4_answers(gap, ~suite._told_names_driver(gap)).tolist() == [True, False, False, True]
+
+
+def test_a_local_decoy_is_checked_by_the_suite_s_own_local_refit(suite):
+    """Fresh lt-window-5: ambient_C in the true stretch transfers as well as the coolant_C that scales the effect
+    (both refitted by the suite), but in the narrower window the engine names it in, it does not."""
+    scenario = next(s for s in suite.scenarios(grid="fresh") if s.name == "lt-window-5")
+    case = suite.case_for(scenario)
+    low, high = suite.window_bounds(case.table, scenario)
+    assert suite._local_as_well(scenario, case, "ambient_C", {"column": "time_min", "low": low, "high": high})
+    assert not suite._local_as_well(scenario, case, "ambient_C", {"column": "time_min", "low": 211.0, "high": 239.0})
