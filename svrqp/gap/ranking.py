@@ -178,7 +178,8 @@ class TransferRanker:
         # Whether some ordering of the run levels can reach Benjamini–Hochberg's first threshold at all.
         self.permutable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
         self.unpermutable: list[Ranked] = []
-        """The local forms of :meth:`unpermutable_local`, best first (set by :meth:`rank`)."""
+        """The refitted :meth:`untestable_form` rows of the candidates (not model features), best first (set by
+        :meth:`rank`)."""
 
     # -- effects ------------------------------------------------------------------------
 
@@ -194,9 +195,9 @@ class TransferRanker:
                     continue
                 if run_level and transform in ("rate", "lag") and not moves:
                     continue  # its rate and lag are zero
-                if transform == "local":
-                    if not (run_level and not self.permutable):  # run levels too few to permute to significance
-                        out += self.local_effects(column, run_level)
+                if transform == "local":  # untestable when run-level and not permutable (:meth:`untestable_form`)
+                    out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
+                            for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
@@ -204,27 +205,10 @@ class TransferRanker:
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
         return out
 
-    def local_effects(self, column: str, run_level: bool) -> list[Effect]:
-        """The ``local`` form of a column along every window axis."""
-        return [Effect(column, "local", None, run_level, windows=windows, axis=axis)
-                for axis, (_, windows) in self.axes.items() if len(windows)]
-
-    def unpermutable_local(self) -> list[Ranked]:
-        """The ``local`` form of every run-level candidate whose run levels are too few to permute to significance,
-        refitted but never tested: it only says why a diagnosis names nothing (:meth:`thin_evidence`)."""
-        data, real = self.data, self.data.is_real
-        if self.permutable or len(group_slices(data.groups[real])) < 2:
-            return []
-        rows = []
-        for j, column in enumerate(data.candidates):
-            if column in data.features or not is_run_level(data.C[real, j], data.groups[real]):
-                continue
-            for effect in self.local_effects(column, True):
-                fit = self.fit(effect)
-                row = Ranked(effect, fit, self.gain(fit), region=self._region(effect, fit))
-                row.beyond_window = self.gain(fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
-                rows.append(row)
-        return sorted(rows, key=lambda r: -r.gain)
+    def untestable_form(self, effect: Effect) -> bool:
+        """The ``local`` form of a run-level candidate whose run levels are too few to permute to significance:
+        refitted, never tested or ranked; it only says why a diagnosis names nothing (:meth:`thin_evidence`)."""
+        return effect.windows is not None and effect.run_level and not self.permutable
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
                 ell: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
@@ -288,11 +272,16 @@ class TransferRanker:
         """One row per column, its best-transferring transform, best first."""
         best: dict[str, Ranked] = {}
         rotated: dict[str, Ranked] = {}
+        untestable: list[Ranked] = []
         for effect in self.effects():
             fit = self.fit(effect)
             row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
             if effect.windows is not None:  # what the candidate buys beyond its window's own offset
                 row.beyond_window = self.gain(fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
+            if self.untestable_form(effect):
+                if effect.column not in self.data.features:
+                    untestable.append(row)
+                continue
             held = best.get(effect.column)
             if held is None or _better(row, held):
                 best[effect.column] = row
@@ -309,7 +298,7 @@ class TransferRanker:
             if row.region is not None:  # the window it chose most: collinear with the design, or no better alone
                 E, _, known = self.columns(_fixed(row))
                 row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
-        self.unpermutable = self.unpermutable_local()
+        self.unpermutable = sorted(untestable, key=lambda r: -r.gain)
         return sorted(best.values(), key=lambda r: -r.gain)
 
     def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
@@ -447,7 +436,7 @@ class TransferRanker:
         """Say so when the best-transferring cause is run-level and too few runs can ever make it significant.
 
         The cause is the best of the ranked causes, or the ``local`` form of a run-level column that no ordering
-        of the runs can make significant (:meth:`unpermutable_local`) when it transfers better than every ranked
+        of the runs can make significant (:meth:`untestable_form`) when it transfers better than every ranked
         cause, beyond its window alone and beyond its column's global forms. Its smallest reachable p-value
         (:meth:`smallest_p`) in place of its column's must leave its Benjamini–Hochberg q-value at or above
         :data:`svrqp.gap.attribute.ALPHA` (module docstring).
@@ -480,7 +469,7 @@ class TransferRanker:
             "thin to name it; more runs are needed.")
 
     def untestable_local(self, ranked: list[Ranked]) -> Ranked | None:
-        """The best :meth:`unpermutable_local` form above the floor that transfers better than every ranked cause and
+        """The best :meth:`untestable_form` row above the floor that transfers better than every ranked cause and
         than its own column's row (by :data:`svrqp.gap.windows.LOCAL_MARGIN`), or None."""
         rows = {r.effect.column: r for r in ranked}
         for row in self.unpermutable:
