@@ -27,6 +27,11 @@ def unit_of(name: str) -> str | None:
     return UNITS.get(normalise_micro(suffix)) if stem else None
 
 
+def quantity(value: float, unit: str | None) -> str:
+    """``4.09 μm``, or the bare number for a column whose name carries no unit."""
+    return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
+
+
 def axis_label(name: str) -> str:
     """Axis label of a column: ``"time_min"`` → ``"time (min)"``; ``"row"`` → row position."""
     if name == "row":

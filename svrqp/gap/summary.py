@@ -10,13 +10,12 @@ from __future__ import annotations
 
 from svrqp.gap.base import offsets_text
 from svrqp.gap.between import EVIDENCE_BETWEEN
-from svrqp.gap.figures import unit_of
+from svrqp.gap.figures import quantity, unit_of
 from svrqp.gap.inputs import InputUse
 from svrqp.gap.report import Verdict
 from svrqp.gap.verdict import (
     VerdictContext,
     names,
-    quantity,
     train_label,
     unit_word,
 )

@@ -17,7 +17,7 @@ from svrqp.gap.attribute import ALPHA, MIN_GAIN
 from svrqp.gap.baseline import Baseline
 from svrqp.gap.between import EVIDENCE_BETWEEN
 from svrqp.gap.candidates import effect_columns
-from svrqp.gap.figures import unit_of
+from svrqp.gap.figures import quantity, unit_of
 from svrqp.gap.gate import GateResult, gate, noise_pvalue
 from svrqp.gap.inputs import InputUse
 from svrqp.gap.kernel_transfer import LINEAR
@@ -90,11 +90,6 @@ def effect_text(effect: Cause | Verdict, order_name: str) -> str:
     if effect.evidence == EVIDENCE_BETWEEN:
         text += (f" (constant within each run, scaling a profile along {order_name}; tested between runs)")
     return text
-
-
-def quantity(value: float, unit: str | None) -> str:
-    """``4.09 μm``, or the bare number for a column whose name carries no unit."""
-    return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
 
 
 def family_text(cause: Cause, context: VerdictContext) -> str:

@@ -45,7 +45,8 @@ What the form costs the other transforms
     :math:`\alpha = 0.05`, six runs for up to 36). An untestable form could only shadow a
     testable cause. It is still refitted, never tested or ranked: when it transfers best, the
     verdict says that the evidence is too thin and names its window
-    (:meth:`svrqp.gap.ranking.TransferRanker.thin_evidence`). Its surrogates come from a stream of their own, so offering it leaves the
+    (:meth:`svrqp.gap.ranking.TransferRanker.thin_evidence`). Its surrogates come from a stream
+    of their own, so offering it leaves the
     Monte-Carlo p-values of the other transforms as they were.
 
 Windows along another column
@@ -76,7 +77,7 @@ import math
 
 import numpy as np
 
-from svrqp.gap.figures import unit_of
+from svrqp.gap.figures import quantity, unit_of
 from svrqp.gap.prepare import GapData
 from svrqp.gap.transfer import LinearTransfer, shrink_of_gain
 from svrqp.gap.transforms import group_slices
@@ -304,8 +305,7 @@ def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
 
 def region_text(region: dict) -> str:
     """``acting only between 0 and 12 mm of x_mm`` — a local effect's stretch of its axis."""
-    unit = unit_of(region["column"])
-    high = f"{region['high']:.3g} {unit}" if unit else f"{region['high']:.3g}"
+    high = quantity(region["high"], unit_of(region["column"]))
     return f"acting only between {region['low']:.3g} and {high} of {region['column']}"
 
 
