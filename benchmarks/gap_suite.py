@@ -140,7 +140,7 @@ from svrqp.machine.thermal import EFFECTS as THERMAL_EFFECTS
 from svrqp.machine.thermal import Ambient
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_oracle import FDR, told_test, told_verdict
+from local_oracle import FDR, stretch_rmse, told_test, told_verdict
 from transfer_oracle import (
     AS_WELL,
     Predict,
@@ -840,17 +840,11 @@ def _local_as_well(s: Scenario, case: Case, named: str, region: dict) -> bool:
     x\,\mathbb{1}_R]`, transfers at least as well (within :data:`transfer_oracle.AS_WELL`) as the best truth column
     refitted with the effect's true profile (:func:`_true_profile`), both leave one run out in the model's family:
     DESIGN §4's rule for a localised effect."""
-    _, table, real, (y, own, predict, before) = _oracle_rows(s, case)
-    runs = table["run"].to_numpy()
-    axis = table[region["column"]].to_numpy(float)
-    inside = ((axis >= region["low"]) & (axis <= region["high"])).astype(float)
+    _, table, real, family = _oracle_rows(s, case)
+    inside = local_profile(table[region["column"]].to_numpy(float), region["low"], region["high"], "indicator")
     profile = _true_profile(table, s)
-
-    def shrink(column: str, w: np.ndarray) -> float:
-        return _shrink_with(np.column_stack([w, table[column].to_numpy(float) * w]), y, own, before, runs, real,
-                            predict)
-
-    return shrink(named, inside) >= max(shrink(c, profile) for c in case.truth) - AS_WELL
+    truth = max(_stretch_shrink(table, c, profile, real, family) for c in case.truth)
+    return _stretch_shrink(table, named, inside, real, family) >= truth - AS_WELL
 
 
 def _truth_transfers(s: Scenario, case: Case) -> bool:
@@ -914,14 +908,11 @@ def _local_truth_transfers(s: Scenario, case: Case) -> bool:
     beats the refit by more than :data:`transfer_oracle.AS_WELL`. Where it does not, no window search could
     make it transfer either, and DESIGN §4 leaves no cause to name.
     """
-    _, table, real, (y, own, predict, before) = _oracle_rows(s, case)
-    low, high = window_bounds(table, s)
-    axis = table[local_axis(s)].to_numpy(float)
-    w = ((axis >= low) & (axis <= high)).astype(float)
-    runs = table["run"].to_numpy()
-    best = max(_shrink_with(np.column_stack([w, table[c].to_numpy(float) * w]), y, own, before, runs, real, predict)
-               for c in case.truth)
-    return best > _shrink_with(None, y, own, before, runs, real, predict) + AS_WELL
+    _, table, real, family = _oracle_rows(s, case)
+    w = local_profile(table[local_axis(s)].to_numpy(float), *window_bounds(table, s), "indicator")
+    best = max(_stretch_shrink(table, c, w, real, family) for c in case.truth)
+    y, own, predict, before = family
+    return best > _shrink_with(None, y, own, before, table["run"].to_numpy(), real, predict) + AS_WELL
 
 
 def _told_test(s: Scenario, case: Case) -> tuple[float, str | None]:
@@ -939,6 +930,13 @@ def _true_profile(table: pd.DataFrame, s: Scenario) -> np.ndarray:
     """The localised effect's profile along its axis on every row (:func:`local_profile` on :func:`window_bounds`)."""
     low, high = window_bounds(table, s)
     return local_profile(table[local_axis(s)].to_numpy(float), low, high, s.shape)
+
+
+def _stretch_shrink(table: pd.DataFrame, column: str, w: np.ndarray, real: np.ndarray, family: tuple) -> float:
+    """Transfer shrink of the family (:func:`_oracle_family`) refitted leave one run out with ``[w, x w]`` added,
+    ``x`` the column and ``w`` a profile along the axis (:func:`local_oracle.stretch_rmse`)."""
+    y, own, predict, before = family
+    return 1 - stretch_rmse(y, own, table[column].to_numpy(float), w, table["run"].to_numpy(), real, predict) / before
 
 
 def _shrink_with(extra: np.ndarray | None, y: np.ndarray, own: np.ndarray, before: float, groups: np.ndarray,
@@ -1119,14 +1117,18 @@ def _not_transferring(nulls: pd.DataFrame) -> pd.Series:
 
 def _too_thin(gap: pd.DataFrame) -> pd.Series:
     """Whether the verdict calls a truth column too thin to test (``verdict.untestable``)."""
-    return pd.Series([u in t.split("|") if isinstance(u, str) else False for u, t in zip(gap.untestable, gap.truth)],
-                     index=gap.index, dtype=bool)
+    return _names_truth(gap, "untestable")
 
 
 def _told_names_driver(gap: pd.DataFrame) -> pd.Series:
     """Whether the test told a localised effect's stretch (``told_verdict``, :func:`_told_test`) names a truth column."""
-    told = gap["told_verdict"] if "told_verdict" in gap else pd.Series(None, index=gap.index, dtype=object)
-    return pd.Series([isinstance(v, str) and v in t.split("|") for v, t in zip(told, gap.truth)], index=gap.index,
+    return _names_truth(gap, "told_verdict")
+
+
+def _names_truth(gap: pd.DataFrame, key: str) -> pd.Series:
+    """Whether the column in ``gap[key]`` (None where the table has no such key) is one of its row's truth columns."""
+    named = gap[key] if key in gap else pd.Series(None, index=gap.index, dtype=object)
+    return pd.Series([isinstance(c, str) and c in t.split("|") for c, t in zip(named, gap.truth)], index=gap.index,
                      dtype=bool)
 
 

@@ -63,12 +63,13 @@ def stretch_rmse(y: np.ndarray, base: np.ndarray, x: np.ndarray, w: np.ndarray, 
 
 
 def stretch_p(y: np.ndarray, base: np.ndarray, x: np.ndarray, w: np.ndarray, groups: np.ndarray, real: np.ndarray,
-              rng: np.random.Generator, predict: Predict = lstsq_predict) -> float:
-    """Permutation p-value of the column ``x`` with the profile ``w`` (module docstring); rows sorted within runs."""
+              rng: np.random.Generator, predict: Predict = lstsq_predict, observed: float | None = None) -> float:
+    """Permutation p-value of the column ``x`` with the profile ``w`` (module docstring); rows sorted within runs.
+    ``observed``: its :func:`stretch_rmse`, when the caller has it already."""
     def rmse(column: np.ndarray) -> float:
         return stretch_rmse(y, base, column, w, groups, real, predict)
 
-    observed = rmse(x) * (1 + 1e-12)
+    observed = (rmse(x) if observed is None else observed) * (1 + 1e-12)
     runs = pd.unique(groups)
     k = runs.size
     constant = all(np.ptp(x[groups == g]) <= 1e-12 * (1 + np.abs(x).max()) for g in runs)
@@ -91,7 +92,7 @@ def told_test(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, w: np.ndarra
     groups = table[group].to_numpy()
     xs = {c: table[c].to_numpy(float) for c in columns}
     rmse = [stretch_rmse(y, base, xs[c], w, groups, real, predict) for c in columns]
-    p = [stretch_p(y, base, xs[c], w, groups, real, rng, predict) for c in columns]
+    p = [stretch_p(y, base, xs[c], w, groups, real, rng, predict, observed) for c, observed in zip(columns, rmse)]
     return pd.DataFrame({"rmse": rmse, "p": p, "q": false_discovery_control(p, method="bh")}, index=list(columns))
 
 
