@@ -4,15 +4,12 @@ A core install (``pip install svrqp``) runs every command; a feature that needs 
 package checks for it *before* any work or any file is written, with
 :func:`require`, and stops with one line that names the extra to install.
 
-==========  ==================  =========================================================
-extra       package             what needs it
-==========  ==================  =========================================================
-``guard``   crepes              conformal intervals: ``Guarded``, ``--coverage``, ``svrqp demo``
-``ga``      pygad               the genetic-algorithm search: ``svrqp tune --method ga``
-``dask``    distributed         searches on a Dask cluster: ``backend="dask"``, ``--scheduler``
-``parquet`` pyarrow             Parquet input files
-``solvers`` proxsuite, piqp, …  the QP backends beyond Clarabel, OSQP and cvxpy
-==========  ==================  =========================================================
+- ``guard`` (crepes): conformal intervals — ``Guarded``, ``--coverage``, ``svrqp demo``;
+- ``ga`` (pygad): the genetic-algorithm search — ``svrqp tune --method ga``;
+- ``dask`` (distributed): searches on a Dask cluster — ``backend="dask"``, ``--scheduler``;
+- ``parquet`` (pyarrow): Parquet input files;
+- ``solvers`` (proxsuite, piqp, …): QP backends beyond Clarabel, OSQP and cvxpy (checked per
+  backend by :mod:`svrqp.solvers.qp_backends`).
 """
 
 from __future__ import annotations
