@@ -81,7 +81,9 @@ def register(app: typer.Typer) -> None:
         from svrqp.demo import (
             run_demo,  # imported when the command runs: `svrqp demo --help` stays quick
         )
+        from svrqp.demo.run import REQUIRED_EXTRA, require
 
+        require(*REQUIRED_EXTRA)  # before the progress bar: a missing extra is one line, nothing else
         console = Console()
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                       TimeElapsedColumn(), console=Console(stderr=True), transient=True) as progress:

@@ -36,6 +36,10 @@ STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.45, "S0 variant: absolute
                 "figures and report": 0.05}
 
 
+#: The extra the demo needs, and why (checked before anything is written).
+REQUIRED_EXTRA = ("guard", "svrqp demo (its S0 ε-SVR carries conformal intervals)")
+
+
 def prepare_directory(out: Path, force: bool) -> None:
     """Create ``out``; refuse a non-empty one unless ``force`` (then the demo's files are replaced)."""
     if out.exists() and not out.is_dir():
@@ -241,7 +245,7 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, force: boo
     if n_jobs is None:
         n_jobs = 1 if quick else 2
     out = Path(out)
-    require("guard", "svrqp demo (its S0 ε-SVR carries conformal intervals)")  # before any file is written
+    require(*REQUIRED_EXTRA)  # before any file is written
     created = not out.exists()
     prepare_directory(out, force)
     try:
