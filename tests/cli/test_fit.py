@@ -150,11 +150,13 @@ def test_bad_input_is_one_error_line(s0_batches, capsys, options, message):
     assert re.search(message, error)
 
 
-@pytest.mark.parametrize("command", ["fit", "tune", "gap"])
+@pytest.mark.parametrize("command", ["fit", "export", "tune", "gap"])
 def test_an_unknown_model_is_refused_with_the_registry_choices(s0_batches, capsys, command):
-    """fit, tune and gap share one --model choice list, each the registry's subset for the command."""
-    choices = {"fit": registry.names(), "tune": registry.tunable(), "gap": registry.baselines()}[command]
-    extra = {"gap": ["--train", "batch == 'x1'", "--candidates", "T9_C", "--json", "g.json"]}.get(command, [])
+    """fit, export, tune and gap share one --model choice list, each the registry's subset for the command."""
+    choices = {"fit": registry.names(), "export": registry.names(), "tune": registry.tunable(),
+               "gap": registry.baselines()}[command]
+    extra = {"gap": ["--train", "batch == 'x1'", "--candidates", "T9_C", "--json", "g.json"],
+             "export": ["--out", "m.json"]}.get(command, [])
     with pytest.raises(SystemExit) as exit_info:
         main([command, str(s0_batches), "--target", "error_um", "--features", "T7_C", "--model", "ridge", *extra])
     assert exit_info.value.code == 2

@@ -94,7 +94,6 @@ def test_schema_invalid_file_names_the_field(data_csv, tmp_path, capsys):
 @pytest.mark.parametrize(("argv", "message"), [
     (["export", "{model}", "--target", "error_um", "--out", "{tmp}/x.csv"], "only apply when SOURCE is a data table"),
     (["export", "{data}", "--out", "{tmp}/x.json"], "needs --target and --features"),
-    (["export", "{data}", *FIT, "--model", "forest", "--out", "{tmp}/x.json"], "--model must be one of"),
     (["export", "{data}", *FIT, "--out", "{tmp}/x.txt"], "cannot tell the format"),
     (["export", "{data}", *FIT, "--gamma", "wide", "--out", "{tmp}/x.json"], "--gamma must be"),
     (["export", "{data}", "--target", "error_um", "--features", "T7_C,T8_C", "--out", "{tmp}/x.json"], "T8_C"),
