@@ -188,7 +188,7 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
     exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(epsilon), beta,
                                products=lambda idx, v: X @ (X[idx].T @ v))
-    beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C)
+    beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C, exact=exact.exact)
     K_beta = X @ (X.T @ beta)
     b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, epsilon)
     certificate = epsilon_svr_certificate.model_certificate(
