@@ -19,10 +19,9 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from svrqp import description
 from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
-from svrqp.export import describe
-from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, ls_svr
 from svrqp.kernels import gram, training_gram
 from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
@@ -98,7 +97,7 @@ class _KernelModel(RegressorMixin, BaseEstimator):
         return tags
 
 
-class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
+class EpsilonSVR(CompactFitMixin, _KernelModel):
     """ε-support vector regression solved as an explicit QP.
 
     Parameters
@@ -165,7 +164,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         whether its crossover reached the exact optimum.
     """
 
-    _export_kind = "epsilon_svr"
+    export_kind = "epsilon_svr"
     _parameter_checks = {
         "C": [Number(0.0)],
         "epsilon": [Number(0.0, closed="left")],
@@ -191,8 +190,9 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.check_tol = check_tol
         self.fallback = fallback
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
@@ -222,7 +222,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         return self
 
 
-class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
+class LSSVR(CompactSystemMixin, _KernelModel):
     """Least-squares SVR (S4): the KKT linear system, solved by Cholesky and a Schur complement.
 
     Parameters
@@ -249,7 +249,7 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         rebuilt on first access and after unpickling: :mod:`svrqp.estimators.fitted_state`).
     """
 
-    _export_kind = "ls_svr"
+    export_kind = "ls_svr"
     _parameter_checks = {
         "C": [Number(0.0)],
         **_KERNEL_CHECKS,
@@ -267,8 +267,9 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         self.fit_intercept = fit_intercept
         self.solver = solver
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LSSVR:
         """Solve the LS-SVR KKT system for (X, y).
