@@ -13,7 +13,7 @@ import pandas as pd
 from svrqp import datasets
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"
+DEFAULT_DATA = REPO / "svrqp" / "datasets" / "fl_thermal" / "data.csv"  # the copy shipped in the package
 TRAIN_CYCLES = ("1250", "2500", "3750")
 ASSESS_CYCLES = ("5000", "mixed")
 CHANNELS = [f"ch{i}_um" for i in range(1, 6)]

@@ -43,7 +43,7 @@ from svrqp.estimators import LinearLS  # noqa: E402
 from svrqp.datasets.build import miao2013  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"
+DEFAULT_DATA = REPO / "svrqp" / "datasets" / "fl_thermal" / "data.csv"  # the copy shipped in the package
 RESULTS = REPO / "benchmarks" / "results"
 COVERAGE = 0.9
 N_REPEATS = 200

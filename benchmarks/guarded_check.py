@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"
+DEFAULT_DATA = REPO / "svrqp" / "datasets" / "fl_thermal" / "data.csv"  # the copy shipped in the package
 TABLE = REPO / "benchmarks" / "results" / "guarded.md"
 OUTPUT = REPO / "benchmarks" / "results" / "guarded_check.md"
 COVERAGE = 0.9

@@ -21,14 +21,13 @@
 # sixteen temperatures (°C, positions undocumented) every 15 s for 46 h, through four-hour run /
 # four-hour stop cycles at 1250, 2500, 3750, 5000 and 3500 rpm and a final mixed-speed run.
 #
-# The file is not shipped with svrqp; it is read from the project's shared data folder next to the
-# repository (`../shared/data/fl_thermal/data.csv` from the repository root). We fit models on the
+# The file ships with svrqp, unchanged, beside its licence notice and data card
+# (`datasets.fl_thermal_card()`); `datasets.load_fl_thermal()` reads it. We fit models on the
 # first three speed cycles and test them on the rest: higher speeds and a mixed programme the models
 # never saw — the honest, hard split.
 
 # %%
 import importlib.util
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -48,10 +47,7 @@ from svrqp.estimators import LinearLS
 # of these 1000×1000 kernel matrices slow down a hundredfold instead of speeding up.
 threadpool_limits(1)
 
-DATA = Path.cwd().resolve().parents[1] / "shared" / "data" / "fl_thermal" / "data.csv"
-if not DATA.exists():
-    raise FileNotFoundError(f"the FL_THERMAL measurements are expected at {DATA} (see the project README)")
-data = datasets.load_fl_thermal(DATA)
+data = datasets.load_fl_thermal()
 print(data.shape)
 data.groupby("phase", sort=False)["time_min"].agg(["min", "max", "size"]).head(12)
 

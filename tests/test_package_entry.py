@@ -47,3 +47,22 @@ def test_version_is_the_constant_pyproject_reads():
     assert "version" in pyproject["project"]["dynamic"]
     assert pyproject["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "svrqp._version.__version__"}
     assert svrqp.__version__.count(".") == 2 and all(part.isdigit() for part in svrqp.__version__.split("."))
+
+
+def test_nothing_reads_outside_the_repository():
+    """A clone on its own must pass: no code, notebook or doc page reads the folder beside the repository."""
+    import re
+    from pathlib import Path
+
+    repo = Path(svrqp.__file__).parents[1]
+    outside = re.compile(r"\.\./" + "shared" + r"|parents?\[?\d?\]?\s*/\s*[\"']" + "shared" + r"[\"']")
+    offenders = [str(path.relative_to(repo))
+                 for folder in ("svrqp", "tests", "notebooks", "benchmarks", "docs")
+                 for path in (repo / folder).rglob("*")
+                 if path.suffix in {".py", ".ipynb", ".md", ".yml"} and outside.search(path.read_text(encoding="utf-8"))]
+    assert offenders == []
+
+
+def test_python_dash_m_svrqp_is_the_command():
+    done = subprocess.run([sys.executable, "-m", "svrqp", "--version"], capture_output=True, text=True, check=True)
+    assert done.stdout == f"svrqp {svrqp.__version__}\n"

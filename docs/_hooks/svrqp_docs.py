@@ -212,3 +212,19 @@ def on_files(files, config):
         if image.is_file() and files.get_file_from_path(uri) is None:
             files.append(File.generated(config, uri, abs_src_path=str(image)))
     return files
+
+
+# mkdocs-jupyter writes a MathJax 2 set-up into every notebook page: a script tag with an empty
+# source and a "text/x-mathjax-config" block. The site has one MathJax 3 set-up (mkdocs.yml's
+# extra_javascript, bundled); these two would only load nothing or a second, CDN copy.
+_NOTEBOOK_MATHJAX = (re.compile(r'<script src="">\s*</script>\s*'),
+                     re.compile(r'<script type="text/x-mathjax-config">.*?</script>\s*', re.DOTALL))
+
+
+def on_post_page(output: str, page, config) -> str:
+    """Remove the notebook converter's own MathJax 2 scripts; the site's MathJax 3 renders the maths."""
+    if not page.file.src_uri.endswith(".ipynb"):
+        return output
+    for pattern in _NOTEBOOK_MATHJAX:
+        output = pattern.sub("", output)
+    return output

@@ -23,6 +23,7 @@ import typer
 from typer.core import TyperGroup
 
 from svrqp._version import __version__
+from svrqp.cli import _threads
 from svrqp.exceptions import SvrqpError
 
 
@@ -133,6 +134,9 @@ def _root(
     debug: bool = typer.Option(False, "--debug", help="Show the full traceback on errors."),
     version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
                                  help="Print the version of svrqp and exit."),
+    blas_threads: int = typer.Option(_threads.DEFAULT, _threads.OPTION, min=0,
+                                     help="BLAS/OpenMP threads per process (0: the libraries' own default). "
+                                          "One is fastest when a command runs a worker per core."),
 ) -> None:
     """Support vector regression as explicit convex problems."""
     _state["debug"] = debug
@@ -144,8 +148,10 @@ _USER_ERRORS = (SvrqpError, ValueError, KeyError, FileNotFoundError, FileExistsE
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``svrqp`` console script."""
+    arguments = sys.argv[1:] if argv is None else list(argv)
     try:
-        code = app(args=argv, prog_name="svrqp", standalone_mode=False)
+        with _threads.capped(_threads.requested(arguments)):
+            code = app(args=arguments, prog_name="svrqp", standalone_mode=False)
     except _USER_ERRORS as err:
         if _state["debug"]:
             raise

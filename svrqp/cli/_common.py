@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+from collections.abc import Sequence
+from enum import Enum
 from typing import TYPE_CHECKING, Any
+
+import typer
 
 from svrqp import registry
 from svrqp.exceptions import BackendNotAvailableError, ProblemError
@@ -23,6 +27,33 @@ if TYPE_CHECKING:
 MODELS = registry.names()
 #: svrqp's interior point with exact crossover, a value of ``EpsilonSVR(solver=...)``.
 DUAL_IPM = "dual_ipm"
+
+#: What each model name means, for every ``--model`` help text.
+MODEL_WORDS = {"mlr": "multiple linear regression", "svr": "ε-SVR", "lssvr": "LS-SVR",
+               "poly": "polynomial (one input)", "rls": "recursive least squares"}
+
+
+def _choices(name: str, names: Sequence[str]) -> type[Enum]:
+    """A string enum of ``names``: what Typer shows and checks as a choice list."""
+    return Enum(name, [(model, model) for model in names], type=str)  # type: ignore[return-value]
+
+
+#: The ``--model`` choices of ``svrqp fit`` (every model), ``svrqp tune`` (the tunable ones) and
+#: ``svrqp gap`` (the baselines it can fit), all from :mod:`svrqp.registry`.
+FitModel = _choices("FitModel", registry.names())
+TunableModel = _choices("TunableModel", registry.tunable())
+BaselineModel = _choices("BaselineModel", registry.baselines())
+
+
+def model_option(choices: type[Enum], default: str | None, extra_help: str = "") -> Any:
+    """The ``--model`` option of a command, one spelling for every command.
+
+    A wrong name is refused with the list of ``choices``; each name's meaning is in the help.
+    """
+    words = "; ".join(f"{model.value}: {MODEL_WORDS.get(model.value, model.value)}" for model in choices)
+    return typer.Option(None if default is None else choices(default), "--model",
+                        help=f"{words}.{' ' + extra_help if extra_help else ''}")
+
 
 #: ``--help`` of every ``--solver`` option that picks how an ε-SVR is solved.
 SOLVER_HELP = (f"svr: '{AUTO}' (the default: the fastest certified exact path), '{SMO_CROSSOVER}' (loose SMO, "
@@ -114,3 +145,20 @@ def make_estimator(model: str, *, C: float, epsilon: float, gamma: str | float, 
         if solver not in SOLVERS:
             raise ProblemError(f"--solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
     return spec.make(C=C, epsilon=epsilon, gamma=gamma, degree=degree, forgetting=forgetting, solver=solver)
+
+
+def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:
+    """Boolean mask of the rows ``query`` selects (all rows when it is ``None``)."""
+    import pandas as pd
+
+    from svrqp.query import QueryError, select_rows
+
+    if query is None:
+        return pd.Series(True, index=table.index)
+    try:
+        mask = select_rows(table, query)  # a filter language, never pandas' eval
+    except QueryError as err:
+        raise QueryError(f"--train: {err}") from None
+    if not mask.any():
+        raise ProblemError(f"--train: query {query!r} selects no rows")
+    return mask

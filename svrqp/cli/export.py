@@ -17,8 +17,9 @@ from svrqp.cli._common import (
     COVERAGE_HELP,
     GROUP_HELP,
     INTERVAL_HELP,
-    MODELS,
     SOLVER_HELP,
+    FitModel,
+    model_option,
 )
 from svrqp.exceptions import ProblemError
 
@@ -40,8 +41,7 @@ def export_command(
                                                       "e.g. error_um)."),
     features: str = typer.Option(None, "--features", help="Data tables: input columns, comma-separated "
                                                           "(e.g. T7_C,T9_C)."),
-    model: str = typer.Option("svr", "--model", help=f"Data tables: the model to fit, one of "
-                                                     f"{', '.join(MODELS)}."),
+    model: FitModel = model_option(FitModel, "svr", "Data tables: the model to fit."),
     C: float = typer.Option(1.0, "--C", help="svr/lssvr: the regularisation weight C."),
     epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target units."),
     gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma (scikit-learn convention, "
@@ -57,6 +57,7 @@ def export_command(
     interval: str = typer.Option("absolute", "--interval", help="Data tables: " + INTERVAL_HELP),
 ) -> None:
     """Export a model as svrqp.model/1 JSON, a CSV coefficient table (S0 Table 1) or C source."""
+    model = model.value
     # Imported when the command runs: `svrqp export --help` loads no scikit-learn.
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn

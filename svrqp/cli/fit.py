@@ -20,8 +20,10 @@ from svrqp.cli._common import (
     COVERAGE_HELP,
     GROUP_HELP,
     INTERVAL_HELP,
-    MODELS,
     SOLVER_HELP,
+    FitModel,
+    model_option,
+    select_train_rows,
 )
 from svrqp.exceptions import ProblemError
 from svrqp.units import split_unit
@@ -29,23 +31,6 @@ from svrqp.units import split_unit
 if TYPE_CHECKING:
     import numpy as np
     import pandas as pd
-
-
-def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:
-    """Boolean mask of the rows ``query`` selects (all rows when it is ``None``)."""
-    import pandas as pd
-
-    from svrqp.query import QueryError, select_rows
-
-    if query is None:
-        return pd.Series(True, index=table.index)
-    try:
-        mask = select_rows(table, query)  # a filter language, never pandas' eval
-    except QueryError as err:
-        raise QueryError(f"--train: {err}") from None
-    if not mask.any():
-        raise ProblemError(f"--train: query {query!r} selects no rows")
-    return mask
 
 
 def _print_linear(console: Console, estimator) -> None:
@@ -103,8 +88,7 @@ def fit_command(
     data: Path = typer.Argument(..., help="CSV or Parquet table with the target and feature columns."),
     target: str = typer.Option(..., "--target", help="Column to predict (unit in its name, e.g. error_um)."),
     features: str = typer.Option(..., "--features", help="Comma-separated input columns (e.g. T7_C,T9_C)."),
-    model: str = typer.Option("mlr", "--model", help=f"One of {', '.join(MODELS)}: multiple linear "
-                              "regression, ε-SVR, LS-SVR, polynomial (one input), recursive LS."),
+    model: FitModel = model_option(FitModel, "mlr"),
     train: str = typer.Option(None, "--train", help="Filter selecting the rows to fit (e.g. \"batch == 'x1'\"; "
                               "comparisons joined by and/or/not, see svrqp.query); the other rows are "
                               "assessed. Default: all rows."),
@@ -122,6 +106,7 @@ def fit_command(
     interval: str = typer.Option("absolute", "--interval", help=INTERVAL_HELP),
 ) -> None:
     """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
+    model = model.value
     # Imported when the command runs: `svrqp fit --help` loads no scikit-learn.
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 

@@ -22,7 +22,7 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from svrqp import registry
-from svrqp.cli._common import read_table, split_columns
+from svrqp.cli._common import BaselineModel, model_option, read_table, split_columns
 from svrqp.exceptions import ProblemError
 
 REPORT_SUFFIXES = (".html", ".htm", ".md")
@@ -44,8 +44,8 @@ def gap(
         "the other rows are the real rows where the gap is assessed."),
     features: str = typer.Option(
         None, "--features", help="Comma-separated model inputs; a --model baseline is fitted on the train rows."),
-    model: str = typer.Option(
-        None, "--model", help=f"Baseline family with --features: {' | '.join(registry.baselines())} (default mlr)."),
+    model: BaselineModel = model_option(BaselineModel, None,
+                              f"The baseline fitted with --features (default {registry.baselines()[0]})."),
     prediction: str = typer.Option(
         None, "--prediction", help="Column holding a simulation's prediction (instead of --features)."),
     candidates: str = typer.Option(
@@ -100,7 +100,7 @@ def gap(
             candidates=split_columns(candidates, table, "--candidates"),
             order=_one(order, table, "--order"),
             group=_one(group, table, "--group"),
-            model=model or "mlr",
+            model=registry.baselines()[0] if model is None else model.value,
             local=local,
             local_along=split_columns(local_along, table, "--local-along") or None,
         )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -14,17 +15,13 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from svrqp.cli._common import SOLVER_HELP, read_table, split_columns
+from svrqp import registry
+from svrqp.cli._common import SOLVER_HELP, TunableModel, model_option, read_table, select_train_rows, split_columns
 from svrqp.exceptions import ProblemError
 
 if TYPE_CHECKING:
     from svrqp.tuning.execution import Execution
     from svrqp.tuning.result import SearchResult
-
-
-class Model(str, Enum):
-    svr = "svr"
-    lssvr = "lssvr"
 
 
 class Method(str, Enum):
@@ -75,6 +72,8 @@ def _report(result: SearchResult, folds: int) -> dict:
         "n_fits": result.n_fits,
         "candidates": records,
         "convergence_mse": None if result.convergence_mse is None else result.convergence_mse.tolist(),
+        "bounds": {name: list(bound) for name, bound in result.bounds.items()},
+        "on_edge": result.edges(),
     }
 
 
@@ -95,7 +94,10 @@ def tune(
     data: Path = typer.Argument(..., help="CSV or Parquet table with the target and feature columns."),
     target: str = typer.Option(..., "--target", help="Column to predict (e.g. error_um)."),
     features: str = typer.Option(..., "--features", help="Comma-separated input columns (e.g. T7,T9)."),
-    model: Model = typer.Option(Model.svr, "--model", help="svr: ε-SVR (C, ε, γ); lssvr: LS-SVR (C, γ)."),
+    model: TunableModel = model_option(TunableModel, registry.tunable()[0],
+                              "The ε-SVR tunes C, ε and γ; the LS-SVR C and γ."),
+    train: str = typer.Option(None, "--train", help="Filter selecting the rows to tune on (e.g. \"batch == 'x1'\"; "
+                              "see svrqp.query). Default: all rows."),
     method: Method = typer.Option(Method.grid, "--method", help="grid: k-fold CV over every combination; "
                                   "ga: the genetic algorithm of S1."),
     C: str = typer.Option(None, "--C", help="grid: comma-separated values; ga: low,high range. "
@@ -125,13 +127,19 @@ def tune(
     force: bool = typer.Option(False, "--force", help="Overwrite existing --plot/--json files."),
 ) -> None:
     """Choose (C, ε, γ) by k-fold cross-validated MSE: a grid (S0, S2) or a genetic algorithm (S1)."""
+    model = model.value
     from sklearn.model_selection import KFold  # imported when the command runs: `--help` stays quick
 
-    from svrqp.tuning import Execution, plot_convergence, plot_grid_scores  # matplotlib: not for --help
+    from svrqp.tuning import (  # matplotlib: not for --help
+        Execution,
+        SearchEdgeWarning,
+        plot_convergence,
+        plot_grid_scores,
+    )
 
     _writable(plot, force)
     _writable(json_path, force)
-    X, y = _data(data, target, features)
+    X, y = _data(data, target, features, train)
     texts = {name: given or DEFAULTS[method][name] for name, given in (("C", C), ("gamma", gamma), ("epsilon", epsilon))}
     values = {name: [] if text == "scale" else _numbers(text, f"--{name}") for name, text in texts.items()}
     cv = KFold(folds, shuffle=True, random_state=seed) if shuffle else folds
@@ -142,7 +150,12 @@ def tune(
         execution = Execution(cv=cv, solver=solver, tol=tol, backend=backend.value, n_jobs=jobs, scheduler=scheduler,
                               progress=lambda done, total: progress.update(task, completed=done, total=total))
         genetic = {"population": population, "generations": generations, "seed": seed}
-        result = _search(method, model, X, y, values, genetic, execution)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SearchEdgeWarning)
+            result = _search(method, model, X, y, values, genetic, execution)
+    for warning in caught:  # one plain line each, not Python's warning format
+        if issubclass(warning.category, SearchEdgeWarning):
+            console.print(f"[yellow]warning:[/] {warning.message}")
     _print_result(Console(), result)
     if plot is not None:
         figure = plot_grid_scores(result, target_unit) if method == Method.grid else plot_convergence(result, target_unit)
@@ -153,9 +166,10 @@ def tune(
         console.print(f"results written to {json_path}")
 
 
-def _data(data: Path, target: str, features: str) -> tuple[np.ndarray, np.ndarray]:
-    """The feature matrix and the target of the table ``data``."""
+def _data(data: Path, target: str, features: str, train: str | None) -> tuple[np.ndarray, np.ndarray]:
+    """The feature matrix and the target of the ``--train`` rows of the table ``data``."""
     table = read_table(data)
+    table = table[select_train_rows(table, train)]
     names = split_columns(features, table, "--features", numeric=True)
     if not names:
         raise ProblemError("--features: give at least one column")
@@ -163,17 +177,17 @@ def _data(data: Path, target: str, features: str) -> tuple[np.ndarray, np.ndarra
     return table[names].to_numpy(dtype=float), table[target].to_numpy(dtype=float)
 
 
-def _search(method: Method, model: Model, X: np.ndarray, y: np.ndarray, values: dict[str, list[float]],
+def _search(method: Method, model: str, X: np.ndarray, y: np.ndarray, values: dict[str, list[float]],
             genetic: dict[str, int], execution: Execution) -> SearchResult:
     """Run the grid or the GA on the values given for C, γ and ε (grid values, or GA ranges)."""
     from svrqp.tuning import Genetic, ga_search, grid_search
 
     if method == Method.grid:
-        return grid_search(X, y, C=values["C"], gamma=values["gamma"], epsilon=values["epsilon"], model=model.value,
+        return grid_search(X, y, C=values["C"], gamma=values["gamma"], epsilon=values["epsilon"], model=model,
                            execution=execution)
     gammas = values["gamma"]  # none: 'scale'; one: fixed; two: a range to tune
     return ga_search(X, y, C_range=values["C"], epsilon_range=values["epsilon"],
-                     gamma=gammas[0] if len(gammas) == 1 else (gammas or "scale"), model=model.value,
+                     gamma=gammas[0] if len(gammas) == 1 else (gammas or "scale"), model=model,
                      genetic=Genetic(**genetic), execution=execution)
 
 

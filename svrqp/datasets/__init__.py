@@ -1,4 +1,4 @@
-"""The embedded datasets, their data cards, and a loader for the real FL_THERMAL measurements.
+"""The embedded datasets, their data cards, and the real FL_THERMAL measurements.
 
 The embedded datasets are simulated by :mod:`svrqp.machine` with fixed seeds, each imitating
 the set-up of one source paper; every one has a data card (:func:`card`) saying what it
@@ -10,6 +10,12 @@ imitates, which effects are on, the columns and their units. Column names carry 
 ('chen2012', 'lin_gantry', 'miao2013', 'miao2013_rise', 'yang_turning', 'zhou_axis_x', 'zhou_axis_x_true')
 >>> datasets.load("miao2013").query("batch == 'x1'").shape
 (251, 19)
+
+FL_THERMAL (measured on a CNC machine, MIT licence) ships with the package beside its licence
+notice and data card (:func:`fl_thermal_card`); :func:`load_fl_thermal` reads it:
+
+>>> datasets.load_fl_thermal().shape
+(11115, 25)
 """
 
 from __future__ import annotations
@@ -23,6 +29,9 @@ import pandas as pd
 from svrqp.exceptions import ProblemError
 
 _DATA = resources.files("svrqp.datasets") / "data"
+_FL_THERMAL = resources.files("svrqp.datasets") / "fl_thermal"
+FL_THERMAL_SHA256 = "4a29ddd6d25cbfc0237fe90c2714e329afb633ede988065b2baace53eedbaaf8"
+"""SHA-256 of the shipped ``data.csv``, as converted from the source workbook (see the data card)."""
 FL_TIME_COLUMN = "時間(s)"  # the file's header carries a trailing space, stripped on reading
 FL_CHANNELS = 5
 FL_TEMPERATURES = 16
@@ -57,7 +66,17 @@ def card(name: str) -> str:
     return _entry(name, ".md").read_text(encoding="utf-8")
 
 
-def load_fl_thermal(path: str | Path) -> pd.DataFrame:
+def fl_thermal_card() -> str:
+    """The data card (Markdown) of the shipped FL_THERMAL measurements: source, licence, columns."""
+    return (_FL_THERMAL / "README.md").read_text(encoding="utf-8")
+
+
+def fl_thermal_licence() -> str:
+    """The MIT licence notice that travels with the FL_THERMAL data."""
+    return (_FL_THERMAL / "LICENSE").read_text(encoding="utf-8")
+
+
+def load_fl_thermal(path: str | Path | None = None) -> pd.DataFrame:
     """Read the real FL_THERMAL spindle measurements into tidy columns.
 
     The file (``data.csv`` of the FL_THERMAL repository, MIT licence; 15 s sampling) has the
@@ -66,7 +85,8 @@ def load_fl_thermal(path: str | Path) -> pd.DataFrame:
     Parameters
     ----------
     path
-        Path of the CSV file.
+        Path of a CSV file in that layout; by default the copy shipped with svrqp
+        (:data:`FL_THERMAL_SHA256`, :func:`fl_thermal_card`).
 
     Returns
     -------
@@ -77,6 +97,9 @@ def load_fl_thermal(path: str | Path) -> pd.DataFrame:
         ``stop_0`` before the first run) — and ``segment``, an integer id of each stretch of
         constant speed, usable as a group column.
     """
+    if path is None:
+        with resources.as_file(_FL_THERMAL / "data.csv") as shipped:
+            return load_fl_thermal(shipped)
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"FL_THERMAL file not found: {path}")

@@ -12,6 +12,7 @@ Files written (relative to the output directory):
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -25,6 +26,7 @@ from svrqp.demo.report import SIMULATED_NOTE, report_html
 from svrqp.export import build_document, verify, write
 from svrqp.kernels import gamma_from_sigma_s4
 from svrqp.estimators.linear import LinearLS
+from svrqp.extras import require
 
 Progress = Callable[[str, float], None]
 
@@ -239,7 +241,20 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, force: boo
     if n_jobs is None:
         n_jobs = 1 if quick else 2
     out = Path(out)
+    require("guard", "svrqp demo (its S0 ε-SVR carries conformal intervals)")  # before any file is written
+    created = not out.exists()
     prepare_directory(out, force)
+    try:
+        return _run_steps(out, quick=quick, force=force, n_jobs=n_jobs, progress=progress, started=started)
+    except BaseException:
+        if created:  # nothing left behind: the folder this run made goes with it
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Progress | None,
+               started: float) -> dict[str, Any]:
+    """Every step of :func:`run_demo` into the prepared ``out``; returns ``results.json``'s content."""
     report = progress or (lambda step, done: None)
     done = 0.0
     names = iter(STEP_WEIGHTS)

@@ -38,7 +38,8 @@ from numpy.typing import NDArray
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold, KFold
 
-from svrqp.exceptions import BackendNotAvailableError, ProblemError
+from svrqp.exceptions import ProblemError
+from svrqp.extras import require
 
 METHODS = ("absolute", "normalized")
 
@@ -108,10 +109,9 @@ def conformal_quantile(scores: NDArray[np.float64], coverage: float) -> float:
     if (1.0 - coverage) * (n + 1) < 1.0:
         raise ProblemError(f"coverage {coverage} needs at least {math.ceil(1 / (1 - coverage)) - 1} calibration "
                            f"rows, got {n}: lower the coverage or give more rows")
-    try:
-        from crepes import ConformalRegressor
-    except ImportError as err:
-        raise BackendNotAvailableError("calibrated intervals need crepes: pip install 'svrqp[guard]'") from err
+    require("guard", "calibrated intervals")
+    from crepes import ConformalRegressor
+
     regressor = ConformalRegressor().fit(residuals=scores, sigmas=np.ones(n))
     return float(regressor.predict_int(np.zeros(1), sigmas=np.ones(1), confidence=coverage)[0, 1])
 

@@ -12,6 +12,6 @@ from svrqp.tuning.execution import Execution
 from svrqp.tuning.ga import Genetic, ga_search
 from svrqp.tuning.grid import grid_search
 from svrqp.tuning.plots import plot_convergence, plot_grid_scores
-from svrqp.tuning.result import SearchResult
+from svrqp.tuning.result import SearchEdgeWarning, SearchResult
 
-__all__ = ["Execution", "Genetic", "SearchResult", "ga_search", "grid_search", "plot_convergence", "plot_grid_scores"]
+__all__ = ["Execution", "Genetic", "SearchEdgeWarning", "SearchResult", "ga_search", "grid_search", "plot_convergence", "plot_grid_scores"]

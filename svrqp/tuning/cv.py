@@ -35,7 +35,7 @@ from svrqp.formulations import ls_svr
 from svrqp.kernels import gram
 from svrqp.solvers.epsilon_svr import fit_on_gram
 from svrqp.tuning.execution import Progress
-from svrqp.tuning.result import SearchResult
+from svrqp.tuning.result import SearchResult, warn_on_edges
 
 
 @dataclass(frozen=True)
@@ -139,14 +139,23 @@ def _scored_table(candidates: pd.DataFrame, mse: NDArray[np.float64]) -> pd.Data
 
 
 def scored_result(method: str, model: str, candidates: pd.DataFrame, mse: NDArray[np.float64], elapsed_s: float,
-                  convergence_mse: NDArray[np.float64] | None = None) -> SearchResult:
+                  convergence_mse: NDArray[np.float64] | None = None,
+                  bounds: dict[str, tuple[float, float]] | None = None) -> SearchResult:
     """The :class:`SearchResult` of ``candidates`` with fold MSEs ``mse`` (n_folds, n_candidates).
 
     Each candidate scores the mean over folds, ``inf`` if any of its fits failed; the table is
     sorted by score (stable, so ties keep the candidates' order) and its first row is the best.
+    ``bounds`` are the searched ranges (default: each parameter's smallest and largest candidate,
+    for those given more than one value); a best value on an edge warns
+    (:class:`~svrqp.tuning.result.SearchEdgeWarning`).
     """
     table = _scored_table(candidates, mse)
     names = ["C", "gamma"] if model == "lssvr" else ["C", "epsilon", "gamma"]
     row = table.iloc[0]
     best_params, best_mse = {name: float(row[name]) for name in names}, float(row["mse"])
-    return SearchResult(method, model, best_params, best_mse, table, elapsed_s, mse.size, convergence_mse)
+    if bounds is None:
+        bounds = {name: (float(candidates[name].min()), float(candidates[name].max()))
+                  for name in names if candidates[name].nunique() > 1}
+    result = SearchResult(method, model, best_params, best_mse, table, elapsed_s, mse.size, convergence_mse, bounds)
+    warn_on_edges(result)
+    return result

@@ -17,6 +17,7 @@ import joblib
 from numpy.typing import ArrayLike
 
 from svrqp.exceptions import ProblemError
+from svrqp.extras import require
 
 JOBLIB_BACKENDS: tuple[str, ...] = ("sequential", "loky", "threading", "dask")
 
@@ -78,6 +79,7 @@ class Execution:
             with joblib.parallel_config(backend=self.backend, n_jobs=self.n_jobs):
                 yield
             return
+        require("dask", "a search on Dask")
         from distributed import Client
 
         client = self.scheduler if isinstance(self.scheduler, Client) else Client(self.scheduler)

@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from svrqp.exceptions import BackendNotAvailableError, ProblemError
+from svrqp.exceptions import ProblemError
+from svrqp.extras import require
 from svrqp.solvers.epsilon_svr import gram_solver
 from svrqp.tuning.checks import (
     check_model,
@@ -136,16 +137,15 @@ def ga_search(
     candidates = pd.DataFrame(10.0 ** np.array(genes), columns=names).assign(**fixed)
     candidates = candidates[[*(["C", "epsilon"] if model == "svr" else ["C"]), "gamma"]]
     candidates["generation"] = [evaluated[g][1] for g in genes]
+    bounds = {name: (10.0 ** space["low"], 10.0 ** space["high"]) for name, space in zip(names, gene_space, strict=True)}
     return scored_result("ga", model, candidates, np.column_stack([evaluated[g][0] for g in genes]), elapsed_s,
-                         convergence_mse=-np.asarray(ga.best_solutions_fitness, dtype=float))
+                         convergence_mse=-np.asarray(ga.best_solutions_fitness, dtype=float), bounds=bounds)
 
 
 def _pygad() -> Any:
-    try:
-        import pygad
-    except ImportError as err:  # an optional extra, named like a missing solver backend
-        raise BackendNotAvailableError("the genetic algorithm needs pygad; install it with: "
-                                       "pip install 'svrqp[dist]'") from err
+    require("ga", "the genetic algorithm")
+    import pygad
+
     return pygad
 
 

@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import importlib
+import json
+import os
 import subprocess
 import sys
 
 import click
+import numpy as np
+import pandas as pd
 import pytest
 import typer
 from typer.testing import CliRunner
@@ -37,7 +41,7 @@ def _run_cli(*args: str) -> tuple[list[str], set[str], list[str]]:
 def test_help_imports_no_command_module():
     output, packages, commands = _run_cli("--help")
     assert not packages & HEAVY
-    assert commands == []
+    assert [module for module in commands if not module.rsplit(".", 1)[1].startswith("_")] == []
     for name in declared_commands():
         assert any(line.split()[:2] == ["│", name] for line in output), name
 
@@ -100,7 +104,7 @@ def test_tune_ga_without_pygad_names_the_extra(tmp_path, monkeypatch, capsys):
               "--backend", "sequential"])
     assert exit_info.value.code == 2
     error = capsys.readouterr().err
-    assert "pygad" in error and "pip install 'svrqp[dist]'" in error
+    assert "pygad" in error and "pip install 'svrqp[ga]'" in error
     assert "Traceback" not in error
 
 
@@ -126,3 +130,54 @@ def test_light_help_texts_name_every_valid_value():
     assert all(f"'{solver}'" in SOLVER_HELP or f" {solver}" in SOLVER_HELP for solver in SOLVERS)
     assert all(method in INTERVAL_HELP for method in METHODS)
     assert FORMAT_CHOICES.split(", ") == list(FORMATS)
+
+
+def test_tune_fits_only_the_train_rows_and_warns_on_an_edge(tmp_path, capsys):
+    """``--train`` selects the rows searched, as in fit and gap; a best C on the grid's edge is named."""
+    from svrqp.tuning import grid_search
+
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0, 1, 80)
+    table = pd.DataFrame({"x_mm": x, "error_um": np.sin(6 * x) + 0.01 * rng.normal(size=80),
+                          "batch": np.where(np.arange(80) < 50, "a", "b")})
+    table.loc[table.batch == "b", "error_um"] += 100.0  # rows that must not be searched
+    path = tmp_path / "t.csv"
+    table.to_csv(path, index=False)
+    main(["tune", str(path), "--target", "error_um", "--features", "x_mm", "--train", "batch == 'a'",
+          "--C", "0.01,0.1", "--gamma", "1", "--epsilon", "0.01", "--backend", "sequential",
+          "--json", str(tmp_path / "t.json")])
+    report = json.loads((tmp_path / "t.json").read_text())
+    rows = table[table.batch == "a"]
+    with pytest.warns(UserWarning):
+        reference = grid_search(rows[["x_mm"]].to_numpy(), rows["error_um"].to_numpy(), C=[0.01, 0.1],
+                                gamma=[1.0], epsilon=[0.01])
+    assert report["best_mse"] == pytest.approx(reference.best_mse, rel=1e-9)
+    assert report["on_edge"] == {"C": "upper"}
+    assert "warning: the search ended with C = 0.1 on the upper edge" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("argv", "threads"), [
+    ([], 1), (["--blas-threads", "3", "fit"], 3), (["--blas-threads=0", "demo"], 0),
+    (["fit", "--blas-threads", "3"], 1),  # after the command's name: not the group's option
+    (["--blas-threads", "many"], 1),  # left for the option's own parser to refuse
+])
+def test_blas_threads_are_read_before_the_command(argv, threads):
+    from svrqp.cli import _threads
+
+    assert _threads.requested(argv) == threads
+
+
+def test_commands_cap_blas_threads_and_restore_the_environment(monkeypatch):
+    from threadpoolctl import threadpool_info
+
+    from svrqp.cli import _threads
+
+    for name in _threads.THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("MKL_NUM_THREADS", "7")  # the user's own setting stays
+    with _threads.capped(2):
+        assert os.environ["OPENBLAS_NUM_THREADS"] == "2" and os.environ["MKL_NUM_THREADS"] == "7"
+        assert {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"} <= {1, 2}
+    assert "OPENBLAS_NUM_THREADS" not in os.environ and os.environ["MKL_NUM_THREADS"] == "7"
+    with _threads.capped(0):
+        assert "OPENBLAS_NUM_THREADS" not in os.environ

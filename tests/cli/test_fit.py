@@ -14,6 +14,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVR
 from typer.testing import CliRunner
 
+from svrqp import registry
 from svrqp.cli import app, main
 from svrqp.estimators import EpsilonSVR
 
@@ -137,7 +138,6 @@ def test_solver_help_names_the_fast_exact_path():
     (["--features", "T5_C"], r"--features: unknown column\(s\) \['T5_C'\]"),
     (["--features", "T7_C,batch"], r"--features: column\(s\) \['batch'\] are not numeric"),
     (["--features", "T7_C", "--standardize"], "applies to svr and lssvr only"),
-    (["--features", "T7_C", "--model", "ridge"], "--model must be one of"),
     (["--features", "T7_C", "--model", "svr", "--gamma", "-1"], "--gamma must be positive"),
     (["--features", "T7_C", "--model", "svr", "--solver", "gurobi"], "--solver must be one of auto, smo_crossover, dual_ipm, clarabel"),
 ])
@@ -148,6 +148,19 @@ def test_bad_input_is_one_error_line(s0_batches, capsys, options, message):
     error = capsys.readouterr().err.strip()
     assert error.startswith("error: ") and "\n" not in error
     assert re.search(message, error)
+
+
+@pytest.mark.parametrize("command", ["fit", "tune", "gap"])
+def test_an_unknown_model_is_refused_with_the_registry_choices(s0_batches, capsys, command):
+    """fit, tune and gap share one --model choice list, each the registry's subset for the command."""
+    choices = {"fit": registry.names(), "tune": registry.tunable(), "gap": registry.baselines()}[command]
+    extra = {"gap": ["--train", "batch == 'x1'", "--candidates", "T9_C", "--json", "g.json"]}.get(command, [])
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, str(s0_batches), "--target", "error_um", "--features", "T7_C", "--model", "ridge", *extra])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err
+    assert "'ridge' is not one of" in error
+    assert re.search(", ".join(f"'{name}'" for name in choices), error)
 
 
 def test_nan_in_the_training_rows_is_named(tmp_path, s0_batches, capsys):

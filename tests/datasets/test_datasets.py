@@ -7,6 +7,7 @@ checked against the data.
 
 from __future__ import annotations
 
+import hashlib
 import re
 from pathlib import Path
 
@@ -243,9 +244,18 @@ def test_fl_loader_rejects_other_files(tmp_path):
         datasets.load_fl_thermal(tmp_path / "absent.csv")
 
 
-@pytest.mark.skipif(not FL_THERMAL.exists(), reason=f"real FL_THERMAL data not found at {FL_THERMAL}")
+def test_fl_thermal_ships_unchanged_with_its_licence_and_card():
+    """The shipped CSV is byte for byte the file converted from the source workbook."""
+    assert hashlib.sha256(FL_THERMAL.read_bytes()).hexdigest() == datasets.FL_THERMAL_SHA256
+    assert datasets.FL_THERMAL_SHA256.startswith("4a29ddd6")
+    assert datasets.fl_thermal_licence().startswith("MIT License") and "CAIVIAC" in datasets.fl_thermal_licence()
+    card = datasets.fl_thermal_card()
+    assert "MEASURED, not simulated" in card and datasets.FL_THERMAL_SHA256 in card
+
+
 def test_fl_loader_reads_the_real_measurements():
-    table = datasets.load_fl_thermal(FL_THERMAL)
+    table = datasets.load_fl_thermal()
+    pd.testing.assert_frame_equal(table, datasets.load_fl_thermal(FL_THERMAL))
     assert len(table) == 11115
     np.testing.assert_allclose(np.diff(table["time_min"]), 0.25)
     phases = table.groupby("segment")["phase"].first().tolist()

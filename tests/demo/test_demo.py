@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 from html import escape as html_escape
 
 import numpy as np
@@ -188,3 +189,35 @@ def test_a_file_in_place_of_the_directory_is_refused(tmp_path):
 ], ids=["named", "tied", "none"])
 def test_verdict_label_says_why_nothing_is_named(verdict, label):
     assert verdict_label(verdict) == label
+
+
+def test_report_shows_no_raw_tex_in_a_browser(demo):
+    """Opened in a real headless browser, the demo report's visible text holds no TeX."""
+    from support.browser import raw_tex, rendered_dom
+
+    out, _ = demo
+    assert raw_tex(rendered_dom(out / "report.html")) == []
+
+
+def test_without_the_guard_extra_the_demo_names_it_and_writes_nothing(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "crepes", None)  # what a core install without the extra sees
+    out = tmp_path / "demo-output"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--quick", "--out", str(out)])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err.strip()
+    assert "\n" not in error and "pip install 'svrqp[guard]'" in error
+    assert not out.exists()
+
+
+def test_a_demo_that_fails_midway_leaves_no_folder_behind(tmp_path, monkeypatch):
+    from svrqp.demo import run as demo_run
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("a step failed")
+
+    monkeypatch.setattr(demo_run.steps, "s4_straightness", broken)
+    out = tmp_path / "demo-output"
+    with pytest.raises(RuntimeError, match="a step failed"):
+        demo_run.run_demo(out, quick=True)
+    assert not out.exists()

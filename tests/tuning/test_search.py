@@ -7,6 +7,7 @@ built so that one grid point is clearly best.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,7 @@ from svrqp.exceptions import ProblemError
 from svrqp.tuning import (
     Execution,
     Genetic,
+    SearchEdgeWarning,
     SearchResult,
     ga_search,
     grid_search,
@@ -370,3 +372,25 @@ def test_cli_tune_ga_fixes_gamma_unless_given_a_range(sine_wave_csv, tmp_path):
     assert default == pytest.approx(1.0 / x.var(), rel=1e-12)  # scikit-learn's "scale"
     assert gammas["fixed"] == {10.0}
     assert len(gammas["range"]) > 1 and all(1.0 <= g <= 100.0 for g in gammas["range"])
+
+
+def test_a_search_ending_on_its_edge_warns_and_names_the_parameter():
+    """A grid whose best C is its largest value says so; the GA's range bounds count the same way."""
+    rng = np.random.default_rng(3)
+    X = rng.uniform(-1, 1, size=(60, 1))
+    y = np.sin(3 * X[:, 0]) + 0.01 * rng.normal(size=60)
+    with pytest.warns(SearchEdgeWarning, match=r"C = 0.01 on the upper edge of the searched range \[0.001, 0.01\]"):
+        result = grid_search(X, y, C=[0.001, 0.01], gamma=[1.0], epsilon=[0.01])
+    assert result.edges() == {"C": "upper"}
+    assert result.bounds == {"C": (0.001, 0.01)}  # γ and ε held at one value: no range, no edge
+
+
+def test_a_search_inside_its_range_stays_silent():
+    rng = np.random.default_rng(3)
+    X = rng.uniform(-1, 1, size=(60, 1))
+    y = np.sin(3 * X[:, 0]) + 0.01 * rng.normal(size=60)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SearchEdgeWarning)
+        result = grid_search(X, y, C=[1.0, 10.0, 1e5], gamma=[1.0], epsilon=[0.001, 0.01, 0.5])
+    assert result.best_params["C"] == 10.0 and result.edges() == {}
+    assert result.edge_text() == ""

@@ -1,0 +1,5 @@
+"""``python -m svrqp``: the ``svrqp`` command."""
+
+from svrqp.cli import main
+
+main()
