@@ -42,11 +42,13 @@ from svrqp.solvers.dual_ipm.certified import DUAL_FORMULATIONS, DUAL_IPM, solve_
 from svrqp.solvers.dual_qp import DualSettings
 from svrqp.solvers.qp_backends import BACKENDS, require_backend, solve_qp
 
-__all__ = ["AUTO", "DUAL_FORMULATIONS", "DUAL_IPM", "FALLBACK_SOLVER", "PRIMAL_AUTO_BACKEND", "SMO_CROSSOVER",
-           "SOLVERS", "SVRFit", "SVRTask", "SolveOptions", "WARM_CROSSOVER_STEPS", "WARM_START_BACKENDS",
-           "fit_on_gram", "gram_solver", "solve_epsilon_svr", "warm_start_applies"]
+__all__ = ["AUTO", "DUAL_FORMULATIONS", "DUAL_IPM", "FALLBACK_SOLVER", "PRIMAL_AUTO_BACKEND",
+           "SMO_CROSSOVER", "SOLVERS", "SVRFit", "SVRTask", "SolveOptions", "WARM_CROSSOVER_STEPS",
+           "WARM_START_BACKENDS", "fit_on_gram", "gram_solver", "solve_epsilon_svr",
+           "warm_start_applies"]
 
-#: Every value ``EpsilonSVR.solver`` accepts: the automatic choice, svrqp's exact paths and the QP backends.
+#: Every value ``EpsilonSVR.solver`` accepts: the automatic choice, svrqp's exact paths and the QP
+#: backends.
 SOLVERS: tuple[str, ...] = (AUTO, SMO_CROSSOVER, DUAL_IPM, *BACKENDS)
 #: ``solver="auto"`` on the linear primal QP (a sparse QP with no kernel matrix: a stock backend).
 PRIMAL_AUTO_BACKEND = "clarabel"
@@ -70,10 +72,11 @@ class SVRTask:
 
 @dataclass(frozen=True)
 class SolveOptions:
-    """How it is solved: ``EpsilonSVR``'s ``solver``, ``formulation``, ``tol``, ``check_tol`` and ``fallback``."""
+    """How it is solved: ``EpsilonSVR``'s ``solver``, ``formulation``, ``tol``, ``check_tol`` and
+    ``fallback``."""
 
     solver: str = AUTO  #: a value of :data:`SOLVERS`
-    formulation: str = "split"  #: the QP certified on: "split", "stacked" or "primal" (linear kernel)
+    formulation: str = "split"  #: the QP certified on: "split", "stacked" or "primal" (linear)
     tol: float = 1e-8  #: requested accuracy
     check_tol: float | None = None  #: largest relative certificate accepted (None: 100·tol)
     fallback: bool = True  #: solve again with the other exact path when the first fails
@@ -83,19 +86,20 @@ class SolveOptions:
 class SVRFit:
     """A certified ε-SVR answer (:func:`solve_epsilon_svr`)."""
 
-    beta: NDArray[np.float64]  #: all n coefficients :math:`\alpha^* - \alpha`, exactly 0 off the support
+    beta: NDArray[np.float64]  #: all n coefficients :math:`\alpha^* - \alpha`, 0 off the support
     intercept: float  #: the bias b
-    problem: QuadraticProgram | None  #: the QP solved, in the units of the data (None: never formed)
+    problem: QuadraticProgram | None  #: the QP solved, in the data's units (None: never formed)
     solution: Solution  #: its certificate-checked solution, at the returned (β, b)
     polished: bool  #: whether an active-set polish or crossover replaced the solver's coefficients
     solver: str  #: the solver whose answer this is (for "auto": the path it chose)
-    fallback_reason: str | None = None  #: why the requested solver was not used (its error), or None
+    fallback_reason: str | None = None  #: why the solver asked for was not used (its error)
     coef: NDArray[np.float64] | None = None  #: the primal weights w (``formulation="primal"`` only)
 
 
 def solve_epsilon_svr(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
                       options: SolveOptions = SolveOptions()) -> SVRFit:
-    """Solve the ε-SVR of ``task`` on (X, y) as ``options`` say, falling back once (module docstring).
+    """Solve the ε-SVR of ``task`` on (X, y) as ``options`` say, falling back once (module
+    docstring).
 
     Raises
     ------
@@ -114,7 +118,8 @@ def solve_epsilon_svr(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRT
             errors.append(err)
             continue
         if not errors:
-            return dataclasses.replace(fit, solver=fit.solution.backend if solver == AUTO else solver)
+            chosen = fit.solution.backend if solver == AUTO else solver  # auto: the path it chose
+            return dataclasses.replace(fit, solver=chosen)
         coef = fit.beta @ X if options.formulation == "primal" else None
         return dataclasses.replace(fit, fallback_reason=str(errors[0]), coef=coef)
     first, *second = errors
@@ -143,20 +148,23 @@ def _solve_once(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, s
     for the paths that take one (``auto`` and ``smo_crossover`` form kernel columns themselves)."""
     if settings.formulation == "primal":
         if solver in (SMO_CROSSOVER, DUAL_IPM):
-            raise ProblemError(f"solver={solver!r} solves a kernel dual: formulation must be one of "
-                               f"{DUAL_FORMULATIONS}, got 'primal'")
-        return _solve_primal(X, y, task, PRIMAL_AUTO_BACKEND if solver == AUTO else solver, settings)
+            raise ProblemError(f"solver={solver!r} solves a kernel dual: formulation must be one "
+                               f"of {DUAL_FORMULATIONS}, got 'primal'")
+        backend = PRIMAL_AUTO_BACKEND if solver == AUTO else solver
+        return _solve_primal(X, y, task, backend, settings)
     kernel_parameters = task.kernel_parameters
     precomputed = kernel_parameters["kernel"] == "precomputed"
-    K = training_gram(X, kernel_parameters) if precomputed or solver not in (AUTO, SMO_CROSSOVER) else None
+    needs_gram = precomputed or solver not in (AUTO, SMO_CROSSOVER)
+    K = training_gram(X, kernel_parameters) if needs_gram else None
     if solver in (AUTO, SMO_CROSSOVER):
         run = solve_auto if solver == AUTO else partial(solve_path, SMO_CROSSOVER)
         # the QP is never formed: problem_ is rebuilt on demand (svrqp.estimators.fitted_state)
-        fit = run(K if precomputed else X, y, task.C, task.epsilon, kernel_parameters=kernel_parameters,
-                  settings=settings)
+        fit = run(K if precomputed else X, y, task.C, task.epsilon,
+                  kernel_parameters=kernel_parameters, settings=settings)
     elif solver == DUAL_IPM:
-        low_rank_possible = kernel_parameters["kernel"] in ("rbf", "poly")  # a linear K is degenerate
-        fit = solve_dual_ipm(K, y, task.C, task.epsilon, settings, X=X if low_rank_possible else None,
+        low_rank_possible = kernel_parameters["kernel"] in ("rbf", "poly")  # a linear K: degenerate
+        fit = solve_dual_ipm(K, y, task.C, task.epsilon, settings,
+                             X=X if low_rank_possible else None,
                              kernel_parameters=kernel_parameters)
     else:
         fit = dual_qp.solve_dual(K, y, task.C, task.epsilon, solver, settings)
@@ -167,10 +175,11 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
                   settings: DualSettings) -> SVRFit:
     r"""The linear primal: β from the multipliers, rounded and certified like the duals'.
 
-    The backend solves the primal for the targets of :class:`~svrqp.formulations.epsilon_svr.DualScaling`
-    (:math:`\tilde y = (y - m)/a`, :math:`\tilde\varepsilon = \varepsilon/a`, :math:`\tilde C = C/a`);
-    the primal variables and multipliers scale by a (b is shifted by m) back onto the stated
-    primal, where the certificates are checked.
+    The backend solves the primal for the targets of
+    :class:`~svrqp.formulations.epsilon_svr.DualScaling` (:math:`\tilde y = (y - m)/a`,
+    :math:`\tilde\varepsilon = \varepsilon/a`, :math:`\tilde C = C/a`); the primal variables and
+    multipliers scale by a (b is shifted by m) back onto the stated primal, where the
+    certificates are checked.
     """
     C, epsilon = float(task.C), task.epsilon
     problem = epsilon_svr.build("primal", y, C, epsilon, X=X)
@@ -188,14 +197,17 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
     exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(epsilon), beta,
                                products=lambda idx, v: X @ (X[idx].T @ v))
-    beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C, exact=exact.exact)
+    beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C,
+                                             exact=exact.exact)
     K_beta = X @ (X.T @ beta)
     b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, epsilon)
     certificate = epsilon_svr_certificate.model_certificate(
         y, beta, K_beta, b, C, epsilon, float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0)))
     solution.residuals.update(certificate)
-    epsilon_svr_certificate.require_model_certificate(certificate, solution.settings["check_tol"], solver)
-    return SVRFit(beta, b, problem, solution, exact.exact, solver, coef=solution.x[:X.shape[1]].copy())
+    epsilon_svr_certificate.require_model_certificate(certificate, solution.settings["check_tol"],
+                                                      solver)
+    return SVRFit(beta, b, problem, solution, exact.exact, solver,
+                  coef=solution.x[:X.shape[1]].copy())
 
 
 # --- the tuning loops: one fit on a fold's shared Gram matrix, warm-started along the C grid ---
@@ -227,8 +239,8 @@ def warm_start_applies(solver: str) -> bool:
     return solver == DUAL_IPM or solver in WARM_START_BACKENDS
 
 
-def fit_on_gram(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, solver: str,
-                tol: float, previous: Any) -> tuple[NDArray[np.float64], float, Any]:
+def fit_on_gram(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
+                solver: str, tol: float, previous: Any) -> tuple[NDArray[np.float64], float, Any]:
     r"""β (zero off the support), b and what warm-starts the next C, on a Gram matrix ``K``.
 
     Along an ascending C grid the ε-SVR dual of the previous C is a feasible start of the next
@@ -256,30 +268,35 @@ def fit_on_gram(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilo
     return fit.beta, fit.intercept, fit.solution.x
 
 
-def _exact_dual_along_c(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, tol: float,
-                        previous: tuple[NDArray[np.float64], float] | None) -> tuple[NDArray[np.float64], float]:
-    """The exact dual at C: the crossover from the previous C's active set, else the interior point."""
+def _exact_dual_along_c(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
+                        tol: float, previous: tuple[NDArray[np.float64], float] | None
+                        ) -> tuple[NDArray[np.float64], float]:
+    """The exact dual at C: the crossover from the previous C's active set, else the interior
+    point."""
     check_tol = check_limit(tol, None)
     if previous is not None:
         beta_previous, C_previous = previous
         at_bound = np.abs(beta_previous) >= C_previous * (1.0 - epsilon_svr.SV_TOLERANCE)
-        guess = np.where(at_bound, np.sign(beta_previous) * C, beta_previous)  # same states, new box
-        warm = dual_ipm.crossover(lambda idx: K[:, idx], y, C, epsilon, guess,
-                                  settings=dual_ipm.CrossoverSettings(fast_steps=WARM_CROSSOVER_STEPS, max_steps=0))
+        guess = np.where(at_bound, np.sign(beta_previous) * C, beta_previous)  # same states, new C
+        few_steps = dual_ipm.CrossoverSettings(fast_steps=WARM_CROSSOVER_STEPS, max_steps=0)
+        warm = dual_ipm.crossover(lambda idx: K[:, idx], y, C, epsilon, guess, settings=few_steps)
         if warm.exact and _certified(K, y, warm.beta, warm.intercept, C, epsilon, check_tol):
             return warm.beta, warm.intercept
     fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)
-    if fit.crossover.exact and _certified(K, y, fit.crossover.beta, fit.crossover.intercept, C, epsilon, check_tol):
-        return fit.crossover.beta, fit.crossover.intercept
+    settled = fit.crossover
+    if settled.exact and _certified(K, y, settled.beta, settled.intercept, C, epsilon, check_tol):
+        return settled.beta, settled.intercept
     if fit.ipm.converged:
         return fit.ipm.beta, fit.ipm.intercept
-    raise SolverError(f"{DUAL_IPM!r} did not converge at C = {C:g} in {fit.ipm.iterations} iterations "
-                      f"and its crossover did not reach the optimum", DUAL_IPM, "max_iter")
+    raise SolverError(f"{DUAL_IPM!r} did not converge at C = {C:g} in {fit.ipm.iterations} "
+                      f"iterations and its crossover did not reach the optimum",
+                      DUAL_IPM, "max_iter")
 
 
-def _certified(K: NDArray[np.float64], y: NDArray[np.float64], beta: NDArray[np.float64], b: float, C: float,
-               epsilon: float, check_tol: float) -> bool:
-    """Whether (β, b) meets the model certificate every ε-SVR answer is held to (module docstring)."""
-    certificate = epsilon_svr_certificate.model_certificate(y, beta, K @ beta, b, C, epsilon,
-                                                            float(np.max(np.diagonal(K), initial=0.0)))
+def _certified(K: NDArray[np.float64], y: NDArray[np.float64], beta: NDArray[np.float64], b: float,
+               C: float, epsilon: float, check_tol: float) -> bool:
+    """Whether (β, b) meets the model certificate every ε-SVR answer is held to (module
+    docstring)."""
+    scale = float(np.max(np.diagonal(K), initial=0.0))
+    certificate = epsilon_svr_certificate.model_certificate(y, beta, K @ beta, b, C, epsilon, scale)
     return not epsilon_svr_certificate.failed_model_certificates(certificate, check_tol)
