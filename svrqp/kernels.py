@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from svrqp.exceptions import ProblemError
+from svrqp.problems import check_psd
 
 KernelName = Literal["linear", "poly", "rbf"]
 KERNELS: tuple[str, ...] = ("linear", "poly", "rbf")
@@ -251,4 +252,25 @@ def gram(
                                f"|Y| up to {np.abs(Y).max():.3g}): scale the features") from None
     if symmetric and kernel == "rbf":
         np.fill_diagonal(K, 1.0)  # exp(−γ·0): rounding of the expansion leaves ulps off zero
+    return K
+
+
+def training_gram(X: NDArray[np.float64], kernel_parameters: Mapping[str, Any]) -> NDArray[np.float64]:
+    """The training Gram matrix of a kernel model, checked positive semidefinite where the kernel
+    does not guarantee it.
+
+    ``kernel_parameters`` are ``kernel``, ``gamma``, ``degree`` and ``coef0`` as in :func:`gram`;
+    with ``kernel="precomputed"``, ``X`` is the Gram matrix and is returned (checked) as it is.
+
+    Raises
+    ------
+    ProblemError
+        A precomputed kernel, or a polynomial kernel with a negative ``coef0``, that is not PSD.
+    """
+    kernel = kernel_parameters["kernel"]
+    K = X if kernel == "precomputed" else gram(X, **kernel_parameters)
+    if kernel == "precomputed":
+        check_psd(K, name="precomputed kernel X")
+    elif kernel == "poly" and kernel_parameters["coef0"] < 0:  # not PSD in general
+        check_psd(K, name="polynomial kernel with negative coef0")
     return K

@@ -20,11 +20,11 @@ from support.benchmark_modules import load_benchmark
 
 from svrqp import LSSVR, EpsilonSVR, datasets
 from svrqp.estimators import LinearLS, RecursiveLS
-from svrqp.estimators import kernel as estimators
 from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.kernels import gram
 from svrqp.solvers import available_backends, dual_qp
+from svrqp.solvers import epsilon_svr as svr_solver
 from svrqp.tuning import Execution, grid_search
 
 SOLVERS = ["auto", "dual_ipm", *available_backends()]
@@ -181,7 +181,7 @@ def test_failed_dual_ipm_falls_back_to_clarabel_and_says_so(monkeypatch):
     def failing(*args, **kwargs):
         raise SolverError("backend 'dual_ipm' missed the conditions", "dual_ipm", "inaccurate")
 
-    monkeypatch.setattr(estimators, "solve_dual_ipm", failing)
+    monkeypatch.setattr(svr_solver, "solve_dual_ipm", failing)
     model = EpsilonSVR(C=10.0, epsilon=0.05, gamma=1.0, solver="dual_ipm").fit(X, y)
     assert model.solver_ == "clarabel" and "missed the conditions" in model.fallback_reason_
     reference = SVR(C=10.0, epsilon=0.05, gamma=1.0, tol=1e-8).fit(X, y)

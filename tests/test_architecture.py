@@ -1,17 +1,22 @@
-"""The package's shape: no import cycle, small modules, short functions with few parameters.
+"""The package's shape: the layers of CONTRIBUTING, no import cycle, small modules, short functions.
 
 Read from the source with :mod:`ast` (nothing is imported), so an import placed inside a
-function counts like any other.
+function counts like any other. The layers are read from the tree of CONTRIBUTING.md ("Where
+things are"): each line naming top-level modules or packages (``name.py``, ``name/``) is one
+layer, the lowest first, and a module may import only from its own layer or below. A package
+counts as one unit whatever its inner structure (``svrqp/gap/...`` is ``gap``).
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "svrqp"
+CONTRIBUTING = PACKAGE.parent / "CONTRIBUTING.md"
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 80
 MAX_PARAMETERS = 8
@@ -49,6 +54,61 @@ def _imports(name: str) -> set[str]:
         else:
             continue
         found |= {module for module in map(_resolve, targets) if module and module != name}
+    return found
+
+
+def _unit(module: str) -> str | None:
+    """The top-level module or package of ``module`` (``svrqp.gap.x.y`` -> ``gap``; ``svrqp`` -> None)."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else None
+
+
+def _layers(text: str) -> dict[str, int]:
+    """Each top-level module or package in the ``svrqp/`` tree of ``text`` -> its layer (0 = lowest).
+
+    A layer is a line indented by two spaces whose first words are names ending in ``.py`` or
+    ``/``; the words after them, and lines indented further, describe them.
+    """
+    block = text.split("## Where things are", 1)[1].split("```text\n", 1)[1].split("```", 1)[0]
+    lines = block.splitlines()
+    layers: dict[str, int] = {}
+    level = 0
+    for line in lines[lines.index("svrqp/") + 1:]:
+        if not line.startswith("  "):
+            break  # the tree of svrqp/ ends where tests/, docs/ ... begin
+        if line.startswith("   "):
+            continue
+        names = []
+        for word in line.split():
+            if not re.fullmatch(r"\w+(\.py|/)", word):
+                break
+            names.append(word.removesuffix("/").removesuffix(".py"))
+        for name in names:
+            assert name not in layers, f"CONTRIBUTING's tree names {name} twice"
+            layers[name] = level
+        level += bool(names)
+    return layers
+
+
+LAYERS = _layers(CONTRIBUTING.read_text(encoding="utf-8"))
+
+
+def _layer_violations() -> list[str]:
+    """Every import from a module to a top-level unit on a higher layer of CONTRIBUTING's tree."""
+    found = []
+    for name in MODULES:
+        unit = _unit(name)
+        if unit is None:  # svrqp/__init__.py: the package's face, above every layer
+            continue
+        for target in sorted(_imports(name)):
+            other = _unit(target)
+            if other is None or other == unit:
+                if other is None:
+                    found.append(f"{name} imports the package face svrqp")
+                continue
+            if LAYERS[other] > LAYERS[unit]:
+                found.append(f"{name} (layer {LAYERS[unit]}, {unit}) imports {target} "
+                             f"(layer {LAYERS[other]}, {other})")
     return found
 
 
@@ -112,6 +172,26 @@ def _body_lines(function: ast.FunctionDef) -> int:
 def test_the_scan_sees_the_package_and_its_imports():
     assert "svrqp.estimators.kernel" in MODULES and "svrqp.solution" in MODULES
     assert "svrqp.solution" in _imports("svrqp.solvers.qp_backends")
+    assert "svrqp.estimators" in _imports("svrqp.registry")  # imported on first use, inside a function
+
+
+def test_the_layers_are_read_from_contributing_and_would_catch_an_upward_import():
+    assert LAYERS["exceptions"] == 0
+    assert LAYERS["linalg"] < LAYERS["formulations"] < LAYERS["solvers"]
+    assert LAYERS["description"] < LAYERS["estimators"] < LAYERS["registry"] < LAYERS["export"]
+    tree = ("## Where things are\n```text\nsvrqp/\n  a.py  b/     words\n                 more words\n"
+            "  c/\ntests/\n```")
+    assert _layers(tree) == {"a": 0, "b": 0, "c": 1}
+
+
+def test_contributing_tree_names_every_top_level_module_and_package_and_nothing_else():
+    units = {_unit(name) for name in MODULES} - {None}
+    assert sorted(units - set(LAYERS)) == [], "add these to the tree of CONTRIBUTING.md, on their layer"
+    assert sorted(set(LAYERS) - units) == [], "the tree of CONTRIBUTING.md names these, which do not exist"
+
+
+def test_every_import_goes_to_its_own_layer_or_below():
+    assert _layer_violations() == []
 
 
 def test_no_import_cycle_among_svrqp_modules():

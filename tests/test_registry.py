@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from svrqp import registry
+from svrqp.description import Describable
 from svrqp.cli._common import MODELS, make_estimator
 from svrqp.exceptions import ProblemError
 from svrqp.export import crosscheck, load_schema
@@ -17,7 +18,7 @@ OPTIONS = {"C": 3.0, "epsilon": 0.25, "gamma": 0.5, "degree": 4, "forgetting": 0
 def test_each_model_resolves_to_an_estimator_of_its_kind(spec):
     cls = spec.estimator_class()
     assert cls.__name__ == spec.class_name
-    assert cls._export_kind == spec.export_kind
+    assert cls.export_kind == spec.export_kind and isinstance(spec.make(), Describable)
     assert registry.spec(spec.name) is spec and registry.spec_of_kind(spec.export_kind) is spec
 
 

@@ -1,51 +1,33 @@
 """scikit-learn regressors over the explicit formulations: :class:`EpsilonSVR` and :class:`LSSVR`.
 
-The estimators are thin: ``fit`` hands the data to one solve path and reads the model off its
-certificate-checked result (kept as ``solution_``, the QP as ``problem_``): the paths of
-:mod:`svrqp.solvers.auto`, :func:`svrqp.solvers.dual_qp.solve_dual` (a stock QP backend),
-:func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm` (the structure-exploiting interior point
-and exact crossover), :func:`svrqp.solvers.qp_backends.solve_qp` on the linear primal, and
-LS-SVR's Cholesky or LU. Every ε-SVR answer is certified on the stated QP: the multipliers of
-that QP are read off the optimality conditions
-(:func:`svrqp.formulations.epsilon_svr_certificate.multipliers`) and its residuals are checked
-like any backend's. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
+The estimators are thin: ``fit`` validates the data, hands it to one solve and reads the model
+off its certificate-checked result (kept as ``solution_``, the QP as ``problem_``).
+:class:`EpsilonSVR` asks :func:`svrqp.solvers.epsilon_svr.solve_epsilon_svr`, the one place that
+picks the ε-SVR solver, falls back and certifies the answer on the stated QP; :class:`LSSVR`
+solves its KKT system by Cholesky (:func:`svrqp.formulations.ls_svr.solve_cholesky_schur`) or
+LU. Coefficients follow scikit-learn's conventions: ``dual_coef_`` holds
 :math:`\\beta_i = \\alpha_i^* - \\alpha_i` of the support vectors and the prediction is
 ``gram(X, support_vectors_) @ dual_coef_[0] + intercept_[0]``.
 """
 
 from __future__ import annotations
 
-import dataclasses
-from functools import partial
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from svrqp import description
 from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
-from svrqp.export import describe
-from svrqp.export.mixin import ExportMixin
-from svrqp.formulations import epsilon_svr, epsilon_svr_certificate, ls_svr
-from svrqp.kernels import gram
+from svrqp.formulations import epsilon_svr, ls_svr
+from svrqp.kernels import gram, training_gram
 from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
-from svrqp.problems import check_psd
-from svrqp.solution import Solution, require_certificates
-from svrqp.solvers import dual_ipm, dual_qp
-from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
-from svrqp.solvers.dual_ipm.certified import DUAL_FORMULATIONS, DUAL_IPM, solve_dual_ipm
-from svrqp.solvers.dual_qp import DualSettings
+from svrqp.solvers.epsilon_svr import SOLVERS, SolveOptions, SVRTask, solve_epsilon_svr
 from svrqp.solvers.linear import solve_linear_system
-from svrqp.solvers.qp_backends import BACKENDS, solve_qp
 from svrqp.table_checks import check_magnitude, check_numeric_array
-
-#: Every value ``EpsilonSVR.solver`` accepts: the automatic choice, svrqp's exact paths and the QP backends.
-SOLVERS: tuple[str, ...] = (AUTO, SMO_CROSSOVER, DUAL_IPM, *BACKENDS)
-#: ``solver="auto"`` on the linear primal QP (a sparse QP with no kernel matrix: a stock backend).
-PRIMAL_AUTO_BACKEND = "clarabel"
-#: Where a failed ``dual_ipm`` fit falls back to (a failed QP backend falls back to ``dual_ipm``).
-FALLBACK_SOLVER = "clarabel"
 
 #: What the kernel parameters of both models accept (:mod:`svrqp.parameters`).
 _KERNEL_CHECKS = {
@@ -82,14 +64,9 @@ class _KernelModel(RegressorMixin, BaseEstimator):
             return 1.0 / X.shape[1]
         return float(self.gamma)
 
-    def _training_gram(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        if self.kernel == "precomputed":
-            check_psd(X, name="precomputed kernel X")
-            return X
-        K = gram(X, kernel=self.kernel, gamma=self.gamma_, degree=self.degree, coef0=self.coef0)
-        if self.kernel == "poly" and self.coef0 < 0:
-            check_psd(K, name="polynomial kernel with negative coef0")  # not PSD in general
-        return K
+    def _kernel_parameters(self) -> dict[str, Any]:
+        """``kernel``, the resolved ``gamma_``, ``degree`` and ``coef0``, as :func:`svrqp.kernels.gram` takes them."""
+        return {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
 
     def _decision(self, X: ArrayLike) -> NDArray[np.float64]:
         check_is_fitted(self)
@@ -120,7 +97,7 @@ class _KernelModel(RegressorMixin, BaseEstimator):
         return tags
 
 
-class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
+class EpsilonSVR(CompactFitMixin, _KernelModel):
     """ε-support vector regression solved as an explicit QP.
 
     Parameters
@@ -187,7 +164,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         whether its crossover reached the exact optimum.
     """
 
-    _export_kind = "epsilon_svr"
+    export_kind = "epsilon_svr"
     _parameter_checks = {
         "C": [Number(0.0)],
         "epsilon": [Number(0.0, closed="left")],
@@ -213,8 +190,9 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         self.check_tol = check_tol
         self.fallback = fallback
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
@@ -229,98 +207,22 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
-        self.solver_, self.fallback_reason_ = self.solver, None
-        try:
-            beta, b = self._solve(X, y, self.solver, self.formulation)
-        except SolverError as err:
-            if not self.fallback:
-                raise
-            # A fit asked for with sound parameters must not fail because one solver did: the
-            # other exact path, reported in solver_ and fallback_reason_ ("auto" on a dual has tried
-            # dual_ipm already: its fallback is the rescaled QP backend).
-            dual_auto = self.solver == AUTO and self.formulation != "primal"
-            other = FALLBACK_SOLVER if self.solver == DUAL_IPM or dual_auto else DUAL_IPM
-            formulation = self.formulation if self.formulation in DUAL_FORMULATIONS else "split"
-            try:
-                beta, b = self._solve(X, y, other, formulation)
-            except SolverError as second:
-                raise SolverError(f"{err}; the fallback {other!r} failed too: {second}",
-                                  self.solver, err.status) from second
-            self.solver_, self.fallback_reason_ = other, str(err)
-            if self.formulation == "primal":
-                self.coef_ = beta @ X
-        if self.solver == AUTO and self.fallback_reason_ is None:
-            self.solver_ = self.solution_.backend  # the path it chose
-        support = beta != 0.0  # the certified coefficients are exactly zero off the support
+        fit = solve_epsilon_svr(X, y, SVRTask(self.C, self.epsilon, self._kernel_parameters()),
+                                SolveOptions(self.solver, self.formulation, self.tol, self.check_tol, self.fallback))
+        self.problem_, self.solution_, self.polished_ = fit.problem, fit.solution, fit.polished
+        self.solver_, self.fallback_reason_ = fit.solver, fit.fallback_reason
+        if fit.coef is not None:
+            self.coef_ = fit.coef
+        support = fit.beta != 0.0  # the certified coefficients are exactly zero off the support
         self.support_ = np.flatnonzero(support)
         self.support_vectors_ = X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
-        self.dual_coef_ = beta[support][None, :]
-        self.intercept_ = np.array([b])
+        self.dual_coef_ = fit.beta[support][None, :]
+        self.intercept_ = np.array([fit.intercept])
         self._keep_fit_data(X, y, self.formulation)
         return self
 
-    def _solve(self, X: NDArray[np.float64], y: NDArray[np.float64], solver: str,
-               formulation: str) -> tuple[NDArray[np.float64], float]:
-        """Certified (β, b) from one solver; sets ``problem_``, ``solution_`` and ``polished_``."""
-        kernel_parameters = {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
-        settings = DualSettings(formulation, self.tol, self.check_tol)
-        if solver in (AUTO, SMO_CROSSOVER) and formulation != "primal":
-            run = solve_auto if solver == AUTO else partial(solve_path, SMO_CROSSOVER)
-            # the QP is never formed: problem_ is rebuilt on demand (svrqp.estimators.fitted_state)
-            fit = run(self._training_gram(X) if self.kernel == "precomputed" else X, y, self.C, self.epsilon,
-                      kernel_parameters=kernel_parameters, settings=settings)
-        elif solver == DUAL_IPM:
-            low_rank_possible = self.kernel in ("rbf", "poly")  # a linear K is degenerate, a precomputed one has no X
-            fit = solve_dual_ipm(self._training_gram(X), y, self.C, self.epsilon, settings,
-                                 X=X if low_rank_possible else None, kernel_parameters=kernel_parameters)
-        elif formulation == "primal":
-            if solver == SMO_CROSSOVER:
-                raise ProblemError(f"solver={SMO_CROSSOVER!r} solves a kernel dual: formulation must be one of "
-                                   f"{DUAL_FORMULATIONS}, got 'primal'")
-            return self._solve_primal(X, y, PRIMAL_AUTO_BACKEND if solver == AUTO else solver)
-        else:
-            fit = dual_qp.solve_dual(self._training_gram(X), y, self.C, self.epsilon, solver, settings)
-        _, _, self.problem_, self.solution_, self.polished_ = fit
-        return fit.beta, fit.intercept
 
-    def _solve_primal(self, X: NDArray[np.float64], y: NDArray[np.float64],
-                      solver: str) -> tuple[NDArray[np.float64], float]:
-        """The linear primal: β from the multipliers, rounded and certified like the duals'.
-
-        The backend solves the primal for the targets of :class:`~svrqp.formulations.epsilon_svr.DualScaling`
-        (:math:`\tilde y = (y - m)/a`, :math:`\tilde\varepsilon = \varepsilon/a`, :math:`\tilde C = C/a`);
-        the primal variables and multipliers scale by a (b is shifted by m) back onto ``problem_``,
-        where the certificates are checked.
-        """
-        C = float(self.C)
-        self.problem_ = epsilon_svr.build("primal", y, C, self.epsilon, X=X)
-        m, a, _ = scaling = epsilon_svr.DualScaling.of(y, C)
-        record = solve_qp(epsilon_svr.build("primal", (y - m) / a, C / a, self.epsilon / a, X=X), solver,
-                          tol=self.tol, check_tol=self.check_tol)
-        x, z = a * record.x, a * record.z
-        x[X.shape[1]] += m
-        z_box = None if record.z_box is None else a * record.z_box
-        self.solution_ = Solution.of_qp(self.problem_, (x, record.y, z, z_box), dataclasses.replace(
-            record.record, settings={**record.settings, "scaling": scaling._asdict()}))
-        require_certificates(self.solution_, self.problem_, record.settings["check_tol"])
-        beta = epsilon_svr.beta_from_solution("primal", X.shape[0], self.solution_.x, self.solution_.z)
-        # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
-        # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
-        exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(self.epsilon), beta,
-                                   products=lambda idx, v: X @ (X[idx].T @ v))
-        self.polished_ = exact.exact
-        beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C)
-        self.coef_ = self.solution_.x[:X.shape[1]].copy()
-        K_beta = X @ (X.T @ beta)
-        b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, self.epsilon)
-        certificate = epsilon_svr_certificate.model_certificate(
-            y, beta, K_beta, b, C, self.epsilon, float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0)))
-        self.solution_.residuals.update(certificate)
-        epsilon_svr_certificate.require_model_certificate(certificate, self.solution_.settings["check_tol"], solver)
-        return beta, b
-
-
-class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
+class LSSVR(CompactSystemMixin, _KernelModel):
     """Least-squares SVR (S4): the KKT linear system, solved by Cholesky and a Schur complement.
 
     Parameters
@@ -347,7 +249,7 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         rebuilt on first access and after unpickling: :mod:`svrqp.estimators.fitted_state`).
     """
 
-    _export_kind = "ls_svr"
+    export_kind = "ls_svr"
     _parameter_checks = {
         "C": [Number(0.0)],
         **_KERNEL_CHECKS,
@@ -365,8 +267,9 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         self.fit_intercept = fit_intercept
         self.solver = solver
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LSSVR:
         """Solve the LS-SVR KKT system for (X, y).
@@ -379,7 +282,7 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         self.gamma_ = self._resolve_gamma(X)
-        K = self._training_gram(X)
+        K = training_gram(X, self._kernel_parameters())
         self._keep_fit_data(K if self.kernel == "precomputed" else None, y)
         self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept) if self.solver == "lu" else None
         if self.solver == "lu":

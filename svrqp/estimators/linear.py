@@ -18,9 +18,8 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from svrqp import description
 from svrqp.exceptions import ProblemError, input_errors_as_problem_errors
-from svrqp.export import describe
-from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import least_squares, recursive_ls
 from svrqp.parameters import Boolean, Number, OneOf, check_parameters
 from svrqp.table_checks import check_magnitude, check_numeric_array
@@ -123,7 +122,7 @@ def _finite_inputs(estimator: BaseEstimator, X: ArrayLike) -> NDArray:
     return least_squares.check_finite_matrix(X, "X", 2)
 
 
-class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
+class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
     """Multiple linear regression by the normal equations (S0 eq. (5), S3 eq. (6)).
 
     Parameters
@@ -146,7 +145,7 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         Name of ``y`` when it was a named pandas Series, else ``""``.
     """
 
-    _export_kind = "linear_ls"
+    export_kind = "linear_ls"
     _parameter_checks = {
         "fit_intercept": [Boolean()],
         "rank_deficient": [OneOf(frozenset({"raise", "lstsq"}))],
@@ -156,11 +155,12 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         self.fit_intercept = fit_intercept
         self.rank_deficient = rank_deficient
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.Sections(
-            describe.linear_model(self.coef_, self.intercept_, self.fit_intercept),
-            describe.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
-                                          {"condition_number": self.condition_number_, "rank": self.rank_}))
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.Sections(
+            description.linear_model(self.coef_, self.intercept_, self.fit_intercept),
+            description.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
+                                             {"condition_number": self.condition_number_, "rank": self.rank_}))
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LinearLS:
         """Solve the normal equations for (X, y).
@@ -188,7 +188,7 @@ class LinearLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
         return _finite_inputs(self, X) @ self.coef_ + self.intercept_
 
 
-class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
+class PolynomialLS(RegressorMixin, BaseEstimator):
     """Least-squares polynomial in one variable on the Legendre basis (S2 eq. (22)).
 
     Parameters
@@ -206,17 +206,18 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         Condition number of the equilibrated Legendre normal matrix.
     """
 
-    _export_kind = "polynomial_ls"
+    export_kind = "polynomial_ls"
     _parameter_checks = {"degree": [Number(0, closed="left", integer=True)]}
 
     def __init__(self, *, degree=5):
         self.degree = degree
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.Sections(
-            describe.polynomial_model(self.degree, self.domain_, self.legendre_coef_),
-            describe.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
-                                          {"condition_number": self.condition_number_}))
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.Sections(
+            description.polynomial_model(self.degree, self.domain_, self.legendre_coef_),
+            description.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
+                                             {"condition_number": self.condition_number_}))
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> PolynomialLS:
         """Fit the polynomial to one input column.
@@ -250,7 +251,7 @@ class PolynomialLS(ExportMixin, RegressorMixin, BaseEstimator):
         return self._fit_result().to_polynomial()
 
 
-class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
+class RecursiveLS(_LinearFormula, RegressorMixin, BaseEstimator):
     """Recursive least squares for :math:`y = a_0 + x^\\top a` (S3 eqs. (13)–(19)).
 
     ``partial_fit`` absorbs samples one by one through the recursion. Until the samples seen so
@@ -284,7 +285,7 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     target_name_ : str
     """
 
-    _export_kind = "recursive_ls"
+    export_kind = "recursive_ls"
     _parameter_checks = {"forgetting": [Number(0.0, 1.0, closed="right")]}
 
     def __init__(self, *, forgetting=1.0):
@@ -293,11 +294,12 @@ class RecursiveLS(ExportMixin, _LinearFormula, RegressorMixin, BaseEstimator):
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, "state_")
 
-    def _export_sections(self) -> describe.Sections:
-        return describe.Sections(
-            describe.linear_model(self.coef_, self.intercept_, True, forgetting=float(self.forgetting),
-                                  n_samples_seen=int(self.n_samples_seen_)),
-            describe.least_squares_solver(RECURSION, {"forgetting": self.forgetting}, {"sigma2": self.sigma2_}))
+    def export_sections(self) -> description.Sections:
+        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        return description.Sections(
+            description.linear_model(self.coef_, self.intercept_, True, forgetting=float(self.forgetting),
+                                     n_samples_seen=int(self.n_samples_seen_)),
+            description.least_squares_solver(RECURSION, {"forgetting": self.forgetting}, {"sigma2": self.sigma2_}))
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> RecursiveLS:
         """Forget any previous state and run the recursion over the rows of (X, y) in order.

@@ -13,7 +13,7 @@ from __future__ import annotations
 from svrqp.export.canonical import canonical_bytes, content_sha256, data_sha256
 from svrqp.export.document import build_document
 from svrqp.export.evaluate import predict
-from svrqp.export.mixin import ExportMixin, export_model
+from svrqp.export.mixin import export_model
 from svrqp.export.schema import SCHEMA_ID, load_schema, validate_document
 from svrqp.export.verify import VerifyReport, read_document, verify
 from svrqp.export.writers import FORMATS, write
@@ -22,7 +22,6 @@ from svrqp.units import unit_from_name
 __all__ = [
     "FORMATS",
     "SCHEMA_ID",
-    "ExportMixin",
     "VerifyReport",
     "build_document",
     "canonical_bytes",

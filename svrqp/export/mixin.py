@@ -1,9 +1,13 @@
-"""``model.export(path)``: the export entry point shared by every exportable estimator."""
+"""``export_model(model, path)``: the export entry point of every exportable model.
+
+A model is exportable when its estimator describes itself (:class:`svrqp.description.Describable`);
+the estimators do not import this package, so the entry point takes the model as its argument.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 
 def export_model(
@@ -41,26 +45,3 @@ def export_model(
 
     return write(build_document(model, **document), path, format, overwrite=overwrite)
 
-
-class ExportMixin:
-    """Adds :meth:`export` to an estimator (``class EpsilonSVR(ExportMixin, _KernelModel)``).
-
-    An exportable estimator describes itself, so that this package never imports an estimator:
-
-    * ``_export_kind`` (class attribute): the ``kind`` of its documents, one of
-      :func:`svrqp.registry.export_kinds`;
-    * ``_export_sections()``: the ``model`` and ``solver`` sections of the fitted estimator, a
-      :class:`svrqp.export.describe.Sections` built with the helpers of
-      :mod:`svrqp.export.describe`.
-    """
-
-    _export_kind: ClassVar[str]
-
-    def export(self, path: str | Path, format: str | None = None, **options: Any) -> list[Path]:
-        """Write this fitted model as an auditable ``svrqp.model/1`` JSON, a CSV table or C source.
-
-        ``options`` are the keyword arguments of :func:`svrqp.export.export_model` (``X``, ``y``,
-        ``feature_names``, ``feature_units``, ``target_name``, ``target_unit``, ``probes``,
-        ``overwrite``), forwarded unchanged, so the two cannot drift apart.
-        """
-        return export_model(self, path, format, **options)

@@ -101,6 +101,12 @@ FORMULATIONS: tuple[str, ...] = ("stacked", "split", "primal")
 #: bound: interior-point solutions sit slightly inside the box.
 SV_TOLERANCE = 1e-6
 
+#: The rounding allowance of :func:`returned_coefficients` for coefficients whose active sets an
+#: exact step settled (:func:`polish`, the crossover): 64 float64 ulps. Their zeros are exactly 0
+#: and their bounds exactly ±C, up to a change of units; a free coefficient, however small, is a
+#: support vector the equality :math:`\mathbf 1^\top\beta = 0` needs.
+EXACT_ROUNDING = 64.0 * float(np.finfo(float).eps)
+
 DUAL_STATEMENT = (
     r"\max_{\alpha,\alpha^*}\; -\tfrac12 (\alpha^*-\alpha)^\top K (\alpha^*-\alpha)"
     r" - \varepsilon \mathbf 1^\top(\alpha^*+\alpha) + y^\top(\alpha^*-\alpha)"
@@ -334,14 +340,22 @@ def dual_objective(
     return float(0.5 * beta @ (K @ beta) - y @ beta + epsilon * np.abs(beta).sum())
 
 
-def returned_coefficients(beta: NDArray[np.float64], C: float,
-                          sv_tolerance: float = SV_TOLERANCE) -> NDArray[np.float64]:
+def returned_coefficients(beta: NDArray[np.float64], C: float, *,
+                          exact: bool = False) -> NDArray[np.float64]:
     r"""The coefficients a model keeps: β projected onto the box :math:`[-C, C]`, those within
-    ``sv_tolerance``·C of a bound set to it, those at or below :func:`zero_tolerance` set to 0.
+    ``tolerance``·C of a bound set to it, those at or below :func:`zero_tolerance` set to 0.
 
-    The certificate (:func:`~svrqp.formulations.epsilon_svr_certificate.model_certificate`) is
-    computed on these, so what is certified is what predicts.
+    ``tolerance`` is :data:`SV_TOLERANCE` for a solver's approximate answer (an interior point's
+    coefficients sit slightly inside the box and slightly off zero), and :data:`EXACT_ROUNDING`
+    when an exact active-set step settled β (``exact``): there the states are already exact, and
+    the wider cut would drop a genuine free support vector smaller than
+    :math:`10^{-6}\min(C, \max|\beta|)` and unbalance :math:`\mathbf 1^\top\beta = 0` by it
+    (issue 33: a free :math:`\beta_i = 5.9\cdot10^{-6}` at C = 10 failed every solver's gap
+    certificate alike). The certificate
+    (:func:`~svrqp.formulations.epsilon_svr_certificate.model_certificate`) is computed on these,
+    so what is certified is what predicts.
     """
+    sv_tolerance = EXACT_ROUNDING if exact else SV_TOLERANCE
     beta = np.clip(np.asarray(beta, dtype=float), -C, C)
     beta = np.where(np.abs(beta) >= C * (1.0 - sv_tolerance), np.sign(beta) * C, beta)
     beta[np.abs(beta) <= zero_tolerance(beta, C, sv_tolerance)] = 0.0

@@ -166,11 +166,17 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64], K_beta:
     }
 
 
+def failed_model_certificates(certificate: dict[str, float], check_tol: float) -> list[str]:
+    """The keys of :func:`model_certificate` in ``certificate`` whose value exceeds ``check_tol`` (NaN
+    included), in the order of :data:`MODEL_CERTIFICATES`; empty when the model meets them all."""
+    return [key for key in MODEL_CERTIFICATES if not certificate[key] <= check_tol]
+
+
 def require_model_certificate(certificate: dict[str, float], check_tol: float, backend: str) -> None:
     """Raise :class:`~svrqp.exceptions.SolverError` naming ``backend`` when a value of
     :func:`model_certificate` in ``certificate`` (other keys are ignored) exceeds ``check_tol``
     (NaN included)."""
-    failed = [key for key in MODEL_CERTIFICATES if not certificate[key] <= check_tol]
+    failed = failed_model_certificates(certificate, check_tol)
     if failed:
         worst = failed[0]
         raise SolverError(f"backend {backend!r} returned a model that misses the ε-SVR optimality conditions: "

@@ -1,19 +1,19 @@
-"""One entry point for every solver: ``solve(problem, backend=...) -> Solution``.
+"""The solvers: stated problems to certified :class:`~svrqp.solution.Solution` objects.
 
-A :class:`~svrqp.problems.QuadraticProgram` goes to a qpsolvers backend or cvxpy
-(:mod:`svrqp.solvers.qp_backends`, which states the backends, their settings and the sign
-conventions of the multipliers); a :class:`~svrqp.problems.LinearSystem` to LU
-(:mod:`svrqp.solvers.linear`). Every returned :class:`~svrqp.solution.Solution` has been
-certificate-checked. svrqp's own exact ε-SVR paths are :mod:`svrqp.solvers.auto` and
-:mod:`svrqp.solvers.dual_ipm`.
+* :func:`solve_qp`: a :class:`~svrqp.problems.QuadraticProgram` by a qpsolvers backend or cvxpy
+  (:mod:`svrqp.solvers.qp_backends`, which states the backends, their settings and the sign
+  conventions of the multipliers);
+* :func:`solve_linear_system`: a :class:`~svrqp.problems.LinearSystem` by LU
+  (:mod:`svrqp.solvers.linear`);
+* :mod:`svrqp.solvers.epsilon_svr`: the ε-SVR, the one entry point of the estimators and the
+  tuning loops (it picks among :mod:`svrqp.solvers.auto`, :mod:`svrqp.solvers.dual_ipm`,
+  :mod:`svrqp.solvers.dual_qp` and the backends, falls back and certifies).
+
+Every returned solution has been certificate-checked.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
-from svrqp.exceptions import ProblemError
-from svrqp.problems import LinearSystem, QuadraticProgram
 from svrqp.solution import Solution
 from svrqp.solvers.linear import solve_linear_system
 from svrqp.solvers.qp_backends import (
@@ -24,19 +24,5 @@ from svrqp.solvers.qp_backends import (
     solve_qp,
 )
 
-__all__ = ["BACKENDS", "Solution", "available_backends", "backend_version", "require_backend", "solve",
+__all__ = ["BACKENDS", "Solution", "available_backends", "backend_version", "require_backend",
            "solve_linear_system", "solve_qp"]
-
-
-
-def solve(problem: QuadraticProgram | LinearSystem, backend: str = "clarabel", **kwargs: Any) -> Solution:
-    """Solve a :class:`QuadraticProgram` (any QP backend) or a :class:`LinearSystem` (LU).
-
-    See :func:`solve_qp` for the QP arguments (a backend setting named ``backend`` goes in
-    ``options={"backend": ...}``).
-    """
-    if isinstance(problem, LinearSystem):
-        return solve_linear_system(problem, **kwargs)
-    if isinstance(problem, QuadraticProgram):
-        return solve_qp(problem, backend, **kwargs)
-    raise ProblemError(f"problem must be a QuadraticProgram or LinearSystem, got {type(problem).__name__}")

@@ -97,7 +97,7 @@ def certified_dual_fit(dual: DualProblem, beta: NDArray[np.float64], record: Sol
     r"""Round β to the coefficients a model keeps
     (:func:`~svrqp.formulations.epsilon_svr.returned_coefficients`), read b off the KKT
     conditions and certify both on ``dual.qp`` (:func:`_certified_solution`)."""
-    beta = returned_coefficients(beta, dual.C)
+    beta = returned_coefficients(beta, dual.C, exact=polished)
     b = intercept_from_kkt(dual.K, dual.y, beta, dual.C, dual.epsilon)
     return DualFit(beta, b, dual.qp, _certified_solution(dual, beta, b, record, check_tol), polished)
 

@@ -3,8 +3,8 @@
 - :mod:`~svrqp.tuning.grid`: :func:`grid_search` over (C, ε, γ);
 - :mod:`~svrqp.tuning.ga`: :func:`ga_search`, S1's genetic algorithm, set up by :class:`Genetic`;
 - :mod:`~svrqp.tuning.execution`: :class:`Execution`, how either search runs (folds, solver, joblib/Dask);
-- :mod:`~svrqp.tuning.cv`: the cross-validation score on shared Gram matrices;
-- :mod:`~svrqp.tuning.fits`: one fit per fold and C, warm-started along the C grid;
+- :mod:`~svrqp.tuning.cv`: the cross-validation score on shared Gram matrices, each fit by
+  :func:`svrqp.solvers.epsilon_svr.fit_on_gram` (warm-started along the C grid);
 - :mod:`~svrqp.tuning.result`: :class:`SearchResult`; :mod:`~svrqp.tuning.plots`: its figures.
 """
 

@@ -1,4 +1,4 @@
-"""Input checks shared by the searches: data, model, solver, grid values, log-space ranges, a fixed γ."""
+"""Input checks shared by the searches: data, model, grid values, log-space ranges, a fixed γ."""
 
 from __future__ import annotations
 
@@ -10,10 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.utils.validation import check_X_y
 
 from svrqp import registry
-from svrqp.estimators.kernel import DUAL_IPM
 from svrqp.exceptions import ProblemError
-from svrqp.solvers.auto import AUTO
-from svrqp.solvers.qp_backends import require_backend
 
 
 def validated(X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -28,15 +25,6 @@ def check_model(model: str) -> None:
     """Raise unless ``model`` is a searchable model of the registry (:func:`svrqp.registry.tunable`)."""
     if model not in registry.tunable():
         raise ProblemError(f"model must be one of {registry.tunable()}, got {model!r}")
-
-
-def fit_solver(solver: str) -> str:
-    """The solver the fits use: ``"auto"`` is the exact path on shared Gram matrices, ``dual_ipm``."""
-    if solver == AUTO:
-        return DUAL_IPM
-    if solver != DUAL_IPM:
-        require_backend(solver)
-    return solver
 
 
 def grid_values(values: ArrayLike, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:

@@ -15,7 +15,8 @@ S0 and S2 choose (C, g) and (C, σ) by 5-fold CV; S1 uses the same score as the 
 **Shared Gram matrices.** For one :math:`\gamma` the RBF Gram matrix of the whole data set is
 computed once; the training block :math:`K_{TT}` and the validation block :math:`K_{VT}` of every
 fold are slices of it, and every :math:`(C, \varepsilon)` of that fold reuses them, fitted in
-ascending C so that each fit can start from the previous one (:mod:`svrqp.tuning.fits`).
+ascending C so that each fit can start from the previous one
+(:func:`svrqp.solvers.epsilon_svr.fit_on_gram`).
 """
 
 from __future__ import annotations
@@ -32,8 +33,8 @@ from sklearn.model_selection import KFold, check_cv
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.formulations import ls_svr
 from svrqp.kernels import gram
+from svrqp.solvers.epsilon_svr import fit_on_gram
 from svrqp.tuning.execution import Progress
-from svrqp.tuning.fits import fit_epsilon_svr
 from svrqp.tuning.result import SearchResult, warn_on_edges
 
 
@@ -78,7 +79,7 @@ def _fold_chain(
     for index, C in enumerate(Cs):
         try:
             if fit.model == "svr":
-                coef, b, previous = fit_epsilon_svr(
+                coef, b, previous = fit_on_gram(
                     K_train, y_train, C, epsilon, fit.solver, fit.tol, previous if fit.warm_start else None)
             else:
                 coef, b, _ = ls_svr.solve_cholesky_schur(K_train, y_train, C)

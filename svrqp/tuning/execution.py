@@ -38,7 +38,7 @@ class Execution:
         Group labels for group-aware splitters (e.g. ``GroupKFold``).
     solver : str, default="auto"
         ``"auto"`` or ``"dual_ipm"`` (the fast exact path on shared Gram matrices, see
-        :mod:`svrqp.tuning.fits`) or the QP backend of the ε-SVR fits.
+        :func:`svrqp.solvers.epsilon_svr.fit_on_gram`) or the QP backend of the ε-SVR fits.
     tol : float, default=1e-8
         Solver accuracy (as :class:`~svrqp.EpsilonSVR`).
     backend : {"loky", "sequential", "threading", "dask"}

@@ -21,9 +21,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from svrqp.exceptions import ProblemError
 from svrqp.extras import require
+from svrqp.solvers.epsilon_svr import gram_solver
 from svrqp.tuning.checks import (
     check_model,
-    fit_solver,
     fixed_gamma,
     log_range,
     validated,
@@ -111,7 +111,7 @@ def ga_search(
     check_model(model)
     X, y = validated(X, y)
     names, gene_space, fixed = _genes(model, {"C": C_range, "epsilon": epsilon_range, "gamma": gamma}, X)
-    solver = fit_solver(execution.solver) if model == "svr" else execution.solver
+    solver = gram_solver(execution.solver) if model == "svr" else execution.solver
     splits = folds(execution.cv, X, y, execution.groups)
     fit = FitSettings(model, solver, execution.tol, warm_start=False)  # a generation's candidates are no C chains
     evaluated: dict[tuple[float, ...], tuple[NDArray, int]] = {}  # genes -> (fold MSE, generation)

@@ -8,10 +8,10 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from sklearn.model_selection import ParameterGrid
 
-from svrqp.tuning.checks import check_model, fit_solver, grid_values, validated
+from svrqp.solvers.epsilon_svr import gram_solver, warm_start_applies
+from svrqp.tuning.checks import check_model, grid_values, validated
 from svrqp.tuning.cv import FitSettings, cv_mse, folds, scored_result
 from svrqp.tuning.execution import Execution
-from svrqp.tuning.fits import warm_start_applies
 from svrqp.tuning.result import SearchResult
 
 
@@ -43,7 +43,7 @@ def grid_search(
     model : {"svr", "lssvr"}
     warm_start : bool, default=True
         Warm-start along the C grid (``dual_ipm`` and
-        :data:`~svrqp.tuning.fits.WARM_START_BACKENDS`).
+        :data:`~svrqp.solvers.epsilon_svr.WARM_START_BACKENDS`).
     execution : Execution, optional
         The folds (``cv``, ``groups``), the solver and its ``tol``, and where the fits run
         (joblib ``backend``, ``n_jobs``, Dask ``scheduler``); its ``progress(done, total)`` is
@@ -65,7 +65,7 @@ def grid_search(
     solver = execution.solver
     if model == "svr":
         grid["epsilon"] = grid_values(epsilon, "epsilon", allow_zero=True)
-        solver = fit_solver(solver)
+        solver = gram_solver(solver)
     candidates = pd.DataFrame(list(ParameterGrid(grid)))[["C", "epsilon", "gamma"] if model == "svr" else ["C", "gamma"]]
     splits = folds(execution.cv, X, y, execution.groups)
     start = time.perf_counter()

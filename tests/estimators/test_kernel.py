@@ -127,10 +127,10 @@ def test_property_ls_svr_raises_only_library_errors_and_never_returns_nan(X, C):
 @pytest.mark.parametrize("Model", [EpsilonSVR, LSSVR])
 def test_model_export_round_trips_through_verify(Model, tmp_path):
     from svrqp.export import predict as predict_from_file
-    from svrqp.export import read_document, verify
+    from svrqp.export import export_model, read_document, verify
 
     model = Model(C=10.0).fit(X_OK, Y_OK)
-    [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
+    [path] = export_model(model, tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
     assert verify(path).ok
     np.testing.assert_allclose(predict_from_file(read_document(path), X_OK), model.predict(X_OK), rtol=0, atol=1e-12)
 
@@ -177,10 +177,10 @@ def test_dual_ipm_takes_an_integer_c_above_the_int8_range():
 
 
 def test_dual_ipm_model_exports_and_verifies(tmp_path):
-    from svrqp.export import verify
+    from svrqp.export import export_model, verify
 
     model = EpsilonSVR(C=10.0, solver="dual_ipm").fit(X_OK, Y_OK)
-    [path] = model.export(tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
+    [path] = export_model(model, tmp_path / "model.json", X=X_OK, y=Y_OK, feature_names=["x_mm"], target_name="error_um")
     report = verify(path)
     assert report.ok, [check for check in report.checks if not check.ok]
 

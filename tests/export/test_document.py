@@ -186,16 +186,16 @@ def test_csv_table_is_the_papers_layout(tmp_path):
     assert any("g = 1/sigma^2 = 0.5" in line for line in comments)
 
 
-def test_mixin_exports_and_the_file_verifies(tmp_path):
-    from svrqp.export import verify
+def test_export_model_writes_files_that_verify(tmp_path):
+    from svrqp.export import export_model, verify
 
     case = svr_scaled()
     model = EpsilonSVR(C=100.0, epsilon=0.2, gamma=0.5).fit(case.X, case.y)
-    written = model.export(tmp_path / "model.json", X=case.X, y=case.y, target_unit="um")
+    written = export_model(model, tmp_path / "model.json", X=case.X, y=case.y, target_unit="um")
     assert written == [tmp_path / "model.json"]
     assert verify(written[0]).ok
     assert read_document(written[0])["target"]["unit"] == "um"
-    assert [p.name for p in model.export(tmp_path, "c")] == ["svrqp_model.c", "svrqp_model.h"]
+    assert [p.name for p in export_model(model, tmp_path, "c")] == ["svrqp_model.c", "svrqp_model.h"]
 
 
 def test_writing_an_invalid_document_writes_nothing(tmp_path):

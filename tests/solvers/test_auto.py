@@ -19,13 +19,13 @@ from support.epsilon_svr_reference import (
 from support.problems import SVR_CASES
 
 from svrqp import EpsilonSVR, SolverError
-from svrqp.estimators.kernel import PRIMAL_AUTO_BACKEND
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr_certificate import dual_qp_point, multipliers
 from svrqp.formulations.epsilon_svr_residuals import model_on_qp
 from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord
 from svrqp.solvers import auto as solver_choice
+from svrqp.solvers.epsilon_svr import PRIMAL_AUTO_BACKEND
 
 
 def sinc_case(n: int = 400, seed: int = 0):

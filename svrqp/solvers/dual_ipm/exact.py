@@ -19,7 +19,7 @@ from svrqp.solvers.dual_ipm.crossover import (
     CrossoverSettings,
     crossover,
 )
-from svrqp.solvers.dual_ipm.interior_point import IPMResult, _check, interior_point
+from svrqp.solvers.dual_ipm.interior_point import IPMResult, check_inputs, interior_point
 from svrqp.solvers.dual_ipm.kernel_operators import (
     DenseKernel,
     FactoredKernel,
@@ -101,7 +101,7 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)
     n = X.shape[0]
-    _check(y, C, epsilon, n)
+    check_inputs(y, C, epsilon, n)
     tol, max_iter = settings.tol, settings.max_iter
     parameters = kernel_arguments(kernel_parameters)
     start = time.perf_counter()

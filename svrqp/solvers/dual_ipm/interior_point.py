@@ -73,7 +73,9 @@ class IPMResult:
     residuals: dict[str, float] = field(default_factory=dict)
 
 
-def _check(y: NDArray[np.float64], C: float, epsilon: float, n: int) -> None:
+def check_inputs(y: NDArray[np.float64], C: float, epsilon: float, n: int) -> None:
+    """Raise :class:`ProblemError` unless C, ε and y are valid
+    (:func:`~svrqp.formulations.epsilon_svr.check_parameters`) and y has length n."""
     check_parameters(y, C, epsilon)
     if y.shape != (n,):
         raise ProblemError(f"y must be a finite vector of length {n}, got shape {y.shape}")
@@ -105,7 +107,7 @@ def interior_point(kernel: KernelOperator, y: NDArray[np.float64], C: float, eps
         Iteration limit; ``converged`` is false when it is reached.
     """
     y = np.asarray(y, dtype=float)
-    _check(y, C, epsilon, kernel.n)
+    check_inputs(y, C, epsilon, kernel.n)
     point = _starting_point(y, C, epsilon)
     scale = 1.0 + float(np.max(np.abs(y)))
     residuals: dict[str, float] = {}
