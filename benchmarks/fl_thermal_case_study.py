@@ -53,7 +53,7 @@ import pandas as pd
 
 from svrqp import datasets
 from svrqp.gap import GapQuestion, GapReport, diagnose
-from svrqp.gap.report import markdown_table
+from svrqp.gap.words.report import markdown_table
 from svrqp.estimators import LinearLS
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -129,8 +129,8 @@ from joblib import Parallel, delayed
 
 import svrqp
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.baseline import LSSVR_C, fit_baseline
-from svrqp.gap.prepare import prepare
+from svrqp.gap.model.baseline import LSSVR_C, fit_baseline
+from svrqp.gap.data.prepare import prepare
 from svrqp.machine import ThermalConfig, simulate_thermal
 from svrqp.machine.contour import GantryConfig, simulate_gantry
 from svrqp.machine.cycles import CycleSegment
@@ -1042,7 +1042,7 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
     top1 = withheld.top1.astype(bool)
     correct = withheld[top1]
     gap = withheld[withheld.gap_detected.astype(bool)]
-    # A run-level truth that no permutation of too few runs can make significant (svrqp.gap.ranking, the verdict's
+    # A run-level truth that no permutation of too few runs can make significant (svrqp.gap.transfer.ranking, the verdict's
     # ``untestable``): counted apart for reference; the target row above counts it as a miss.
     thin = _too_thin(gap)
     metric = {

@@ -9,8 +9,8 @@
 
 ``--seed``, ``--surrogates``, ``--local``, ``--local-along`` and ``--force`` are additions: the seed
 of the surrogates and bootstrap, how the significance tests draw surrogates
-(:mod:`svrqp.gap.surrogate_tests`), the localised form of every candidate and the columns other than
-the order axis its windows may lie along (:mod:`svrqp.gap.windows`), and permission to overwrite
+(:mod:`svrqp.gap.within.surrogate_tests`), the localised form of every candidate and the columns other than
+the order axis its windows may lie along (:mod:`svrqp.gap.transfer.windows`), and permission to overwrite
 existing output files.
 """
 

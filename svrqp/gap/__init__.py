@@ -9,6 +9,6 @@ it); the result is a :class:`GapReport` with ``to_json()`` (schema ``svrqp.gap/1
 
 from svrqp.gap.diagnose import diagnose
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.report import GapReport, load_schema
+from svrqp.gap.words.report import GapReport, load_schema
 
 __all__ = ["GapQuestion", "GapReport", "diagnose", "load_schema"]

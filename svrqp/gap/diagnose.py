@@ -1,33 +1,33 @@
 """``diagnose``: the sim-to-real gap diagnosis, step by step.
 
 1. **Honest residuals** — fit the baseline on the train rows or read the prediction
-   (:mod:`svrqp.gap.baseline`); the real rows are the others.
+   (:mod:`svrqp.gap.model.baseline`); the real rows are the others.
 2. **Gate** — one-sided: the real rows must fit worse than the train rows (both out of
-   sample) and beyond chance (:mod:`svrqp.gap.gate`). No gap, no culprit: candidates that
+   sample) and beyond chance (:mod:`svrqp.gap.detect.gate`). No gap, no culprit: candidates that
    would improve the model everywhere may be listed in the reason, none is named.
 3. **Localise** — where along the order axis (pooled over the runs, and within single runs)
-   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.localise`).
+   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.detect.localise`).
 4. **Transfer** — the user's question is "if I add this effect and refit, how much smaller is
    my error on a run I have not fitted?" Every candidate × transform is added to the model
    family and refitted leave-one-unit-out over all rows (units: the ``--group`` groups, or
    contiguous blocks of a record without runs), scored on the real rows
-   (:mod:`svrqp.gap.transfer`); the refit without any effect says what more data alone buys.
+   (:mod:`svrqp.gap.transfer.linear`); the refit without any effect says what more data alone buys.
    Causes are ranked by that transfer gain and tested against surrogates that respect what
    varies where, with the false-discovery rate controlled and confounded pairs checked by
-   conditional tests (:mod:`svrqp.gap.ranking`); this screen refits the linear family. For an
+   conditional tests (:mod:`svrqp.gap.transfer.ranking`); this screen refits the linear family. For an
    ``svr`` or ``lssvr`` model the reported numbers of the same-input refit, the best-ranked
    causes and the verdict candidate come from refits of that kernel family itself, its C, ε
-   and γ fixed (:mod:`svrqp.gap.kernel_transfer`). The verdict is the best-transferring
+   and γ fixed (:mod:`svrqp.gap.transfer.kernel`). The verdict is the best-transferring
    significant cause whose shrink is positive and whose shrink beyond the refit has an
    interval above zero.
 5. **Within the real rows** — the earlier evidence, discrepancy models fitted on the real rows
-   themselves (:mod:`svrqp.gap.attribute`), stays under its own keys (``p_within``,
+   themselves (:mod:`svrqp.gap.within.attribute`), stays under its own keys (``p_within``,
    ``within_shrink``, ``shrink_beyond_base``, ``base``): it says what a per-run recalibration
    would remove, which no new run gets, and never enters ``shrink`` or the summary.
-6. **Report** — :class:`svrqp.gap.report.GapReport`: a summary of at most two sentences with
+6. **Report** — :class:`svrqp.gap.words.report.GapReport`: a summary of at most two sentences with
    the transfer shrink (leading with extrapolation when a model input is used outside its train
    range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
-   model input and candidate against its train range (:mod:`svrqp.gap.inputs`).
+   model input and candidate against its train range (:mod:`svrqp.gap.detect.inputs`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.attribute import (
+from svrqp.gap.within.attribute import (
     ALPHA,
     MIN_AMPLITUDE,
     MIN_GAIN,
@@ -48,31 +48,31 @@ from svrqp.gap.attribute import (
     AttributionProblem,
     attribute,
 )
-from svrqp.gap.base import base_design, base_fit, offset_columns
-from svrqp.gap.baseline import Baseline, fit_baseline
-from svrqp.gap.between import EVIDENCE_BETWEEN
-from svrqp.gap.blocks import blocked_folds
-from svrqp.gap.candidates import (
+from svrqp.gap.model.recalibration import base_design, base_fit, offset_columns
+from svrqp.gap.model.baseline import Baseline, fit_baseline
+from svrqp.gap.transfer.between import EVIDENCE_BETWEEN
+from svrqp.gap.data.runs import blocked_folds
+from svrqp.gap.transfer.candidates import (
     build_banks,
     constant_on_real_rows,
     region_axis,
     untestable_between_runs,
 )
-from svrqp.gap.figures import Series
-from svrqp.gap.gate import GateResult, gap_detected, gate
-from svrqp.gap.inputs import input_use
-from svrqp.gap.kernel_transfer import LINEAR, FamilyErrors, same_family_errors
-from svrqp.gap.localise import localise, region_of
-from svrqp.gap.prepare import GapData, prepare
-from svrqp.gap.quantify import estimate_shrink
+from svrqp.gap.words.figures import Series
+from svrqp.gap.detect.gate import GateResult, gap_detected, gate
+from svrqp.gap.detect.inputs import input_use
+from svrqp.gap.transfer.kernel import LINEAR, FamilyErrors, same_family_errors
+from svrqp.gap.detect.localise import localise, region_of
+from svrqp.gap.data.prepare import GapData, prepare
+from svrqp.gap.within.quantify import estimate_shrink
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.ranked import Ranking
-from svrqp.gap.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
-from svrqp.gap.ranking import TransferRanker
-from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
-from svrqp.gap.summary import extrapolation_text, summary
-from svrqp.gap.surrogate_tests import MAX_SURROGATES, check_surrogates
-from svrqp.gap.transfer import (
+from svrqp.gap.results.records import Ranking
+from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
+from svrqp.gap.transfer.ranking import TransferRanker
+from svrqp.gap.words.report import BaseFit, Cause, GapReport, Verdict
+from svrqp.gap.words.summary import extrapolation_text, summary
+from svrqp.gap.within.surrogate_tests import MAX_SURROGATES, check_surrogates
+from svrqp.gap.transfer.linear import (
     LinearTransfer,
     Units,
     bootstrap_index,
@@ -80,8 +80,8 @@ from svrqp.gap.transfer import (
     transfer_shrink,
     transfer_units,
 )
-from svrqp.gap.transforms import tau_grid
-from svrqp.gap.verdict import VerdictContext, decide, refit_closes
+from svrqp.gap.data.transforms import tau_grid
+from svrqp.gap.words.verdict import VerdictContext, decide, refit_closes
 from svrqp.metrics import rms
 
 Progress = Callable[[str, float], None]
@@ -113,7 +113,7 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     seed : int
         Seed of the surrogates and the bootstrap (results are reproducible).
     surrogates : {"rotation", "continuous"}
-        How the significance tests draw surrogates (:mod:`svrqp.gap.surrogate_tests`): plain
+        How the significance tests draw surrogates (:mod:`svrqp.gap.within.surrogate_tests`): plain
         rotations within each group (the default), or rotations made continuous at the seam —
         safer when the true cause may be missing from the candidates and some of them drift
         within a run, at some loss of power on slow, trend-like effects.
@@ -257,11 +257,11 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
 
 
 def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer:
-    """The linear family the ranking and the tests refit (:mod:`svrqp.gap.transfer`).
+    """The linear family the ranking and the tests refit (:mod:`svrqp.gap.transfer.linear`).
 
     Features mode: least squares of the target on an intercept and the features (the ``mlr``
     model itself; for ``svr`` and ``lssvr`` the screen, whose best causes
-    :mod:`svrqp.gap.kernel_transfer` refits with the kernel family). Prediction mode: the
+    :mod:`svrqp.gap.transfer.kernel` refits with the kernel family). Prediction mode: the
     discrepancy model, target − prediction on an intercept.
     """
     ones = np.ones((len(data.y), 1))
@@ -291,7 +291,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             within: dict, notes: dict, rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
     """The causes table, best transfer first (by the linear screen): one row per column with its transfer numbers.
 
-    ``family`` holds the same-family refits (:mod:`svrqp.gap.kernel_transfer`); a cause it did not
+    ``family`` holds the same-family refits (:mod:`svrqp.gap.transfer.kernel`); a cause it did not
     refit keeps the linear screen's numbers, said by its ``family``. ``real_units`` is the held-out
     unit of each real row; ``within`` the numbers of :func:`_within_numbers`; ``notes`` the
     attribution's notes on columns.

@@ -1,4 +1,4 @@
-"""Power of the transfer tests (svrqp.gap.ranking) without false attribution.
+"""Power of the transfer tests (svrqp.gap.transfer.ranking) without false attribution.
 
 What the tests must get right: a reading that holds nearly one level per run may still carry an
 effect's dynamics within each run (its ``rate`` and ``lag`` are refitted and rotated within runs,
@@ -14,10 +14,10 @@ import pytest
 from support.benchmark_modules import load_benchmark
 
 from svrqp.gap import GapQuestion
-from svrqp.gap.prepare import prepare
-from svrqp.gap.ranking import TransferRanker
-from svrqp.gap.transfer import LinearTransfer, Units
-from svrqp.gap.transforms import group_slices
+from svrqp.gap.data.prepare import prepare
+from svrqp.gap.transfer.ranking import TransferRanker
+from svrqp.gap.transfer.linear import LinearTransfer, Units
+from svrqp.gap.data.transforms import group_slices
 
 
 @pytest.fixture(scope="module")

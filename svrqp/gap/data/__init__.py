@@ -1,0 +1,1 @@
+"""Step 1 of the diagnosis, the rows: the question checked into arrays (:mod:`.prepare`), the candidate transforms along the order axis (:mod:`.transforms`), runs, folds and rotations (:mod:`.runs`) and the cross-validated discrepancy model (:mod:`.discrepancy`)."""

@@ -1,0 +1,155 @@
+"""Figures of a gap report (matplotlib; every axis labelled with its unit)."""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+
+# A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
+from matplotlib.figure import Figure
+
+from svrqp.gap.data.transforms import group_slices
+from svrqp.units import MICRO, UNIT_SUFFIXES, normalise_micro
+
+UNITS = {**UNIT_SUFFIXES, f"{MICRO}m": f"{MICRO}m", "°C": "°C", "degC": "°C", "pct": "%"}
+"""Column-name suffixes read as units: the project's table (:data:`svrqp.units.UNIT_SUFFIXES`) and
+the spellings measured tables bring (``Fehler_μm``, ``t_degC``, ``duty_pct``); a MICRO SIGN
+(U+00B5) in a suffix reads as μ."""
+
+
+def unit_of(name: str) -> str | None:
+    """Unit of a column from its name's suffix (``"error_um"`` → ``"μm"``), None when there is none."""
+    if name == "row":
+        return "rows"
+    stem, _, suffix = name.rpartition("_")
+    return UNITS.get(normalise_micro(suffix)) if stem else None
+
+
+def quantity(value: float, unit: str | None) -> str:
+    """``4.09 μm``, or the bare number for a column whose name carries no unit."""
+    return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
+
+
+def axis_label(name: str) -> str:
+    """Axis label of a column: ``"time_min"`` → ``"time (min)"``; ``"row"`` → row position."""
+    if name == "row":
+        return "row within group (count)"
+    unit = unit_of(name)
+    if unit is not None:
+        return f"{name.rpartition('_')[0].replace('_', ' ')} ({unit})"
+    return f"{name} (units of the column)"
+
+
+@dataclass(frozen=True)
+class Series:
+    """What the figures draw, per row (sorted by group and order).
+
+    Attributes
+    ----------
+    target, order_name : str
+        Column names (for labels).
+    t : ndarray
+        Order values.
+    groups : ndarray of int
+        Group code per row.
+    group_labels : list of str
+        Label per group code.
+    is_train : ndarray of bool
+        Train rows.
+    y, y_hat : ndarray
+        Measured target and baseline prediction.
+    after : ndarray or None
+        Out-of-sample error on the real rows with the verdict's effect added.
+    """
+
+    target: str
+    order_name: str
+    t: np.ndarray
+    groups: np.ndarray
+    group_labels: list[str]
+    is_train: np.ndarray
+    y: np.ndarray
+    y_hat: np.ndarray
+    after: np.ndarray | None
+
+
+def _lines(ax, s: Series, values: np.ndarray, rows: np.ndarray, **style) -> None:
+    """Plot ``values`` against order, one line piece per group, only on ``rows``."""
+    first = True
+    for piece in group_slices(s.groups):
+        keep = rows[piece]
+        if keep.any():
+            label = style.pop("label", None) if first else None
+            ax.plot(s.t[piece][keep], values[piece][keep], label=label, **style)
+            first = False
+
+
+def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> bytes:
+    """Measured vs model (top) and residual with shaded regions (bottom), PNG bytes.
+
+    ``regions`` are ``(low, high, run)`` on the order axis; ``run`` is None for a region pooled
+    over every run, else the label of the one run it lies in (shaded in another colour and
+    labelled with the run, since the runs share the axis).
+    """
+    fig = Figure(figsize=(9, 6))
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    real = ~s.is_train
+    _lines(top, s, s.y, s.is_train, color="0.6", lw=1, label="measured (train rows)")
+    _lines(top, s, s.y, real, color="C0", lw=1, label="measured (real rows)")
+    _lines(top, s, s.y_hat, np.ones_like(real), color="C1", lw=1, ls="--", label="model")
+    top.set_ylabel(axis_label(s.target))
+    top.legend(loc="best", fontsize=8)
+    residual = s.y - s.y_hat
+    _lines(bottom, s, residual, s.is_train, color="0.6", lw=1, label="residual (train rows)")
+    _lines(bottom, s, residual, real, color="C3", lw=1, label="residual (real rows)")
+    pooled = [(low, high) for low, high, run in regions if run is None]
+    for k, (low, high) in enumerate(pooled):
+        bottom.axvspan(low, high, color="C3", alpha=0.12, label="error concentrates" if k == 0 else None)
+    within = [(low, high, run) for low, high, run in regions if run is not None]
+    for k, (low, high, run) in enumerate(within):
+        bottom.axvspan(low, high, color="C4", alpha=0.15, label="error concentrates within one run" if k == 0 else None)
+        bottom.annotate(f"run {run}", ((low + high) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center",
+                        va="top", fontsize=7, color="C4")
+    bottom.axhline(0, color="k", lw=0.5)
+    bottom.set_ylabel(f"residual {axis_label(s.target)}")
+    bottom.set_xlabel(axis_label(s.order_name))
+    bottom.legend(loc="best", fontsize=8)
+    return _png(fig)
+
+
+def before_after_figure(s: Series, effect: str, region: tuple[float, float] | None = None) -> bytes:
+    """Real-row residual before and (out of sample) after adding the effect, PNG bytes.
+
+    For a local effect (``region``: its stretch of the order axis), the stretch is shaded and a
+    second panel shows the effect's profile along the axis: what the refits with it predict on
+    each held-out real row (residual before minus after).
+    """
+    fig = Figure(figsize=(9, 3.5 if region is None else 6))
+    axes = [fig.subplots()] if region is None else fig.subplots(2, 1, sharex=True)
+    ax = axes[0]
+    real = ~s.is_train
+    residual = s.y - s.y_hat
+    _lines(ax, s, residual, real, color="C3", lw=1, label="before")
+    after = np.full_like(residual, np.nan)
+    after[real] = s.after
+    _lines(ax, s, after, real, color="C2", lw=1, label=f"after adding {effect} (out of sample)")
+    ax.set_ylabel(f"residual {axis_label(s.target)}")
+    if region is not None:
+        _lines(axes[1], s, residual - after, real, color="C2", lw=1, label=f"{effect}: profile on held-out runs")
+        axes[1].set_ylabel(f"effect {axis_label(s.target)}")
+    for panel in axes:
+        if region is not None:
+            panel.axvspan(*region, color="C2", alpha=0.12, label="where the effect acts")
+        panel.axhline(0, color="k", lw=0.5)
+        panel.legend(loc="best", fontsize=8)
+    axes[-1].set_xlabel(axis_label(s.order_name))
+    return _png(fig)
+
+
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buffer, format="png", dpi=110)
+    return buffer.getvalue()
