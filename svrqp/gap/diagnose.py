@@ -40,38 +40,24 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.within.attribute import (
-    ALPHA,
-    MIN_AMPLITUDE,
-    MIN_GAIN,
-    Attribution,
-    AttributionProblem,
-    attribute,
-)
-from svrqp.gap.model.recalibration import base_design, base_fit, offset_columns
-from svrqp.gap.model.baseline import Baseline, fit_baseline
-from svrqp.gap.transfer.between import EVIDENCE_BETWEEN
+from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
+from svrqp.gap.data.prepare import GapData, prepare
 from svrqp.gap.data.runs import blocked_folds
+from svrqp.gap.data.transforms import tau_grid
+from svrqp.gap.detect.gate import GateResult, gap_detected, gate
+from svrqp.gap.detect.inputs import input_use
+from svrqp.gap.detect.localise import localise, region_of
+from svrqp.gap.model.baseline import Baseline, fit_baseline
+from svrqp.gap.model.recalibration import base_design, base_fit, offset_columns
+from svrqp.gap.question import GapQuestion
+from svrqp.gap.results.records import Ranking
 from svrqp.gap.transfer.candidates import (
     build_banks,
     constant_on_real_rows,
     region_axis,
     untestable_between_runs,
 )
-from svrqp.gap.words.figures import Series
-from svrqp.gap.detect.gate import GateResult, gap_detected, gate
-from svrqp.gap.detect.inputs import input_use
-from svrqp.gap.transfer.kernel import LINEAR, FamilyErrors, same_family_errors
-from svrqp.gap.detect.localise import localise, region_of
-from svrqp.gap.data.prepare import GapData, prepare
-from svrqp.gap.within.quantify import estimate_shrink
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.records import Ranking
-from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
-from svrqp.gap.transfer.ranking import TransferRanker
-from svrqp.gap.words.report import BaseFit, Cause, GapReport, Verdict
-from svrqp.gap.words.summary import extrapolation_text, summary
-from svrqp.gap.within.surrogate_tests import MAX_SURROGATES, check_surrogates
+from svrqp.gap.transfer.kernel import FamilyErrors, same_family_errors
 from svrqp.gap.transfer.linear import (
     LinearTransfer,
     Units,
@@ -80,7 +66,14 @@ from svrqp.gap.transfer.linear import (
     transfer_shrink,
     transfer_units,
 )
-from svrqp.gap.data.transforms import tau_grid
+from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
+from svrqp.gap.transfer.ranking import TransferRanker
+from svrqp.gap.within.attribute import Attribution, AttributionProblem, attribute
+from svrqp.gap.within.quantify import estimate_shrink
+from svrqp.gap.within.surrogate_tests import MAX_SURROGATES, check_surrogates
+from svrqp.gap.words.figures import Series
+from svrqp.gap.words.report import BaseFit, Cause, GapReport, Verdict
+from svrqp.gap.words.summary import extrapolation_text, summary
 from svrqp.gap.words.verdict import VerdictContext, decide, refit_closes
 from svrqp.metrics import rms
 

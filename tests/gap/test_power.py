@@ -15,9 +15,9 @@ from support.benchmark_modules import load_benchmark
 
 from svrqp.gap import GapQuestion
 from svrqp.gap.data.prepare import prepare
-from svrqp.gap.transfer.ranking import TransferRanker
-from svrqp.gap.transfer.linear import LinearTransfer, Units
 from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.transfer.linear import LinearTransfer, Units
+from svrqp.gap.transfer.ranking import TransferRanker
 
 
 @pytest.fixture(scope="module")

@@ -28,15 +28,10 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap.contract import MIN_GROUP_ROWS, MIN_REAL_ROWS
 from svrqp.gap.question import GapQuestion
 from svrqp.query import select_rows
 from svrqp.table_checks import check_numeric, check_present
-
-MIN_GROUP_ROWS = 3
-"""A group needs at least this many rows (two differences) for rates and filters."""
-
-MIN_REAL_ROWS = 20
-"""Fewest real (non-train) rows on which a gap can be cross-validated."""
 
 ROW_ORDER_NAME = "row"
 """Name of the order axis when no ``order`` column is given: position within the group."""

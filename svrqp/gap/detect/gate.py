@@ -56,7 +56,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from svrqp.gap.within.attribute import ALPHA
+from svrqp.gap.contract import ALPHA
 from svrqp.gap.data.runs import lag1_autocorrelation
 from svrqp.gap.data.transforms import group_slices
 from svrqp.metrics import rms

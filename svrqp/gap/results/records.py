@@ -9,8 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from svrqp.gap.within.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.transfer.between import PROFILE_DEGREE
+from svrqp.gap.contract import ALPHA, MIN_GAIN, PROFILE_DEGREE
 from svrqp.gap.transfer.linear import TransferFit
 
 

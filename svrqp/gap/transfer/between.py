@@ -73,24 +73,15 @@ import numpy as np
 from numpy.polynomial import legendre
 from scipy import stats
 
+from svrqp.gap.contract import EVIDENCE_BETWEEN, MIN_RUNS, PROFILE_DEGREE
 from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.data.transforms import group_slices, negligible
 
 RUN_LEVEL_SHARE = 0.05
 """A candidate whose within-run variance is at most this share of its variance is run-level."""
 
-PROFILE_DEGREE = 3
-"""Highest Legendre degree :math:`D` of the profile along a run."""
-
-MIN_RUNS = 4
-"""Fewest real runs a between-run test needs (two degrees of freedom for the slope)."""
-
 LEAVE_OUT_ALPHA = 0.05
 """Level at which the relation must hold with its most influential run left out."""
-
-EVIDENCE_WITHIN = "within runs"
-EVIDENCE_BETWEEN = "between runs"
-
 
 def within_share(x: np.ndarray, groups: np.ndarray) -> float:
     """Share of the variance of ``x`` that lies within runs (1.0 for a constant column)."""

@@ -21,15 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from svrqp.gap.transfer.between import (
-    EVIDENCE_BETWEEN,
-    EVIDENCE_WITHIN,
-    MIN_RUNS,
-    RunLevelBank,
-    is_run_level,
-    run_level_bank,
-    run_level_columns,
-)
+from svrqp.gap.contract import EVIDENCE_BETWEEN, EVIDENCE_WITHIN, MIN_RUNS
 from svrqp.gap.data.discrepancy import nested_errors
 from svrqp.gap.data.prepare import GapData
 from svrqp.gap.data.transforms import (
@@ -41,6 +33,7 @@ from svrqp.gap.data.transforms import (
     rate,
     standardised,
 )
+from svrqp.gap.transfer.between import RunLevelBank, is_run_level, run_level_bank, run_level_columns
 from svrqp.gap.transfer.windows import local_columns
 
 
@@ -205,7 +198,7 @@ def constant_on_real_rows(data: GapData) -> dict[str, str]:
 def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
     """Every candidate × transform bank to be tested, standardised on the real rows.
 
-    With at least :data:`svrqp.gap.transfer.between.MIN_RUNS` real runs, a run-level candidate
+    With at least :data:`svrqp.gap.contract.MIN_RUNS` real runs, a run-level candidate
     (:func:`svrqp.gap.transfer.between.is_run_level`) that is not a model feature also gets a bank
     of its level tested between runs. Its transforms are tested within runs as well: a
     temperature whose level differs by season between runs can still carry the effect's

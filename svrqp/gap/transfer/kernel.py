@@ -40,14 +40,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from svrqp.gap.model.baseline import Baseline, fit_predict
+from svrqp.gap.contract import LINEAR
 from svrqp.gap.data.prepare import GapData
+from svrqp.gap.model.baseline import Baseline, fit_predict
 from svrqp.gap.results.records import Ranking
-from svrqp.gap.transfer.ranking import TransferRanker
 from svrqp.gap.transfer.linear import TransferFit, Units
-
-LINEAR = "linear"
-"""Name of the linear family (least squares on shared normal equations, :mod:`svrqp.gap.transfer.linear`)."""
+from svrqp.gap.transfer.ranking import TransferRanker
 
 KERNEL_CAUSES = 3
 """Best-ranked causes whose transfer numbers are refitted with the kernel family (and the verdict's)."""

@@ -47,20 +47,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from svrqp.gap.contract import MAX_BLOCKS, MIN_BLOCKS, N_BOOTSTRAP, THIN_UNITS
 from svrqp.gap.data.transforms import group_slices
 from svrqp.metrics import rms
-
-MIN_BLOCKS = 5
-"""Fewest contiguous blocks a record without real runs is cut into."""
-
-MAX_BLOCKS = 10
-"""Most contiguous blocks (longer blocks are safer against interpolation)."""
-
-THIN_UNITS = 4
-"""With fewer held-out units than this, the transfer evidence is thin (said in the reason and summary)."""
-
-N_BOOTSTRAP = 1000
-"""Bootstrap resamples of the units for the intervals."""
 
 _RCOND = 1e-12
 """Relative singular-value cut of a rank-deficient normal-equation block."""

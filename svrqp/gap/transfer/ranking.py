@@ -39,7 +39,7 @@ Significance by surrogates that respect what varies where
     :data:`SURROGATE_STAGES`, stopping after :data:`STOP_EXCEEDANCES` exceedances or once
     rejected). The :data:`MAX_TESTED` best causes above the effect floor are tested;
     Benjamini–Hochberg runs over every column (an untested one counts with :math:`p = 1`),
-    level :data:`svrqp.gap.within.attribute.ALPHA`.
+    level :data:`svrqp.gap.contract.ALPHA`.
 
 Exact permutation tests for few runs
     Over :math:`k` runs a run-level candidate has only :math:`k!` orderings of its levels. When
@@ -65,11 +65,11 @@ Exact permutation tests for few runs
 
 Effect floor
     A cause is significant only if its transfer gain is at least
-    :data:`svrqp.gap.within.attribute.MIN_GAIN`.
+    :data:`svrqp.gap.contract.MIN_GAIN`.
 
 Stronger causes that cannot be tested
     A run-level cause that transfers better than the verdict candidate but cannot be tested (fewer
-    than :data:`svrqp.gap.transfer.between.MIN_RUNS` real runs to permute) is conditioned on: the candidate
+    than :data:`svrqp.gap.contract.MIN_RUNS` real runs to permute) is conditioned on: the candidate
     stands only if it adds beyond it, else no verdict is named.
 
 Confounded pairs
@@ -87,17 +87,8 @@ import dataclasses
 import numpy as np
 from scipy.stats import false_discovery_control
 
-from svrqp.gap.within.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.transfer.between import (
-    MIN_RUNS,
-    is_run_level,
-    run_level_columns,
-    varies_within,
-)
+from svrqp.gap.contract import ALPHA, MIN_GAIN, MIN_RUNS
 from svrqp.gap.data.prepare import GapData
-from svrqp.gap.results.records import Effect, Ranked, Ranking
-from svrqp.gap.transfer.linear import LinearTransfer, TransferFit, shrink_of_gain
-from svrqp.gap.transfer.surrogates import TransferSurrogates
 from svrqp.gap.data.transforms import (
     filter_coefficients,
     group_slices,
@@ -105,6 +96,10 @@ from svrqp.gap.data.transforms import (
     lowpass_columns,
     rate,
 )
+from svrqp.gap.results.records import Effect, Ranked, Ranking
+from svrqp.gap.transfer.between import is_run_level, run_level_columns, varies_within
+from svrqp.gap.transfer.linear import LinearTransfer, TransferFit, shrink_of_gain
+from svrqp.gap.transfer.surrogates import TransferSurrogates
 from svrqp.gap.transfer.windows import (
     LOCAL_MARGIN,
     WindowAlone,
@@ -439,7 +434,7 @@ class TransferRanker:
         of the runs can make significant (:meth:`untestable_form`) when it transfers better than every ranked
         cause, beyond its window alone and beyond its column's global forms. Its smallest reachable p-value
         (:meth:`smallest_p`) in place of its column's must leave its Benjamini–Hochberg q-value at or above
-        :data:`svrqp.gap.within.attribute.ALPHA` (module docstring).
+        :data:`svrqp.gap.contract.ALPHA` (module docstring).
         """
         if not ranked or ranked[0].significant:
             return
@@ -482,7 +477,7 @@ class TransferRanker:
     def stronger_unproven(self, ranked: list[Ranked], top: Ranked) -> Ranked | None:
         """An untestable cause that transfers better than ``top`` and explains it away.
 
-        A run-level candidate with fewer than :data:`svrqp.gap.transfer.between.MIN_RUNS` real runs cannot
+        A run-level candidate with fewer than :data:`svrqp.gap.contract.MIN_RUNS` real runs cannot
         reach significance by permuting its run levels, however well it transfers. Naming a weaker
         cause in its place would name its shadow: ``top`` stands only if it adds beyond every such
         cause (conditional test, :meth:`adds`). A cause that was tested and found no better than

@@ -27,8 +27,8 @@ from typing import Protocol
 
 import numpy as np
 
-from svrqp.gap.data.runs import lift_steps, rotated_rows, shift_offsets, wrapped_part
 from svrqp.gap.data.prepare import GapData
+from svrqp.gap.data.runs import lift_steps, rotated_rows, shift_offsets, wrapped_part
 from svrqp.gap.data.transforms import group_slices
 from svrqp.gap.transfer.windows import exchange_run_levels
 

@@ -30,9 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import false_discovery_control
 
+from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN
+from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.transfer.between import RunLevelBank
 from svrqp.gap.transfer.candidates import Bank
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.within.surrogate_tests import (
     MAX_SURROGATES,
     BetweenRunTest,
@@ -41,14 +42,6 @@ from svrqp.gap.within.surrogate_tests import (
     run_tests,
 )
 
-ALPHA = 0.05
-"""Level of every test; Benjamini–Hochberg false-discovery rate within a round."""
-
-MIN_GAIN = 0.05
-"""Relative effect floor: least out-of-sample gain over the base discrepancy model."""
-
-MIN_AMPLITUDE = 0.25
-"""Absolute effect floor: least explained RMS, as a fraction of the noise RMS."""
 
 def _benjamini_hochberg(p: np.ndarray) -> np.ndarray:
     return false_discovery_control(p, method="bh") < ALPHA

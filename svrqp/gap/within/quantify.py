@@ -42,13 +42,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from svrqp.gap.model.baseline import Baseline, fit_predict, make_model
-from svrqp.gap.data.runs import block_bootstrap, block_length
+from svrqp.gap.contract import N_BOOTSTRAP
 from svrqp.gap.data.prepare import GapData
+from svrqp.gap.data.runs import block_bootstrap, block_length
+from svrqp.gap.model.baseline import Baseline, fit_predict, make_model
 from svrqp.metrics import rms
-
-N_BOOTSTRAP = 1000
-"""Bootstrap resamples for the shrink interval."""
 
 
 @dataclass(frozen=True)

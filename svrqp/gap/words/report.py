@@ -22,10 +22,10 @@ from typing import Any
 import jsonschema
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap.words.figures import Series, before_after_figure, gap_figure, unit_of
 from svrqp.gap.detect.gate import GateResult
 from svrqp.gap.detect.inputs import InputUse
 from svrqp.gap.detect.localise import Region
+from svrqp.gap.words.figures import Series, before_after_figure, gap_figure, unit_of
 
 SCHEMA_ID = "svrqp.gap/1"
 BOUND_DIGITS = 4

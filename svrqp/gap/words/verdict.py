@@ -13,20 +13,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from svrqp.gap.within.attribute import ALPHA, MIN_GAIN
-from svrqp.gap.model.baseline import Baseline
-from svrqp.gap.transfer.between import EVIDENCE_BETWEEN
-from svrqp.gap.transfer.candidates import effect_columns
-from svrqp.gap.words.figures import quantity, unit_of
+from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
+from svrqp.gap.data.prepare import GapData
 from svrqp.gap.detect.gate import GateResult, gate, noise_pvalue
 from svrqp.gap.detect.inputs import InputUse
-from svrqp.gap.transfer.kernel import LINEAR
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.within.quantify import refit_shrink
+from svrqp.gap.model.baseline import Baseline
 from svrqp.gap.results.records import Ranking
-from svrqp.gap.words.report import BaseFit, Cause, Verdict
-from svrqp.gap.transfer.linear import MIN_BLOCKS, Units
+from svrqp.gap.transfer.candidates import effect_columns
+from svrqp.gap.transfer.linear import Units
 from svrqp.gap.transfer.windows import region_text
+from svrqp.gap.within.quantify import refit_shrink
+from svrqp.gap.words.figures import quantity, unit_of
+from svrqp.gap.words.report import BaseFit, Cause, Verdict
 
 
 @dataclass(frozen=True)
@@ -127,7 +125,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
     than the given model does (``shrink > 0``), add to the same-input refit of the model's own
     family (``shrink_beyond_refit > 0``: a kernel family may disagree with the linear screen),
     and — with enough held-out units for a bootstrap over them to mean anything
-    (:data:`svrqp.gap.transfer.linear.THIN_UNITS`) — its shrink beyond the refit must have an interval
+    (:data:`svrqp.gap.contract.THIN_UNITS`) — its shrink beyond the refit must have an interval
     above zero. With thin evidence the reason and the
     summary say so instead.
     """

@@ -7,6 +7,7 @@ fit (numpy.linalg.lstsq) on each fold's training rows, scored on its test rows.
 import numpy as np
 import pytest
 
+from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.data.runs import (
     block_bootstrap,
     blocked_folds,
@@ -14,7 +15,6 @@ from svrqp.gap.data.runs import (
     rotated_rows,
     shift_offsets,
 )
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 
 N = 600
 GROUPS_FEW = np.repeat([0, 1], 300)  # two runs: interleaved blocks

@@ -8,8 +8,8 @@ from sklearn.svm import SVR
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion
-from svrqp.gap.model.baseline import LSSVR_C, SVR_C, SVR_EPSILON, fit_baseline
 from svrqp.gap.data.prepare import prepare
+from svrqp.gap.model.baseline import LSSVR_C, SVR_C, SVR_EPSILON, fit_baseline
 
 FEATURES = ["spindle_C", "nut_C"]
 

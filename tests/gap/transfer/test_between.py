@@ -8,19 +8,11 @@ from scipy import stats
 from sklearn.linear_model import LinearRegression
 
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.transfer.between import (
-    EVIDENCE_BETWEEN,
-    MIN_RUNS,
-    PROFILE_DEGREE,
-    between_run_test,
-    is_run_level,
-    profile_columns,
-    run_level_bank,
-    within_share,
-)
-from svrqp.gap.data.runs import blocked_folds
-from svrqp.gap.transfer.candidates import effect_columns
+from svrqp.gap.contract import EVIDENCE_BETWEEN, MIN_RUNS, PROFILE_DEGREE
 from svrqp.gap.data.prepare import prepare
+from svrqp.gap.data.runs import blocked_folds
+from svrqp.gap.transfer.between import between_run_test, is_run_level, profile_columns, run_level_bank, within_share
+from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.within.surrogate_tests import BetweenRunTest
 
 ARGS = {"target": "error_um", "train": "run == 'p0'", "prediction": "prediction_um", "order": "x_mm", "group": "run"}

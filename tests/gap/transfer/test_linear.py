@@ -12,7 +12,8 @@ from support.gap_problems import CANDIDATES, air_lag_problem, extrapolation_prob
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose, load_schema
-from svrqp.gap.transfer.linear import MIN_BLOCKS, decorrelation_length
+from svrqp.gap.contract import MIN_BLOCKS
+from svrqp.gap.transfer.linear import decorrelation_length
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}
 
