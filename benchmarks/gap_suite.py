@@ -128,9 +128,10 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 import svrqp
-from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.data.prepare import prepare
+from svrqp.gap.diagnose import diagnose
 from svrqp.gap.model.baseline import LSSVR_C, fit_baseline
+from svrqp.gap.question import GapQuestion
 from svrqp.machine import ThermalConfig, simulate_thermal
 from svrqp.machine.contour import GantryConfig, simulate_gantry
 from svrqp.machine.cycles import CycleSegment

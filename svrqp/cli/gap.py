@@ -54,7 +54,7 @@ def gap(
         None, "--order", help="Time (min) or position (mm) column; rates and filters run along it."),
     group: str = typer.Option(
         None, "--group", help="Run/batch column; transforms restart and cross-validation is blocked per group."),
-    json_out: Path = typer.Option(..., "--json", help="Where to write the svrqp.gap/1 JSON."),
+    json_out: Path = typer.Option(..., "--json", help="Where to write the svrqp.gap/2 JSON."),
     report: Path = typer.Option(
         None, "--report", help="Also write a report: .html (self-contained) or .md (with PNG figures beside it)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the surrogate tests and the bootstrap."),

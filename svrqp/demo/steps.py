@@ -33,7 +33,8 @@ from svrqp.estimators.kernel import DUAL_IPM, LSSVR, EpsilonSVR
 from svrqp.estimators.linear import LinearLS, PolynomialLS
 from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
-from svrqp.gap import GapQuestion, diagnose
+from svrqp.gap.diagnose import diagnose
+from svrqp.gap.question import GapQuestion
 from svrqp.gap.words.report import GapReport
 from svrqp.guard import Guarded
 from svrqp.guard.figures import interval_columns

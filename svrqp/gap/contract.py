@@ -44,5 +44,8 @@ EVIDENCE_WITHIN = "within runs"
 EVIDENCE_BETWEEN = "between runs"
 """``evidence`` of a run-level cause tested between runs."""
 
+EXTRAPOLATING_SHARE = 0.5
+"""A model input outside its train range on at least this share of the real rows is extrapolated."""
+
 LINEAR = "linear"
 """Name of the linear family (least squares on shared normal equations, :mod:`svrqp.gap.transfer.linear`)."""

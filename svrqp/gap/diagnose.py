@@ -44,13 +44,13 @@ from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, M
 from svrqp.gap.data.prepare import GapData, prepare
 from svrqp.gap.data.runs import blocked_folds
 from svrqp.gap.data.transforms import tau_grid
-from svrqp.gap.detect.gate import GateResult, gap_detected, gate
+from svrqp.gap.detect.gate import gap_detected, gate
 from svrqp.gap.detect.inputs import input_use
 from svrqp.gap.detect.localise import localise, region_of
 from svrqp.gap.model.baseline import Baseline, fit_baseline
 from svrqp.gap.model.recalibration import base_design, base_fit, offset_columns
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.records import Ranking
+from svrqp.gap.results.records import BaseFit, Cause, GateResult, Ranking, Series, Verdict
 from svrqp.gap.transfer.candidates import (
     build_banks,
     constant_on_real_rows,
@@ -66,13 +66,11 @@ from svrqp.gap.transfer.linear import (
     transfer_shrink,
     transfer_units,
 )
-from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
-from svrqp.gap.transfer.ranking import TransferRanker
+from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
 from svrqp.gap.within.attribute import Attribution, AttributionProblem, attribute
 from svrqp.gap.within.quantify import estimate_shrink
 from svrqp.gap.within.surrogate_tests import MAX_SURROGATES, check_surrogates
-from svrqp.gap.words.figures import Series
-from svrqp.gap.words.report import BaseFit, Cause, GapReport, Verdict
+from svrqp.gap.words.report import GapReport
 from svrqp.gap.words.summary import extrapolation_text, summary
 from svrqp.gap.words.verdict import VerdictContext, decide, refit_closes
 from svrqp.metrics import rms
@@ -303,7 +301,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             evidence=EVIDENCE_BETWEEN if effect.block else "within runs",
             p_value=row.q_value, p_raw=row.p_raw, gain=row.gain, significant=row.significant,
             rmse_before=numbers.rmse_before, rmse_after=numbers.rmse_after, shrink=numbers.shrink,
-            shrink_ci=numbers.shrink_ci, round=1, note=note, ambiguous=row.ambiguous,
+            shrink_ci=numbers.shrink_ci, note=note, ambiguous=row.ambiguous,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
@@ -312,4 +310,3 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
         ))
         errors_after[effect.column] = after
     return causes, errors_after
-

@@ -51,52 +51,18 @@ Whiteness
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy import stats
 
 from svrqp.gap.contract import ALPHA
 from svrqp.gap.data.runs import lag1_autocorrelation
 from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.results.records import GateResult
 from svrqp.metrics import rms
 
 LJUNG_BOX_LAGS = 20
 """Largest lag :math:`H` of the Ljung–Box statistic (fewer for short groups)."""
 
-
-@dataclass(frozen=True)
-class GateResult:
-    """Outcome of the gap tests on one residual.
-
-    Attributes
-    ----------
-    train_rmse : float
-        Out-of-sample RMSE on the train rows (the reference).
-    real_rmse : float
-        RMSE of the residual on the real rows.
-    ratio : float
-        ``real_rmse / train_rmse``.
-    p_excess : float
-        p-value of the excess-error F test (real rows against the train reference).
-    noise_rmse : float
-        Noise level from successive differences of the real-row residual.
-    p_noise : float
-        p-value of the F test of the real-row error against that noise level.
-    p_white : float
-        Ljung–Box p-value of the real-row residual.
-    rho1 : float
-        Lag-1 autocorrelation of the real-row residual.
-    """
-
-    train_rmse: float
-    real_rmse: float
-    ratio: float
-    p_excess: float
-    noise_rmse: float
-    p_noise: float
-    p_white: float
-    rho1: float
 
 
 def effective_size(residual: np.ndarray, groups: np.ndarray) -> float:

@@ -28,59 +28,13 @@ not another sensor.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.data.prepare import GapData
 from svrqp.gap.data.transforms import smooth, standardised
+from svrqp.gap.results.records import InputUse
 from svrqp.metrics import rms
-
-EXTRAPOLATING_SHARE = 0.5
-"""An input outside its train range on at least this share of the real rows is extrapolated."""
-
-
-@dataclass(frozen=True)
-class InputUse:
-    """How the real rows use one model input.
-
-    Attributes
-    ----------
-    column : str
-        The feature.
-    train_low, train_high : float
-        Its range on the train rows.
-    real_low, real_high : float
-        Its range on the real rows.
-    outside : float
-        Share of the real rows outside the train range.
-    recalibration_shrink : float
-        Out-of-sample shrink of the real-row error by offsets and this input alone
-        (module docstring).
-    beyond_offsets : float or None
-        What this input's recalibration removes of the error the offsets alone leave, out of
-        sample (None when the offsets leave no error).
-    role : {"input", "candidate"}
-        A model input, or a candidate (its train range is read where it is recorded; NaN
-        when it is recorded on the real rows only).
-    """
-
-    column: str
-    train_low: float
-    train_high: float
-    real_low: float
-    real_high: float
-    outside: float
-    recalibration_shrink: float
-    beyond_offsets: float | None
-    role: str = "input"
-
-    @property
-    def extrapolated(self) -> bool:
-        """Whether most real rows lie outside the train range (:data:`EXTRAPOLATING_SHARE`)."""
-        return self.outside >= EXTRAPOLATING_SHARE
-
 
 def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.ndarray]) -> list[InputUse]:
     """Range and recalibration check of every model feature and every candidate.

@@ -49,12 +49,13 @@ Within one run
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from sklearn.tree import DecisionTreeRegressor
 
 from svrqp.gap.data.runs import holds_out_groups
+from svrqp.gap.results.records import Region
 
 MAX_LEAVES = 6
 """Most intervals an error tree cuts a column into."""
@@ -80,41 +81,6 @@ MAX_RUN_REGIONS = 5
 ORDER_BLOCKS = 20
 """With few groups, alternate blocks of this many along the order axis fit and score the trees."""
 
-
-@dataclass(frozen=True)
-class Region:
-    """An interval of one column where the squared error concentrates.
-
-    Attributes
-    ----------
-    column : str
-        Column the interval is on.
-    low, high : float
-        Smallest and largest value of the column among the real rows in the region.
-    rmse : float
-        RMSE of the residual in the region.
-    share : float
-        Region's fraction of the total squared error.
-    n : int
-        Number of real rows in the region.
-    enrichment : float
-        Held-out mean squared error in the region over the held-out overall mean (of the run,
-        for a region within one run).
-    group : str or None
-        The run the region lies in; None when it is pooled over every real run.
-    share_of_run : float or None
-        Region's fraction of its run's squared error (None when pooled).
-    """
-
-    column: str
-    low: float
-    high: float
-    rmse: float
-    share: float
-    n: int
-    enrichment: float
-    group: str | None = None
-    share_of_run: float | None = None
 
 
 def _smallest_leaf(n_fit: int) -> int:

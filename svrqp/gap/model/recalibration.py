@@ -15,7 +15,7 @@ from svrqp.gap.data.prepare import GapData
 from svrqp.gap.data.runs import holds_out_groups
 from svrqp.gap.data.transforms import smooth, standardised
 from svrqp.gap.model.baseline import Baseline
-from svrqp.gap.words.report import BaseFit
+from svrqp.gap.results.records import BaseFit
 from svrqp.metrics import rms
 
 

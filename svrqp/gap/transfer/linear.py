@@ -49,6 +49,7 @@ import numpy as np
 
 from svrqp.gap.contract import MAX_BLOCKS, MIN_BLOCKS, N_BOOTSTRAP, THIN_UNITS
 from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.results.records import TransferFit
 from svrqp.metrics import rms
 
 _RCOND = 1e-12
@@ -159,21 +160,6 @@ def shrink_of_gain(gain: float) -> float:
     but for rounding and counts as 1."""
     return 1 - float(np.sqrt(max(1 - gain, 0.0)))
 
-
-@dataclass(frozen=True)
-class TransferFit:
-    """Leave-one-unit-out errors on the real rows of one design.
-
-    Attributes
-    ----------
-    errors : ndarray, shape (n_real,)
-        Out-of-unit error of every real row (in row order).
-    variant : ndarray of int, shape (n_units,)
-        The variant (time constant) each unit's fit chose on its own rows.
-    """
-
-    errors: np.ndarray
-    variant: np.ndarray
 
 
 class LinearTransfer:

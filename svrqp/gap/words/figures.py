@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -11,6 +10,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.results.records import Series
 from svrqp.units import MICRO, UNIT_SUFFIXES, normalise_micro
 
 UNITS = {**UNIT_SUFFIXES, f"{MICRO}m": f"{MICRO}m", "°C": "°C", "degC": "°C", "pct": "%"}
@@ -41,38 +41,6 @@ def axis_label(name: str) -> str:
         return f"{name.rpartition('_')[0].replace('_', ' ')} ({unit})"
     return f"{name} (units of the column)"
 
-
-@dataclass(frozen=True)
-class Series:
-    """What the figures draw, per row (sorted by group and order).
-
-    Attributes
-    ----------
-    target, order_name : str
-        Column names (for labels).
-    t : ndarray
-        Order values.
-    groups : ndarray of int
-        Group code per row.
-    group_labels : list of str
-        Label per group code.
-    is_train : ndarray of bool
-        Train rows.
-    y, y_hat : ndarray
-        Measured target and baseline prediction.
-    after : ndarray or None
-        Out-of-sample error on the real rows with the verdict's effect added.
-    """
-
-    target: str
-    order_name: str
-    t: np.ndarray
-    groups: np.ndarray
-    group_labels: list[str]
-    is_train: np.ndarray
-    y: np.ndarray
-    y_hat: np.ndarray
-    after: np.ndarray | None
 
 
 def _lines(ax, s: Series, values: np.ndarray, rows: np.ndarray, **style) -> None:

@@ -1,226 +1,36 @@
-"""The gap report: a dataclass, its ``svrqp.gap/1`` JSON, and HTML / Markdown renderings.
+"""The gap report in words: Markdown and HTML renderings of a diagnosis, its tables, and its writer.
 
-The JSON is validated against the published schema ``svrqp/gap/gap.schema.json`` (shipped in
-the package) before anything is written: a report that fails it is never written. Non-finite
-numbers become ``null``. No file is overwritten unless ``force=True``.
+:class:`GapReport` is the data of :class:`svrqp.gap.results.document.GapResult` with its
+renderings. Nothing is written that fails the schema (the JSON is validated first), and no
+file is overwritten unless ``force=True``; every file goes through :func:`_write`.
 """
 
 from __future__ import annotations
 
 import base64
 import html
-import json
 import math
 import os
 import tempfile
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
-from importlib import resources
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-import jsonschema
+from svrqp.gap.results.document import GapResult
+from svrqp.gap.results.records import Verdict
+from svrqp.gap.words.figures import before_after_figure, gap_figure, unit_of
 
-from svrqp.exceptions import SvrqpError
-from svrqp.gap.detect.gate import GateResult
-from svrqp.gap.detect.inputs import InputUse
-from svrqp.gap.detect.localise import Region
-from svrqp.gap.words.figures import Series, before_after_figure, gap_figure, unit_of
-
-SCHEMA_ID = "svrqp.gap/1"
 BOUND_DIGITS = 4
 """Significant digits of region bounds and input ranges in the tables (close bounds such as 26.76 … 26.9 °C)."""
 FIGURE_ALT = {"gap": "measured, model and residual", "before_after": "before and after"}
 """Alternative text of each report figure (keys of the figures dictionary)."""
 
 
-def load_schema() -> dict:
-    """The JSON Schema of ``svrqp.gap/1``."""
-    return json.loads(resources.files("svrqp.gap").joinpath("gap.schema.json").read_text(encoding="utf-8"))
-
-
-@dataclass(frozen=True)
-class Cause:
-    """One row of the causes table, ranked by transfer gain (:mod:`svrqp.gap.transfer.ranking`).
-
-    ``rmse_before``, ``rmse_refit``, ``rmse_after``, ``shrink``, ``shrink_ci``,
-    ``shrink_beyond_refit`` and its interval are the transfer numbers of
-    :mod:`svrqp.gap.transfer.linear`; ``gain``, ``p_raw`` and ``p_value`` those of the transfer test.
-    The ``within_*`` keys, ``p_within`` and ``shrink_beyond_base`` come from the discrepancy
-    model fitted on the real rows themselves (:mod:`svrqp.gap.within.attribute`): what a per-run
-    recalibration would remove, never a transfer number. ``family`` names the model family the
-    transfer numbers were refitted with (:mod:`svrqp.gap.transfer.kernel`): the baseline's own, or
-    ``"linear"`` for the causes only the linear screen refitted. ``shrink_beyond_window`` (a
-    ``local`` cause only) is ``1 - rmse_after / rmse_window`` by the linear screen, ``rmse_window``
-    the refit with the window's indicator alone (:mod:`svrqp.gap.transfer.windows`): what the column adds
-    beyond the window's own offset.
-    """
-
-    column: str
-    transform: str
-    tau: float | None
-    evidence: str
-    p_value: float
-    p_raw: float
-    gain: float
-    significant: bool
-    rmse_before: float
-    rmse_after: float
-    shrink: float
-    shrink_ci: tuple[float, float]
-    round: int
-    note: str | None = None
-    ambiguous: bool = False
-    p_paired: float | None = None
-    shrink_beyond_base: float | None = None
-    rmse_refit: float | None = None
-    shrink_beyond_refit: float | None = None
-    shrink_beyond_refit_ci: tuple[float, float] | None = None
-    tested: bool = False
-    p_within: float | None = None
-    within_shrink: float | None = None
-    within_shrink_ci: tuple[float, float] | None = None
-    family: str = "linear"
-    region: dict[str, Any] | None = None
-    shrink_beyond_window: float | None = None
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """The single cause the engine stands behind (``column is None`` when there is none)."""
-
-    column: str | None
-    reason: str
-    transform: str | None = None
-    tau: float | None = None
-    evidence: str | None = None
-    shrink: float | None = None
-    shrink_ci: tuple[float, float] | None = None
-    refit_shrink: float | None = None
-    rmse_before: float | None = None
-    rmse_after: float | None = None
-    p_value: float | None = None
-    ambiguous_with: list[str] = field(default_factory=list)
-    rmse_refit: float | None = None
-    shrink_beyond_refit: float | None = None
-    shrink_beyond_refit_ci: tuple[float, float] | None = None
-    thin: bool = False
-    family: str | None = None
-    untestable: str | None = None
-    """A run-level column that transfers best but that too few runs can never make significant
-    (:attr:`svrqp.gap.results.records.Ranking.too_thin`)."""
-    region: dict[str, Any] | None = None
-    """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis (or of a ``local_along``
-    column) a ``local`` effect acts in (:mod:`svrqp.gap.transfer.windows`); None for a global effect."""
-
-
-@dataclass(frozen=True)
-class BaseFit:
-    """What the discrepancy base alone, fitted on the real rows themselves, removes: a per-run recalibration.
-
-    The base (per-group offsets and, in features mode, a recalibration of the model's own inputs)
-    is what the within-real-rows numbers of a cause (``within_shrink``, ``shrink_beyond_base``)
-    build on; no new run gets it, so it never enters a transfer shrink.
-
-    Attributes
-    ----------
-    description : str
-        The base's columns in words.
-    rmse_after : float
-        Out-of-sample real-row RMSE of the base alone.
-    shrink : float
-        ``1 - rmse_after / rmse_before`` (``rmse_before`` = the model's real-row RMSE).
-    """
-
-    description: str
-    rmse_after: float
-    shrink: float
-
-
 @dataclass
-class GapReport:
-    """Result of :func:`svrqp.gap.diagnose`.
-
-    The attributes mirror the keys of the ``svrqp.gap/1`` JSON (:meth:`to_dict`); ``series``
-    holds the per-row data the figures draw and is not part of the JSON.
+class GapReport(GapResult):
+    """Result of :func:`svrqp.gap.diagnose`: the data (:class:`svrqp.gap.results.document.GapResult`, with
+    ``to_dict`` and ``to_json``) and its renderings: ``write_json``, ``to_markdown``, ``to_html`` and ``tables``.
     """
-
-    target: str
-    mode: str
-    model: str | None
-    features: list[str]
-    prediction: str | None
-    candidates: list[str]
-    order: str
-    group: str | None
-    n_rows: int
-    n_train: int
-    n_real: int
-    n_dropped: int
-    n_dropped_short_groups: int
-    gap: GateResult
-    gap_detected: bool
-    where: list[Region]
-    causes: list[Cause]
-    verdict: Verdict
-    residual_gate: GateResult | None
-    remaining: list[str]
-    base: BaseFit
-    inputs: list[InputUse]
-    summary: str
-    transfer: dict[str, Any]
-    blocks: dict[str, Any] | None
-    settings: dict[str, Any]
-    runtime_s: float
-    series: Series = field(repr=False)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The ``svrqp.gap/1`` document as plain Python (validated against the schema)."""
-        gap = asdict(self.gap)
-        gap["detected"] = self.gap_detected
-        residual_gate = None
-        if self.residual_gate is not None:
-            g = self.residual_gate
-            residual_gate = {"real_rmse": g.real_rmse, "ratio": g.ratio, "p_excess": g.p_excess,
-                             "p_white": g.p_white, "remaining": list(self.remaining)}
-        document = {
-            "schema": SCHEMA_ID,
-            "target": self.target,
-            "mode": self.mode,
-            "model": self.model,
-            "features": list(self.features),
-            "prediction": self.prediction,
-            "candidates": list(self.candidates),
-            "order": self.order,
-            "group": self.group,
-            "n_rows": self.n_rows,
-            "n_train": self.n_train,
-            "n_real": self.n_real,
-            "n_dropped": self.n_dropped,
-            "n_dropped_short_groups": self.n_dropped_short_groups,
-            "gap": gap,
-            "where": [asdict(r) for r in self.where],
-            "causes": [asdict(c) for c in self.causes],
-            "verdict": asdict(self.verdict),
-            "residual_gate": residual_gate,
-            "base": asdict(self.base),
-            "transfer": self.transfer,
-            "blocks": self.blocks,
-            "inputs": [asdict(u) | {"extrapolated": u.extrapolated} for u in self.inputs],
-            "summary": self.summary,
-            "settings": self.settings,
-            "runtime_s": self.runtime_s,
-        }
-        document = _finite(document)
-        try:
-            jsonschema.validate(document, load_schema())
-        except jsonschema.ValidationError as err:
-            raise SvrqpError(f"gap report fails its schema {SCHEMA_ID} at {list(err.absolute_path)}: {err.message}") from err
-        return document
-
-    def to_json(self, indent: int = 2) -> str:
-        """The schema-valid ``svrqp.gap/1`` JSON text."""
-        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     def write_json(self, path: str | Path, force: bool = False) -> Path:
         """Write :meth:`to_json` to ``path`` (validated first; refuses to overwrite unless ``force``)."""
@@ -405,19 +215,6 @@ def _html_table(header: list[str], rows: list[list[str]]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
-
-
-def _finite(value: Any) -> Any:
-    """Replace non-finite floats by None, tuples by lists, numpy scalars by Python ones."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def _write(path: str | Path, content: bytes, force: bool) -> Path:

@@ -9,17 +9,11 @@ or, without a verdict, whether the evidence was too thin for the best-transferri
 from __future__ import annotations
 
 from svrqp.gap.contract import EVIDENCE_BETWEEN
-from svrqp.gap.detect.inputs import InputUse
 from svrqp.gap.model.recalibration import offsets_text
+from svrqp.gap.results.records import InputUse, Verdict
 from svrqp.gap.transfer.windows import region_text
 from svrqp.gap.words.figures import quantity, unit_of
-from svrqp.gap.words.report import Verdict
-from svrqp.gap.words.verdict import (
-    VerdictContext,
-    names,
-    train_label,
-    unit_word,
-)
+from svrqp.gap.words.verdict import VerdictContext, names, train_label, unit_word
 
 
 def summary(context: VerdictContext, verdict: Verdict, exact: bool) -> str:

@@ -8,9 +8,10 @@ from support.gap_problems import CANDIDATES, air_lag_problem
 from sklearn.linear_model import LinearRegression
 
 from svrqp import datasets
-from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.data.runs import blocked_folds
 from svrqp.gap.data.transforms import smooth
+from svrqp.gap.diagnose import diagnose
+from svrqp.gap.question import GapQuestion
 
 MIAO = {"target": "error_um", "train": "batch == 'x1'", "features": ["T7_C", "T9_C"],
         "candidates": ["T1_C", "T2_C", "T3_C", "T4_C", "T5_C", "T6_C", "T8_C"], "order": "time_min",

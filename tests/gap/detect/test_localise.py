@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from svrqp.gap.data.runs import blocked_folds
-from svrqp.gap.detect.localise import MIN_LEAF_FRACTION, Region, localise, regions_on, within_run_fit_half
+from svrqp.gap.detect.localise import MIN_LEAF_FRACTION, localise, regions_on, within_run_fit_half
+from svrqp.gap.results.records import Region
 
 N_RUN = 300
 T = np.tile(np.arange(N_RUN, dtype=float), 2)  # two runs of 300 min

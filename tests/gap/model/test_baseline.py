@@ -7,9 +7,9 @@ from sklearn.linear_model import LinearRegression
 from sklearn.svm import SVR
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap import GapQuestion
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.model.baseline import LSSVR_C, SVR_C, SVR_EPSILON, fit_baseline
+from svrqp.gap.question import GapQuestion
 
 FEATURES = ["spindle_C", "nut_C"]
 

@@ -13,7 +13,8 @@ import pytest
 from support.benchmark_modules import load_benchmark
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap import GapQuestion, diagnose
+from svrqp.gap.diagnose import diagnose
+from svrqp.gap.question import GapQuestion
 from svrqp.gap.transfer.windows import (
     MIN_REGION_ROWS,
     collinear,

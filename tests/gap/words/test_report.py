@@ -13,8 +13,10 @@ import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap import GapQuestion, diagnose, load_schema
-from svrqp.gap.words.report import _finite, _num, share_text
+from svrqp.gap.diagnose import diagnose
+from svrqp.gap.question import GapQuestion
+from svrqp.gap.results.document import _finite, load_schema
+from svrqp.gap.words.report import _num, share_text
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
             "order": "time_min", "group": "run"}
@@ -36,7 +38,7 @@ def null_report():
 def test_json_is_valid_against_the_shipped_schema(which, request):
     document = json.loads(request.getfixturevalue(which).to_json())
     jsonschema.validate(document, load_schema())
-    assert document["schema"] == "svrqp.gap/1"
+    assert document["schema"] == "svrqp.gap/2"
     for key in ("target", "gap", "where", "causes", "verdict"):
         assert key in document
 
@@ -57,7 +59,7 @@ def test_null_verdict_is_a_null_column(null_report):
 
 
 def test_schema_rejects_a_named_verdict_without_a_transform():
-    document = {"schema": "svrqp.gap/1", "target": "e", "gap": {"train_rmse": 1, "real_rmse": 2}, "where": [],
+    document = {"schema": "svrqp.gap/2", "target": "e", "gap": {"train_rmse": 1, "real_rmse": 2}, "where": [],
                 "causes": [], "verdict": {"column": "T9"}}
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate(document, load_schema())
