@@ -24,6 +24,12 @@ out of sample and on the footing of the real rows (which the model predicts for 
 saw): a model of the same kind is refitted with each train group held out in turn, or with one
 train group, each of five contiguous blocks of it (:func:`train_folds`). In prediction mode it is
 simply target − prediction on the train rows.
+
+The verdict is also checked the way a user would act on it (:func:`refit_shrink`): the model
+family is refitted *on the train rows* with the effect's columns added as inputs and assessed on
+the real rows (in prediction mode: a linear correction of target − prediction on the effect's
+columns, fitted on the train rows). An effect that does not vary on the train rows cannot be
+learned there — a low refit shrink next to a high transfer shrink says so.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ from svrqp.estimators.kernel import LSSVR, EpsilonSVR
 from svrqp.estimators.linear import LinearLS
 from svrqp.exceptions import ProblemError
 from svrqp.gap.data.prepare import GapData
+from svrqp.metrics import rms
 
 TRAIN_BLOCKS = 5
 """Contiguous blocks of a single train group for its cross-validated reference."""
@@ -158,3 +165,36 @@ def train_reference_residual(data: GapData, kind: str) -> np.ndarray:
         fit_rows = np.setdiff1d(np.arange(len(y)), test, assume_unique=True)
         out[test] = y[test] - fit_predict(kind, X[fit_rows], y[fit_rows], X[test])
     return out
+
+
+def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float | None:
+    """Shrink of the real-row RMSE after refitting the model family with the effect as input.
+
+    Parameters
+    ----------
+    data : GapData
+        Prepared rows.
+    baseline : Baseline
+        The baseline (its kind says which family to refit).
+    effect : ndarray, shape (n, k)
+        The effect's columns on every row (:func:`svrqp.gap.transfer.candidates.effect_columns`).
+
+    Returns
+    -------
+    float or None
+        ``1 - rmse_refit / rmse_before`` on the real rows; None when the effect is not known on
+        every row (a candidate recorded on the real rows only cannot enter a refit on the train rows).
+    """
+    if not np.isfinite(effect).all():
+        return None
+    train, real = data.is_train, data.is_real
+    before = float(rms(baseline.residual[real]))
+    if baseline.kind == "prediction":
+        gap = data.y - baseline.y_hat
+        correction = make_model("mlr").fit(effect[train], gap[train]).predict(effect)
+        after_residual = gap - correction
+    else:
+        X = np.column_stack([data.X, effect])
+        after_residual = data.y - fit_predict(baseline.kind, X[train], data.y[train], X)
+    after = float(rms(after_residual[real]))
+    return 1 - after / before if before > 0 else 0.0

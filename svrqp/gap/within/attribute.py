@@ -19,7 +19,31 @@ level (the smaller of the train reference RMSE and the RMSE left after the candi
 These models are fitted on the real rows themselves: the evidence says what a per-run
 recalibration with the effect would remove (the report's ``p_within`` and ``within_shrink``).
 The verdict and the ranking rest on transfer to held-out runs (:mod:`svrqp.gap.transfer.ranking`).
-``docs/gap.md`` ("How attribution works") gives the reasons behind each choice.
+``docs/gap.md`` ("How attribution works") gives the reasons behind each choice. All of it runs only
+when asked for (:func:`evidence_within`; ``diagnose(..., within_evidence=True)``).
+
+Shrink within the real rows
+    With :math:`r` the baseline residual on the real rows and :math:`e` the out-of-sample
+    error of the discrepancy model "base + effect" (blocked cross-validation,
+    :mod:`svrqp.gap.data.discrepancy`),
+
+    .. math::
+
+        \mathrm{RMSE}_\mathrm{before} = \sqrt{\overline{r^2}},\qquad
+        \mathrm{RMSE}_\mathrm{after} = \sqrt{\overline{e^2}},\qquad
+        \mathrm{shrink} = 1 - \mathrm{RMSE}_\mathrm{after}/\mathrm{RMSE}_\mathrm{before}.
+
+    The errors come from the effect's bank: for ``lag`` the time constant is chosen *inside*
+    each outer fold, by an inner blocked cross-validation on that fold's training rows
+    (nested CV, :func:`svrqp.gap.data.discrepancy.nested_errors`), so the choice of :math:`\tau`
+    never sees the rows it is scored on; a run-level candidate's block
+    (:mod:`svrqp.gap.transfer.between`) is fitted on the other folds' runs. The per-fold fits are
+    least squares.
+
+Interval
+    A moving-block bootstrap within groups (:func:`svrqp.gap.data.runs.block_bootstrap`) resamples
+    the rows, pairing :math:`r_i` and :math:`e_i`; the 2.5 % and 97.5 % quantiles of the
+    resampled shrink form the 95 % interval (:func:`estimate_shrink`).
 """
 
 from __future__ import annotations
@@ -30,10 +54,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import false_discovery_control
 
-from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN
+from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN, N_BOOTSTRAP
 from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
+from svrqp.gap.data.prepare import GapData
+from svrqp.gap.data.runs import block_bootstrap, block_length
+from svrqp.gap.results.records import BaseFit
 from svrqp.gap.transfer.between import RunLevelBank
-from svrqp.gap.transfer.candidates import Bank
+from svrqp.gap.transfer.candidates import Bank, build_banks
 from svrqp.gap.within.surrogate_tests import (
     MAX_SURROGATES,
     BetweenRunTest,
@@ -41,6 +68,7 @@ from svrqp.gap.within.surrogate_tests import (
     TestOutcome,
     run_tests,
 )
+from svrqp.metrics import rms
 
 
 def _benjamini_hochberg(p: np.ndarray) -> np.ndarray:
@@ -181,3 +209,113 @@ def attribute(problem: AttributionProblem, banks: list[Bank],
     """
     progress(f"testing {len(banks)} candidate transforms within the real rows", 0.0)
     return Attribution(_test_round(problem, [], banks, 1), OutOfSampleLosses(problem))
+
+
+@dataclass(frozen=True)
+class ShrinkEstimate:
+    """Out-of-sample shrink of the real-row error with one effect added.
+
+    Attributes
+    ----------
+    rmse_before, rmse_after : float
+        Real-row RMSE of the baseline and out-of-sample RMSE with the effect.
+    shrink : float
+        ``1 - rmse_after / rmse_before``.
+    ci_low, ci_high : float
+        95 % block-bootstrap interval of ``shrink``.
+    errors : ndarray
+        Out-of-sample errors on the real rows with the effect added.
+    """
+
+    rmse_before: float
+    rmse_after: float
+    shrink: float
+    ci_low: float
+    ci_high: float
+    errors: np.ndarray
+
+
+def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
+    """95 % moving-block bootstrap interval of ``1 - rmse(after)/rmse(before)``."""
+    index = block_bootstrap(groups, N_BOOTSTRAP, block_length(before, groups), rng)
+    ss_before = (before**2)[index].sum(axis=1)
+    ss_after = (after**2)[index].sum(axis=1)
+    shrinks = 1 - np.sqrt(ss_after / np.where(ss_before > 0, ss_before, np.nan))
+    low, high = np.nanpercentile(shrinks, [2.5, 97.5])
+    return float(low), float(high)
+
+
+def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> ShrinkEstimate:
+    """Out-of-sample shrink of the real-row error with an effect added, and its interval.
+
+    Parameters
+    ----------
+    r : ndarray, shape (n,)
+        Baseline residual on the real rows.
+    after : ndarray, shape (n,)
+        Out-of-sample errors of the discrepancy model "base + effect" on the same rows
+        (:func:`svrqp.gap.data.discrepancy.nested_errors`, or a run-level bank's
+        ``out_of_sample_errors``).
+    groups : ndarray of int, shape (n,)
+        Group code per row (the bootstrap resamples within groups).
+    rng : numpy.random.Generator
+        Source of the bootstrap resamples.
+
+    Returns
+    -------
+    ShrinkEstimate
+    """
+    before_rmse = float(rms(r))
+    after_rmse = float(rms(after))
+    low, high = shrink_interval(r, after, groups, rng)
+    shrink = 1 - after_rmse / before_rmse if before_rmse > 0 else 0.0
+    return ShrinkEstimate(before_rmse, after_rmse, shrink, low, high, after)
+
+
+def within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray, base: BaseFit,
+                   rng: np.random.Generator) -> dict[str, tuple[float, tuple[float, float], float, float | None]]:
+    """Per column: the within-real-rows shrink, its interval, its p-value (BH) and its shrink beyond the base.
+
+    These numbers come from discrepancy models fitted on the real rows themselves: they say
+    what a per-run recalibration with the effect would remove, not what the effect buys on a
+    new run, and stay under their own keys.
+    """
+    out = {}
+    for column in dict.fromkeys(e.test.column for e in attribution.evidence):
+        ev = attribution.best(column)
+        estimate = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
+        beyond = 1.0 - estimate.rmse_after / base.rmse_after if base.rmse_after > 0 else None
+        out[column] = (estimate.shrink, (estimate.ci_low, estimate.ci_high), ev.q_value, beyond)
+    return out
+
+
+def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray, base: BaseFit,
+                    progress: Callable[[str, float], None] = lambda stage, done: None) -> dict:
+    """The within-real-rows evidence of every candidate column, as the causes table carries it.
+
+    Runs :func:`attribute` over every candidate transform (:func:`svrqp.gap.transfer.candidates.build_banks`)
+    and returns :func:`within_numbers`: per column ``(within_shrink, its interval, p_within,
+    shrink_beyond_base)``. Only asked for (``diagnose(..., within_evidence=True)``,
+    ``--within-evidence``): it never enters a transfer shrink, the verdict or the summary.
+
+    Parameters
+    ----------
+    problem : AttributionProblem
+        Residual, base, folds, groups, noise level and random source (the bootstrap draws from
+        the same source after the tests).
+    data : GapData
+        Prepared rows (the candidates' transforms are built from them).
+    taus : ndarray
+        Time constants of the ``lag`` transform.
+    base : BaseFit
+        The per-run recalibration base alone (``shrink_beyond_base`` is against it).
+    progress : callable
+        Called as ``progress(stage, fraction_done)``.
+
+    Returns
+    -------
+    dict
+        Column → ``(shrink, (low, high), q_value, beyond_base)``.
+    """
+    attribution = attribute(problem, build_banks(data, taus), progress)
+    return within_numbers(attribution, problem.r, problem.groups, base, problem.rng)

@@ -16,12 +16,11 @@ import numpy as np
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
 from svrqp.gap.data.prepare import GapData
 from svrqp.gap.detect.gate import gate, noise_pvalue
-from svrqp.gap.model.baseline import Baseline
+from svrqp.gap.model.baseline import Baseline, refit_shrink
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Verdict
 from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.transfer.linear import Units
 from svrqp.gap.transfer.windows import region_text
-from svrqp.gap.within.quantify import refit_shrink
 from svrqp.gap.words.figures import quantity, unit_of
 
 

@@ -141,17 +141,19 @@ def test_same_seed_gives_the_same_report():
 
 def test_threads_do_not_change_the_report():
     # the shifts are drawn from one stream before the threads score them, and recorded in order
-    one = diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=1).to_dict()
-    two = diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=2).to_dict()
+    one = diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=1,
+                   within_evidence=True).to_dict()
+    two = diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), n_jobs=2,
+                   within_evidence=True).to_dict()
     one.pop("runtime_s"), two.pop("runtime_s")
     assert one == two
-    assert one["verdict"]["column"] == "air_C"
+    assert one["verdict"]["column"] == "air_C" and one["causes"][0]["p_within"] is not None
 
 
 def test_progress_names_each_stage_and_only_moves_forward():
     calls = []
-    diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), progress=lambda stage,
-                                            done: calls.append((stage, done)))
+    diagnose(air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS), within_evidence=True,
+             progress=lambda stage, done: calls.append((stage, done)))
     fractions = [done for _, done in calls]
     assert fractions == sorted(fractions) and 0.0 <= fractions[0] and fractions[-1] <= 1.0
     stages = " | ".join(stage for stage, _ in calls)
@@ -261,3 +263,23 @@ def test_a_candidate_constant_on_the_real_rows_is_named_as_such():
     assert fixed.note == "constant on the real rows (4500): it cannot explain the gap there"
     assert not fixed.significant and report.verdict.column == "air_C"
     assert all(c.note is None or "constant" not in c.note for c in report.causes if c.column != "fixed_rpm")
+
+
+def test_the_within_evidence_is_asked_for_and_changes_nothing_else():
+    """Off (the default), the causes' within keys are null and the tests within the real rows never run;
+    on, they are filled, and every other key of the document is the same to the last bit."""
+    df, question = air_lag_problem(), GapQuestion(candidates=CANDIDATES, **ARGS)
+    stages = []
+    off = diagnose(df, question, progress=lambda stage, done: stages.append(stage)).to_dict()
+    on = diagnose(df, question, within_evidence=True).to_dict()
+    within = ("p_within", "within_shrink", "within_shrink_ci", "shrink_beyond_base")
+    assert all(cause[key] is None for cause in off["causes"] for key in within)
+    assert not any("within the real rows" in stage for stage in stages)
+    assert on["causes"][0]["p_within"] is not None and on["causes"][0]["within_shrink"] > 0
+    assert (off["settings"].pop("within_evidence"), on["settings"].pop("within_evidence")) == (False, True)
+    for document in (off, on):
+        document.pop("runtime_s")
+        for cause in document["causes"]:
+            for key in within:
+                cause.pop(key)
+    assert off == on

@@ -9,10 +9,10 @@ from svrqp.gap.data.discrepancy import nested_errors
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.data.runs import blocked_folds
 from svrqp.gap.diagnose import diagnose
-from svrqp.gap.model.baseline import fit_baseline
+from svrqp.gap.model.baseline import fit_baseline, refit_shrink
 from svrqp.gap.question import GapQuestion
 from svrqp.gap.transfer.candidates import effect_columns
-from svrqp.gap.within.quantify import estimate_shrink, refit_shrink, shrink_interval
+from svrqp.gap.within.attribute import estimate_shrink, shrink_interval
 
 N = 800
 GROUPS = np.repeat(np.arange(4), 200)
