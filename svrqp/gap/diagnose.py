@@ -67,8 +67,7 @@ from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
 from svrqp.gap.within.attribute import AttributionProblem, evidence_within
 from svrqp.gap.within.surrogate_tests import MAX_SURROGATES, check_surrogates
 from svrqp.gap.words.report import GapReport
-from svrqp.gap.words.summary import extrapolation_text, summary
-from svrqp.gap.words.verdict import VerdictContext, decide, refit_closes
+from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
 from svrqp.metrics import rms
 
 Progress = Callable[[str, float], None]

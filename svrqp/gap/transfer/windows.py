@@ -80,7 +80,7 @@ import numpy as np
 from svrqp.gap.data.prepare import GapData
 from svrqp.gap.data.transforms import group_slices
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
-from svrqp.gap.words.figures import quantity, unit_of
+from svrqp.units import quantity, unit_of
 
 WINDOW_WIDTHS = (0.05, 0.1, 0.2)
 """Widths of the dictionary's tiles, as fractions of the order axis's range."""

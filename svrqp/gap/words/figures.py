@@ -1,4 +1,9 @@
-"""Figures of a gap report (matplotlib; every axis labelled with its unit)."""
+"""Figures of a gap report (matplotlib; every axis labelled with its unit, read by :func:`svrqp.units.unit_of`).
+
+matplotlib is imported when a figure is drawn, not with this module: a diagnosis that writes no
+report never loads it. Each figure is a ``Figure`` of its own, never pyplot's global state, so the
+backend of a notebook or GUI stays as it is.
+"""
 
 from __future__ import annotations
 
@@ -6,30 +11,9 @@ import io
 
 import numpy as np
 
-# A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
-from matplotlib.figure import Figure
-
 from svrqp.gap.data.transforms import group_slices
 from svrqp.gap.results.records import Series
-from svrqp.units import MICRO, UNIT_SUFFIXES, normalise_micro
-
-UNITS = {**UNIT_SUFFIXES, f"{MICRO}m": f"{MICRO}m", "°C": "°C", "degC": "°C", "pct": "%"}
-"""Column-name suffixes read as units: the project's table (:data:`svrqp.units.UNIT_SUFFIXES`) and
-the spellings measured tables bring (``Fehler_μm``, ``t_degC``, ``duty_pct``); a MICRO SIGN
-(U+00B5) in a suffix reads as μ."""
-
-
-def unit_of(name: str) -> str | None:
-    """Unit of a column from its name's suffix (``"error_um"`` → ``"μm"``), None when there is none."""
-    if name == "row":
-        return "rows"
-    stem, _, suffix = name.rpartition("_")
-    return UNITS.get(normalise_micro(suffix)) if stem else None
-
-
-def quantity(value: float, unit: str | None) -> str:
-    """``4.09 μm``, or the bare number for a column whose name carries no unit."""
-    return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
+from svrqp.units import unit_of
 
 
 def axis_label(name: str) -> str:
@@ -40,7 +24,6 @@ def axis_label(name: str) -> str:
     if unit is not None:
         return f"{name.rpartition('_')[0].replace('_', ' ')} ({unit})"
     return f"{name} (units of the column)"
-
 
 
 def _lines(ax, s: Series, values: np.ndarray, rows: np.ndarray, **style) -> None:
@@ -61,6 +44,8 @@ def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> byt
     over every run, else the label of the one run it lies in (shaded in another colour and
     labelled with the run, since the runs share the axis).
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 6))
     top, bottom = fig.subplots(2, 1, sharex=True)
     real = ~s.is_train
@@ -94,6 +79,8 @@ def before_after_figure(s: Series, effect: str, region: tuple[float, float] | No
     second panel shows the effect's profile along the axis: what the refits with it predict on
     each held-out real row (residual before minus after).
     """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 3.5 if region is None else 6))
     axes = [fig.subplots()] if region is None else fig.subplots(2, 1, sharex=True)
     ax = axes[0]

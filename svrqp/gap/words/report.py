@@ -18,7 +18,8 @@ from pathlib import Path
 
 from svrqp.gap.results.document import GapResult
 from svrqp.gap.results.records import Verdict
-from svrqp.gap.words.figures import before_after_figure, gap_figure, unit_of
+from svrqp.gap.words.figures import before_after_figure, gap_figure
+from svrqp.units import unit_of
 
 BOUND_DIGITS = 4
 """Significant digits of region bounds and input ranges in the tables (close bounds such as 26.76 … 26.9 °C)."""

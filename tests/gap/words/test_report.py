@@ -175,7 +175,8 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
     ("row", "rows", "row within group (count)"),
 ], ids=["um", "micro sign", "C", "min", "no unit", "row"])
 def test_units_are_read_off_column_names(name, unit, label):
-    from svrqp.gap.words.figures import axis_label, unit_of
+    from svrqp.gap.words.figures import axis_label
+    from svrqp.units import unit_of
 
     assert unit_of(name) == unit and axis_label(name) == label
 
