@@ -143,10 +143,10 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
     from sklearn.linear_model import LinearRegression
     from sklearn.model_selection import PredefinedSplit, cross_val_predict
 
-    from svrqp.gap.model.baseline import fit_baseline
-    from svrqp.gap.data.runs import blocked_folds
-    from svrqp.gap.model.recalibration import base_design
     from svrqp.gap.data.prepare import prepare
+    from svrqp.gap.data.runs import blocked_folds
+    from svrqp.gap.model.baseline import fit_baseline
+    from svrqp.gap.model.recalibration import base_design
 
     data = prepare(air_lag_problem(), GapQuestion(**ARGS))
     baseline = fit_baseline(data, "mlr")
@@ -161,7 +161,9 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
     assert report.base.shrink == pytest.approx(1 - rmse_after / np.sqrt(np.mean(r**2)), rel=1e-6)
     assert "base alone" in report.to_markdown() and report.to_dict()["base"]["shrink"] == report.base.shrink
     before = np.sqrt(np.mean(r**2))
-    for cause in report.causes:  # the per-run recalibration numbers, fitted on the real rows themselves
+    within = diagnose(air_lag_problem(), GapQuestion(**ARGS), within_evidence=True)
+    assert within.base == report.base
+    for cause in within.causes:  # the per-run recalibration numbers, fitted on the real rows themselves
         within_rmse = (1 - cause.within_shrink) * before
         assert cause.shrink_beyond_base == pytest.approx(1 - within_rmse / rmse_after, rel=1e-6)
 
