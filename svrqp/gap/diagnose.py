@@ -43,9 +43,7 @@ import pandas as pd
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
-from svrqp.gap.data.prepare import GapData, prepare
-from svrqp.gap.data.runs import blocked_folds
-from svrqp.gap.data.transforms import tau_grid
+from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
 from svrqp.gap.detect.gate import gap_detected, gate
 from svrqp.gap.detect.inputs import input_use
 from svrqp.gap.detect.localise import localise, region_of

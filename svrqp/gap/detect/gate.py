@@ -55,8 +55,7 @@ import numpy as np
 from scipy import stats
 
 from svrqp.gap.contract import ALPHA
-from svrqp.gap.data.runs import lag1_autocorrelation
-from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.data import group_slices, lag1_autocorrelation
 from svrqp.gap.results.records import GateResult
 from svrqp.metrics import rms
 

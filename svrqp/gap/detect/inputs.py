@@ -30,9 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.transforms import smooth, standardised
+from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, smooth, standardised
 from svrqp.gap.results.records import InputUse
 from svrqp.metrics import rms
 

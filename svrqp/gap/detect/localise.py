@@ -54,7 +54,7 @@ from dataclasses import replace
 import numpy as np
 from sklearn.tree import DecisionTreeRegressor
 
-from svrqp.gap.data.runs import holds_out_groups
+from svrqp.gap.data import holds_out_groups
 from svrqp.gap.results.records import Region
 
 MAX_LEAVES = 6

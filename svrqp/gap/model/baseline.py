@@ -46,7 +46,7 @@ from svrqp import registry
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
 from svrqp.estimators.linear import LinearLS
 from svrqp.exceptions import ProblemError
-from svrqp.gap.data.prepare import GapData
+from svrqp.gap.data import GapData
 from svrqp.metrics import rms
 
 TRAIN_BLOCKS = 5

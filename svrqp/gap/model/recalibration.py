@@ -10,10 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.runs import holds_out_groups
-from svrqp.gap.data.transforms import smooth, standardised
+from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, holds_out_groups, smooth, standardised
 from svrqp.gap.model.baseline import Baseline
 from svrqp.gap.results.records import BaseFit
 from svrqp.metrics import rms

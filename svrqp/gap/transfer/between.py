@@ -74,8 +74,7 @@ from numpy.polynomial import legendre
 from scipy import stats
 
 from svrqp.gap.contract import EVIDENCE_BETWEEN, MIN_RUNS, PROFILE_DEGREE
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.data.transforms import group_slices, negligible
+from svrqp.gap.data import CrossValidatedDiscrepancy, group_slices, negligible
 
 RUN_LEVEL_SHARE = 0.05
 """A candidate whose within-run variance is at most this share of its variance is run-level."""

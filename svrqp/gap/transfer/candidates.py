@@ -22,14 +22,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from svrqp.gap.contract import EVIDENCE_BETWEEN, EVIDENCE_WITHIN, MIN_RUNS
-from svrqp.gap.data.discrepancy import nested_errors
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.transforms import (
+from svrqp.gap.data import (
+    GapData,
     filter_coefficients,
     group_slices,
     lag,
     lowpass_columns,
     negligible,
+    nested_errors,
     rate,
     standardised,
 )

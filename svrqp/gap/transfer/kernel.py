@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from svrqp.gap.contract import LINEAR
-from svrqp.gap.data.prepare import GapData
+from svrqp.gap.data import GapData
 from svrqp.gap.model.baseline import Baseline, fit_predict
 from svrqp.gap.results.records import Ranking, TransferFit
 from svrqp.gap.transfer.linear import Units

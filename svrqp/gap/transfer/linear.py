@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from svrqp.gap.contract import MAX_BLOCKS, MIN_BLOCKS, N_BOOTSTRAP, THIN_UNITS
-from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.data import group_slices
 from svrqp.gap.results.records import TransferFit
 from svrqp.metrics import rms
 

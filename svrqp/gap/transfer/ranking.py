@@ -88,8 +88,7 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.contract import ALPHA, MIN_GAIN, MIN_RUNS
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.transforms import filter_coefficients, group_slices, lag, lowpass_columns, rate
+from svrqp.gap.data import GapData, filter_coefficients, group_slices, lag, lowpass_columns, rate
 from svrqp.gap.results.records import Effect, Ranked, Ranking, TransferFit
 from svrqp.gap.transfer.between import is_run_level, run_level_columns, varies_within
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain

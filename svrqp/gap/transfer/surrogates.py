@@ -27,9 +27,7 @@ from typing import Protocol
 
 import numpy as np
 
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.runs import lift_steps, rotated_rows, shift_offsets, wrapped_part
-from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.data import GapData, group_slices, lift_steps, rotated_rows, shift_offsets, wrapped_part
 from svrqp.gap.transfer.windows import exchange_run_levels
 
 
@@ -125,4 +123,3 @@ class TransferSurrogates:
         same = sum(bool(np.allclose(levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())))
                    for order in orders)
         return same / len(orders)
-

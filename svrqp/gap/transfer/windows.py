@@ -77,8 +77,7 @@ import math
 
 import numpy as np
 
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.data import GapData, group_slices
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
 from svrqp.units import quantity, unit_of
 

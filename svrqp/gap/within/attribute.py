@@ -55,9 +55,7 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN, N_BOOTSTRAP
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.data.prepare import GapData
-from svrqp.gap.data.runs import block_bootstrap, block_length
+from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, block_bootstrap, block_length
 from svrqp.gap.results.records import BaseFit
 from svrqp.gap.transfer.between import RunLevelBank
 from svrqp.gap.transfer.candidates import Bank, build_banks

@@ -30,9 +30,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
-from svrqp.gap.data.runs import rotated_rows, shift_offsets
-from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.data import CrossValidatedDiscrepancy, group_slices, rotated_rows, shift_offsets
 from svrqp.gap.transfer.between import RunLevelBank, between_run_test
 from svrqp.gap.transfer.candidates import Bank, CandidateBank
 

@@ -11,7 +11,7 @@ import io
 
 import numpy as np
 
-from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.data import group_slices
 from svrqp.gap.results.records import Series
 from svrqp.units import unit_of
 

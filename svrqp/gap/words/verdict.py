@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
-from svrqp.gap.data.prepare import GapData
+from svrqp.gap.data import GapData
 from svrqp.gap.detect.gate import gate, noise_pvalue
 from svrqp.gap.model.baseline import Baseline, refit_shrink
 from svrqp.gap.model.recalibration import offsets_text
