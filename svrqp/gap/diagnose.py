@@ -29,7 +29,7 @@
 6. **Report** — :class:`svrqp.gap.words.report.GapReport`: a summary of at most two sentences with
    the transfer shrink (leading with extrapolation when a model input is used outside its train
    range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
-   model input and candidate against its train range (:mod:`svrqp.gap.detect.inputs`).
+   model input and candidate against its train range (:mod:`svrqp.gap.model.recalibration`).
 """
 
 from __future__ import annotations
@@ -45,25 +45,22 @@ from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
 from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
 from svrqp.gap.detect.gate import gap_detected, gate
-from svrqp.gap.detect.inputs import input_use
 from svrqp.gap.detect.localise import localise, region_of
 from svrqp.gap.model.baseline import Baseline, fit_baseline
-from svrqp.gap.model.recalibration import base_design, base_fit, offset_columns
+from svrqp.gap.model.recalibration import base_design, base_fit, input_use, offset_columns
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.records import Cause, GateResult, Ranking, Series, Verdict
+from svrqp.gap.results.records import Cause, GateResult, Ranking, Series, Units, Verdict
 from svrqp.gap.transfer.candidates import constant_on_real_rows, region_axis, untestable_between_runs
 from svrqp.gap.transfer.kernel import FamilyErrors, same_family_errors
 from svrqp.gap.transfer.linear import (
     LinearTransfer,
-    Units,
     bootstrap_index,
     shrink_of_gain,
     transfer_shrink,
     transfer_units,
 )
 from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
-from svrqp.gap.within.attribute import AttributionProblem, evidence_within
-from svrqp.gap.within.surrogate_tests import MAX_SURROGATES, check_surrogates
+from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, check_surrogates, evidence_within
 from svrqp.gap.words.report import GapReport
 from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
 from svrqp.metrics import rms

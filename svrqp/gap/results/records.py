@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from svrqp.gap.contract import ALPHA, EXTRAPOLATING_SHARE, MIN_GAIN, PROFILE_DEGREE
+from svrqp.gap.contract import ALPHA, EXTRAPOLATING_SHARE, MIN_GAIN, PROFILE_DEGREE, THIN_UNITS
 
 
 @dataclass(frozen=True)
@@ -374,3 +374,48 @@ class Series:
     y: np.ndarray
     y_hat: np.ndarray
     after: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class Units:
+    """The held-out units of the transfer refits.
+
+    Attributes
+    ----------
+    code : ndarray of int, shape (n,)
+        Unit of each row; -1 for rows that are in every fit and never scored.
+    kind : {"groups", "blocks"}
+        Whole ``--group`` groups, or contiguous blocks of the real rows.
+    n_units : int
+        Number of held-out units.
+    block_rows : int or None
+        Rows per block (blocks only).
+    decorrelation_rows : int or None
+        The residual's decorrelation length in rows (blocks only).
+    short : bool
+        The record is too short for :data:`MIN_BLOCKS` blocks of the decorrelation length:
+        it is cut into :data:`MIN_BLOCKS` shorter blocks anyway (stated fallback; the transfer
+        numbers are then optimistic).
+    """
+
+    code: np.ndarray
+    kind: str
+    n_units: int
+    block_rows: int | None = None
+    decorrelation_rows: int | None = None
+    short: bool = False
+
+    @property
+    def thin(self) -> bool:
+        """Whether too few units hold the transfer evidence (:data:`THIN_UNITS`)."""
+        return self.n_units < THIN_UNITS
+
+    def rows(self) -> list[np.ndarray]:
+        """Row indices of each unit."""
+        return [np.flatnonzero(self.code == u) for u in range(self.n_units)]
+
+    def as_dict(self) -> dict:
+        """The ``blocks`` entry of the JSON."""
+        return {"kind": self.kind, "n": self.n_units, "rows_per_block": self.block_rows,
+                "decorrelation_rows": self.decorrelation_rows, "shorter_than_decorrelation": self.short,
+                "thin": self.thin}

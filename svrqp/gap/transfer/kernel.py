@@ -43,8 +43,7 @@ import numpy as np
 from svrqp.gap.contract import LINEAR
 from svrqp.gap.data import GapData
 from svrqp.gap.model.baseline import Baseline, fit_predict
-from svrqp.gap.results.records import Ranking, TransferFit
-from svrqp.gap.transfer.linear import Units
+from svrqp.gap.results.records import Ranking, TransferFit, Units
 from svrqp.gap.transfer.ranking import TransferRanker
 
 KERNEL_CAUSES = 3

@@ -61,12 +61,20 @@ from svrqp.gap.transfer.between import RunLevelBank
 from svrqp.gap.transfer.candidates import Bank, build_banks
 from svrqp.gap.within.surrogate_tests import (
     MAX_SURROGATES,
+    SURROGATE_KINDS,
     BetweenRunTest,
     SurrogateTest,
     TestOutcome,
+    check_surrogates,
     run_tests,
 )
 from svrqp.metrics import rms
+
+__all__ = [  # the step's entry points; the surrogate settings diagnose checks before the work
+    "Attribution", "AttributionProblem", "Evidence", "MAX_SURROGATES", "OutOfSampleLosses",
+    "SURROGATE_KINDS", "ShrinkEstimate", "attribute", "check_surrogates", "estimate_shrink",
+    "evidence_within", "shrink_interval", "within_numbers",
+]
 
 
 def _benjamini_hochberg(p: np.ndarray) -> np.ndarray:

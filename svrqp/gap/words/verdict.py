@@ -24,9 +24,8 @@ from svrqp.gap.data import GapData
 from svrqp.gap.detect.gate import gate, noise_pvalue
 from svrqp.gap.model.baseline import Baseline, refit_shrink
 from svrqp.gap.model.recalibration import offsets_text
-from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Verdict
+from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
 from svrqp.gap.transfer.candidates import effect_columns
-from svrqp.gap.transfer.linear import Units
 from svrqp.gap.transfer.windows import region_text
 from svrqp.units import quantity, unit_of
 

@@ -1,4 +1,4 @@
-"""The model's own inputs on the real rows: range and recalibration check (svrqp.gap.detect.inputs)."""
+"""The model's own inputs on the real rows: range and recalibration check (svrqp.gap.model.recalibration)."""
 
 import re
 
