@@ -3,10 +3,10 @@
 1. **Honest residuals** — fit the baseline on the train rows or read the prediction
    (:mod:`svrqp.gap.model.baseline`); the real rows are the others.
 2. **Gate** — one-sided: the real rows must fit worse than the train rows (both out of
-   sample) and beyond chance (:mod:`svrqp.gap.detect.gate`). No gap, no culprit: candidates that
+   sample) and beyond chance (:mod:`svrqp.gap.detect`). No gap, no culprit: candidates that
    would improve the model everywhere may be listed in the reason, none is named.
 3. **Localise** — where along the order axis (pooled over the runs, and within single runs)
-   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.detect.localise`).
+   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.detect`).
 4. **Transfer** — the user's question is "if I add this effect and refit, how much smaller is
    my error on a run I have not fitted?" Every candidate × transform is added to the model
    family and refitted leave-one-unit-out over all rows (units: the ``--group`` groups, or
@@ -44,8 +44,8 @@ import pandas as pd
 from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
 from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
-from svrqp.gap.detect.gate import gap_detected, gate
-from svrqp.gap.detect.localise import localise, region_of
+from svrqp.gap.detect import gap_detected, gate
+from svrqp.gap.detect import localise, region_of
 from svrqp.gap.model.baseline import Baseline, fit_baseline
 from svrqp.gap.model.recalibration import base_design, base_fit, input_use, offset_columns
 from svrqp.gap.question import GapQuestion

@@ -5,10 +5,7 @@ inputs (:func:`recalibration_inputs`). The within-real-rows evidence (:mod:`svrq
 tests each candidate beyond it; alone, out of sample, it says what a per-run recalibration would
 remove (:func:`base_fit`), which no new run gets.
 
-Every model input against its train range (:func:`input_use`)
--------------------------------------------------------------
-
-Is the model used outside what it was fitted on? Its own inputs on the real rows.
+**Every model input against its train range** (:func:`input_use`). Is the model used outside what it was fitted on? Its own inputs on the real rows.
 
 A model fails on new rows for two reasons that look alike in its residual: something it does
 not know about acts there (an unmodelled effect, which :mod:`svrqp.gap.within.attribute` looks for

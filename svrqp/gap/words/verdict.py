@@ -21,7 +21,7 @@ import numpy as np
 
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
 from svrqp.gap.data import GapData
-from svrqp.gap.detect.gate import gate, noise_pvalue
+from svrqp.gap.detect import gate, noise_pvalue
 from svrqp.gap.model.baseline import Baseline, refit_shrink
 from svrqp.gap.model.recalibration import offsets_text
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
@@ -114,7 +114,7 @@ def refit_closes(refit_real: np.ndarray, groups: np.ndarray) -> bool:
 
     The contract (``docs/gap.md``): a candidate is the gap's cause only if it explains what more data does not. When
     the leave-one-unit-out refit leaves a real-row error no larger than the noise level beyond
-    chance (the gate's excess-over-noise test, :func:`svrqp.gap.detect.gate.noise_pvalue`), the gap was
+    chance (the gate's excess-over-noise test, :func:`svrqp.gap.detect.noise_pvalue`), the gap was
     the model used outside its data; a candidate that still trims the remaining noise improves the
     model everywhere, it is not the gap's cause. (The train rows are no reference here: a withheld
     effect that acts on them as well inflates their error as much as the refit's.)
