@@ -44,8 +44,7 @@ import pandas as pd
 from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
 from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
-from svrqp.gap.detect import gap_detected, gate
-from svrqp.gap.detect import localise, region_of
+from svrqp.gap.detect import gap_detected, gate, localise, region_of
 from svrqp.gap.model.baseline import Baseline, fit_baseline
 from svrqp.gap.model.recalibration import base_design, base_fit, input_use, offset_columns
 from svrqp.gap.question import GapQuestion
@@ -60,7 +59,8 @@ from svrqp.gap.transfer.linear import (
     transfer_units,
 )
 from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
-from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, check_surrogates, evidence_within
+from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, evidence_within
+from svrqp.gap.within.surrogate_tests import check_surrogates
 from svrqp.gap.words.report import GapReport
 from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
 from svrqp.metrics import rms

@@ -16,7 +16,7 @@ keeping what the null leaves free:
   a surrogate is :math:`A c + \mathrm{rot}(u)`; in prediction mode the design is the intercept and
   this is the plain rotation. One record cut into blocks is rotated as a whole, lifted at the seam
   by its end-minus-start change (:func:`svrqp.gap.data.runs.lift_steps`). The local form's surrogates
-  also exchange run levels (:func:`svrqp.gap.transfer.windows.exchange_run_levels`).
+  also exchange run levels (:func:`exchange_run_levels`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,6 @@ from typing import Protocol
 import numpy as np
 
 from svrqp.gap.data import GapData, group_slices, lift_steps, rotated_rows, shift_offsets, wrapped_part
-from svrqp.gap.transfer.windows import exchange_run_levels
 
 
 class Effect(Protocol):
@@ -123,3 +122,19 @@ class TransferSurrogates:
         same = sum(bool(np.allclose(levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())))
                    for order in orders)
         return same / len(orders)
+
+
+def exchange_run_levels(x: np.ndarray, groups: np.ndarray, order: np.ndarray) -> np.ndarray:
+    r"""``x`` with the run means exchanged by the permutation :math:`\pi` = ``order`` of the runs.
+
+    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: the surrogate of a
+    run-level candidate, and applied to a series already rotated within runs (with a random
+    ``order``), a surrogate of the ``local`` form's test (module docstring).
+    """
+    slices = group_slices(groups)
+    means = np.array([x[s].mean() for s in slices])
+    shift = means[order] - means
+    out = x.copy()
+    for s, d in zip(slices, shift):
+        out[s] += d
+    return out

@@ -32,7 +32,7 @@ Surrogates that respect what varies where
     sits at one level per run gains as much rotated as observed; a disturbance whose size per
     run happens to line up with a reading's levels passes). A surrogate of the ``local`` form is
     rotated within runs *and* has its run means exchanged by a random permutation of the runs
-    (:func:`exchange_run_levels`): under "this candidate carries nothing" its within-run phase
+    (:func:`svrqp.gap.transfer.surrogates.exchange_run_levels`): under "this candidate carries nothing" its within-run phase
     and which run holds which level are both arbitrary. A candidate that holds one level per run
     is permuted across runs only, as for every transform.
 
@@ -77,7 +77,7 @@ import math
 
 import numpy as np
 
-from svrqp.gap.data import GapData, group_slices
+from svrqp.gap.data import GapData
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
 from svrqp.units import quantity, unit_of
 
@@ -203,21 +203,6 @@ def collinear(A: np.ndarray, E: np.ndarray) -> bool:
     s = np.linalg.svd(M, compute_uv=False)
     return bool(s[-1] <= COLLINEAR_RCOND * s[0])
 
-
-def exchange_run_levels(x: np.ndarray, groups: np.ndarray, order: np.ndarray) -> np.ndarray:
-    r"""``x`` with the run means exchanged by the permutation :math:`\pi` = ``order`` of the runs.
-
-    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: the surrogate of a
-    run-level candidate, and applied to a series already rotated within runs (with a random
-    ``order``), a surrogate of the ``local`` form's test (module docstring).
-    """
-    slices = group_slices(groups)
-    means = np.array([x[s].mean() for s in slices])
-    shift = means[order] - means
-    out = x.copy()
-    for s, d in zip(slices, shift):
-        out[s] += d
-    return out
 
 
 def indicator(t: np.ndarray, low: float, high: float) -> np.ndarray:

@@ -15,13 +15,8 @@ from support.benchmark_modules import load_benchmark
 from svrqp.exceptions import ProblemError
 from svrqp.gap.diagnose import diagnose
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.transfer.windows import (
-    MIN_REGION_ROWS,
-    collinear,
-    exchange_run_levels,
-    threshold_dictionary,
-    window_dictionary,
-)
+from svrqp.gap.transfer.surrogates import exchange_run_levels
+from svrqp.gap.transfer.windows import MIN_REGION_ROWS, collinear, threshold_dictionary, window_dictionary
 
 PATCH_MM = (20.0, 34.0)
 QUESTION = {"target": "error_um", "prediction": "prediction_um", "train": "run == 0",
