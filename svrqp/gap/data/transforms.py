@@ -26,8 +26,17 @@ each candidate column :math:`x(t)` in three forms, all computed along the ``--or
     and together with :math:`x` it spans the filtered reading :math:`x_\tau = x + \ell_\tau`,
     which is what a structure with thermal inertia responds to.
 
+``rise`` (the ``lag`` at :math:`\tau = \infty`)
+    heating since the run's start: with an infinite time constant the filter holds its first
+    value, :math:`x_\infty(t) = x(t_0)`, so :math:`\ell_\infty = x(t_0) - x(t)` is minus the rise
+    and, next to :math:`x`, the pair spans :math:`x - x(t_0)` and the run's starting level. A
+    structure far slower than the run (a column that barely warms before the run ends while the
+    spindle heats) follows the rise, not any finite lag. It is reported as its own transform
+    (:func:`public_form`).
+
 The time constant is searched on :func:`tau_grid`, a geometric grid between a few sampling
-intervals and half the typical run length.
+intervals and half the typical run length, and :math:`\tau = \infty`; it is chosen inside
+every fit, surrogate refits included, so the choice is paid for by the transfer test.
 """
 
 from __future__ import annotations
@@ -39,6 +48,9 @@ from svrqp.exceptions import ProblemError
 
 TRANSFORMS = ("level", "rate", "lag")
 """Names of the transforms, in the order they are reported."""
+
+RISE = "rise"
+"""The name the ``lag`` at :math:`\tau = \infty` is reported under: the rise since the run's start."""
 
 N_TAU = 8
 """Number of time constants on the grid searched for the ``lag`` transform."""
@@ -239,7 +251,8 @@ def tau_grid(t: np.ndarray, group_codes: np.ndarray, n_tau: int = N_TAU) -> np.n
 
     Returns
     -------
-    ndarray, shape (n_tau,)
+    ndarray, shape (n_tau + 1,)
+        The finite grid, then :math:`\infty` (the ``rise``).
     """
     steps, spans = [], []
     for rows in group_slices(group_codes):
@@ -254,7 +267,19 @@ def tau_grid(t: np.ndarray, group_codes: np.ndarray, n_tau: int = N_TAU) -> np.n
     high = span / 2.0
     if high <= low:
         high = 2.0 * low
-    return np.geomspace(low, high, n_tau)
+    return np.r_[np.geomspace(low, high, n_tau), np.inf]
+
+
+def public_form(transform: str, tau: float | None) -> tuple[str, float | None]:
+    """The ``(transform, tau)`` a report shows: the ``lag`` at :math:`\tau = \infty` is the ``rise``."""
+    if transform == "lag" and tau is not None and np.isinf(tau):
+        return RISE, None
+    return transform, tau
+
+
+def internal_form(transform: str, tau: float | None) -> tuple[str, float | None]:
+    """The inverse of :func:`public_form`: a reported ``rise`` is the ``lag`` at :math:`\tau = \infty`."""
+    return ("lag", float(np.inf)) if transform == RISE else (transform, tau)
 
 
 

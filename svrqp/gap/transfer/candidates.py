@@ -26,6 +26,7 @@ from svrqp.gap.data import (
     GapData,
     filter_coefficients,
     group_slices,
+    internal_form,
     lag,
     lowpass_columns,
     negligible,
@@ -169,6 +170,7 @@ def effect_columns(data: GapData, column: str, transform: str, tau: float | None
         return local_columns(x, region_axis(data, region), np.array([[region["low"], region["high"]]]))[0]
     if evidence == EVIDENCE_BETWEEN:
         return run_level_columns(data.C[:, data.candidates.index(column)], data.t, data.groups)
+    transform, tau = internal_form(transform, tau)  # a reported ``rise`` is the lag at τ = ∞
     own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))
     return own if partner is None else np.column_stack([partner, own])
 

@@ -17,8 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from svrqp.gap.results.document import GapResult
+from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.records import Verdict
 from svrqp.gap.words.figures import before_after_figure, gap_figure
+from svrqp.gap.words.verdict import RISE_WORDS
 from svrqp.units import unit_of
 
 BOUND_DIGITS = 4
@@ -171,6 +173,8 @@ def _effect_name(v: Verdict) -> str:
         return f"{v.column} within {v.region['low']:.3g} … {v.region['high']:.3g} of {v.region['column']}"
     if v.transform == "lag":
         return f"lag of {v.column} (τ = {v.tau:.3g})"
+    if v.transform == RISE:
+        return f"rise of {v.column}{RISE_WORDS}"
     return f"{v.transform} of {v.column}"
 
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
 from svrqp.gap.data import GapData
+from svrqp.gap.data.transforms import RISE
 from svrqp.gap.detect import gate, noise_pvalue
 from svrqp.gap.model.baseline import Baseline, refit_shrink
 from svrqp.gap.model.recalibration import offsets_text
@@ -77,6 +78,10 @@ def refit_text(refit: float | None, column: str) -> str:
     return f"refitting the model with it as an input shrinks it by {refit:.0%}."
 
 
+RISE_WORDS = " since each run's start"
+"""What follows ``rise of X``: the lag at τ = ∞, heating since the run began."""
+
+
 def names(columns: list[str]) -> str:
     """``a``, ``a and b``, ``a, b and c``."""
     return columns[0] if len(columns) == 1 else f"{', '.join(columns[:-1])} and {columns[-1]}"
@@ -87,7 +92,7 @@ def effect_text(effect: Cause | Verdict, order_name: str) -> str:
     it was tested."""
     if effect.region is not None:
         return f"{effect.column} term {region_text(effect.region)}"
-    text = f"{effect.transform} of {effect.column}"
+    text = f"{effect.transform} of {effect.column}" + (RISE_WORDS if effect.transform == RISE else "")
     if effect.tau is not None:
         text += f" (τ = {quantity(effect.tau, unit_of(order_name))})"
     if effect.evidence == EVIDENCE_BETWEEN:
@@ -289,7 +294,7 @@ def _short_effect(verdict: Verdict, order_name: str) -> str:
     """``lag of T1_C (τ 125 min)`` — the verdict's effect in few words."""
     if verdict.region is not None:
         return f"{verdict.column} term {region_text(verdict.region)}"
-    text = f"{verdict.transform} of {verdict.column}"
+    text = f"{verdict.transform} of {verdict.column}" + (RISE_WORDS if verdict.transform == RISE else "")
     if verdict.evidence == EVIDENCE_BETWEEN:
         return text + " (constant within each run)"
     return text + (f" (τ {quantity(verdict.tau, unit_of(order_name))})" if verdict.tau is not None else "")
