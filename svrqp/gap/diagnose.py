@@ -43,7 +43,7 @@ import pandas as pd
 
 from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
-from svrqp.gap.data import GapData, blocked_folds, prepare, public_form, tau_grid
+from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
 from svrqp.gap.detect import gap_detected, gate, localise, region_of
 from svrqp.gap.model.baseline import Baseline, fit_baseline
 from svrqp.gap.model.recalibration import base_design, base_fit, input_use, offset_columns
@@ -152,7 +152,7 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
         where = [region_of(region_axis(data, findings.verdict.region)[real], r, findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
-                "taus": taus[np.isfinite(taus)].tolist(), "rise": bool(np.isinf(taus).any()), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
+                "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
                 "local": question.local, "local_along": list(data.along), "within_evidence": within_evidence}
     text = summary(findings.context, findings.verdict, exact)
     report = _report(question, where, findings, text, settings)
@@ -280,9 +280,8 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
         numbers = transfer_shrink(r, refit, after, real_units, units.n_units, index)
         w_shrink, w_ci, w_q, w_beyond = within.get(effect.column, (None, None, None, None))
         note = row.note or notes.get(effect.column)
-        transform, tau = public_form(effect.transform, row.tau)
         causes.append(Cause(
-            column=effect.column, transform=transform, tau=tau,
+            column=effect.column, transform=effect.transform, tau=row.tau,
             evidence=EVIDENCE_BETWEEN if effect.block else "within runs",
             p_value=row.q_value, p_raw=row.p_raw, gain=row.gain, significant=row.significant,
             rmse_before=numbers.rmse_before, rmse_after=numbers.rmse_after, shrink=numbers.shrink,

@@ -16,12 +16,11 @@ from svrqp.gap.data.runs import (
 from svrqp.gap.data.transforms import (
     filter_coefficients,
     group_slices,
-    internal_form,
     lag,
     lowpass_columns,
     negligible,
-    public_form,
     rate,
+    rise,
     smooth,
     standardised,
     tau_grid,
@@ -29,7 +28,7 @@ from svrqp.gap.data.transforms import (
 
 __all__ = [
     "CrossValidatedDiscrepancy", "GapData", "block_bootstrap", "block_length", "blocked_folds",
-    "filter_coefficients", "group_slices", "holds_out_groups", "internal_form", "lag", "lag1_autocorrelation", "lift_steps",
-    "lowpass_columns", "negligible", "nested_errors", "prepare", "public_form", "rate", "rotated_rows", "shift_offsets",
+    "filter_coefficients", "group_slices", "holds_out_groups", "lag", "lag1_autocorrelation", "lift_steps",
+    "lowpass_columns", "negligible", "nested_errors", "prepare", "rate", "rise", "rotated_rows", "shift_offsets",
     "smooth", "standardised", "tau_grid", "wrapped_part",
 ]

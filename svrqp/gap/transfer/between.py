@@ -67,6 +67,7 @@ Effect floor
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,6 +82,26 @@ RUN_LEVEL_SHARE = 0.05
 
 LEAVE_OUT_ALPHA = 0.05
 """Level at which the relation must hold with its most influential run left out."""
+
+PARAMETRIC_MIN_RUNS = 5
+"""Real runs from which a run-level candidate is tested by :func:`between_run_test` in the transfer
+ranking when no ordering of its run levels can reach Benjamini–Hochberg's first threshold
+(:func:`permutation_floor`): the t-test's size at five to eight runs is measured by
+``benchmarks/gap_run_level_size.py``. With fewer runs the exact permutation stays the test."""
+
+
+def permutation_floor(levels: np.ndarray) -> float:
+    r"""The smallest p-value any permutation of ``levels`` over the runs can give.
+
+    The orderings that leave the levels as they are: :math:`\prod_i n_i! / k!` for :math:`k` runs
+    whose levels take distinct values :math:`n_1, n_2, \dots` times (nine runs at two loads, four
+    and five: :math:`4!\,5!/9! = 1/126`). Two levels count as one within 1e-12 of the largest.
+    """
+    levels = np.sort(np.asarray(levels, dtype=float))
+    tolerance = 1e-12 * (1.0 + float(np.abs(levels).max())) if levels.size else 0.0
+    starts = np.r_[True, np.diff(levels) > tolerance]
+    counts = np.diff(np.r_[np.flatnonzero(starts), levels.size])
+    return float(np.exp(sum(math.lgamma(c + 1) for c in counts) - math.lgamma(levels.size + 1)))
 
 def within_share(x: np.ndarray, groups: np.ndarray) -> float:
     """Share of the variance of ``x`` that lies within runs (1.0 for a constant column)."""

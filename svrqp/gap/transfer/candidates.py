@@ -26,14 +26,15 @@ from svrqp.gap.data import (
     GapData,
     filter_coefficients,
     group_slices,
-    internal_form,
     lag,
     lowpass_columns,
     negligible,
     nested_errors,
     rate,
+    rise,
     standardised,
 )
+from svrqp.gap.data.transforms import RISE
 from svrqp.gap.transfer.between import RunLevelBank, is_run_level, run_level_bank, run_level_columns
 from svrqp.gap.transfer.windows import local_columns
 
@@ -138,7 +139,8 @@ def transform_columns(
     Returns
     -------
     own : ndarray, shape (n, v)
-        ``level``: :math:`x`; ``rate``: :math:`\\dot x`; ``lag``: :math:`\\ell_\\tau` per ``tau``.
+        ``level``: :math:`x`; ``rate``: :math:`\\dot x`; ``rise``: :math:`x - x(t_0)`; ``lag``:
+        :math:`\\ell_\\tau` per ``tau``.
     partner : ndarray, shape (n,) or None
         :math:`x` for ``lag`` of a candidate that is not a model feature, else None.
     """
@@ -147,6 +149,8 @@ def transform_columns(
         return x[:, None], None
     if transform == "rate":
         return rate(x, data.t, data.groups)[:, None], None
+    if transform == RISE:
+        return rise(x, data.groups)[:, None], None
     ell = lag(x, data.t, data.groups, taus)
     return ell, (None if column in data.features else x)
 
@@ -170,7 +174,6 @@ def effect_columns(data: GapData, column: str, transform: str, tau: float | None
         return local_columns(x, region_axis(data, region), np.array([[region["low"], region["high"]]]))[0]
     if evidence == EVIDENCE_BETWEEN:
         return run_level_columns(data.C[:, data.candidates.index(column)], data.t, data.groups)
-    transform, tau = internal_form(transform, tau)  # a reported ``rise`` is the lag at τ = ∞
     own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))
     return own if partner is None else np.column_stack([partner, own])
 

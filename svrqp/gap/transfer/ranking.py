@@ -63,6 +63,17 @@ Exact permutation tests for few runs
     test as the permutation, and it can decide. The column's row keeps its best-transferring
     transform and its numbers.
 
+A t-test between runs where no ordering can decide
+    From :data:`svrqp.gap.transfer.between.PARAMETRIC_MIN_RUNS` real runs on, the orderings are
+    no longer the binding limit on the evidence, only on the permutation test: five runs give
+    120 orderings, and nine runs at two loads only 126 distinct ones
+    (:func:`svrqp.gap.transfer.between.permutation_floor`). When that floor stays above
+    Benjamini–Hochberg's first threshold :math:`\alpha/m`, a run-level cause's p-value is the
+    t-test of :func:`svrqp.gap.transfer.between.between_run_test` instead (the family's residual
+    summarised per run, regressed on the candidate's run level; one run must not carry it), and its
+    note says so. Its size on null run-level records is measured by
+    ``benchmarks/gap_run_level_size.py``.
+
 Effect floor
     A cause is significant only if its transfer gain is at least
     :data:`svrqp.gap.contract.MIN_GAIN`.
@@ -88,9 +99,18 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.contract import ALPHA, MIN_GAIN, MIN_RUNS
-from svrqp.gap.data import GapData, filter_coefficients, group_slices, lag, lowpass_columns, rate
+from svrqp.gap.data import GapData, filter_coefficients, group_slices, lag, lowpass_columns, rate, rise
+from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.records import Effect, Ranked, Ranking, TransferFit
-from svrqp.gap.transfer.between import is_run_level, run_level_columns, varies_within
+from svrqp.gap.transfer.between import (
+    PARAMETRIC_MIN_RUNS,
+    between_run_test,
+    is_run_level,
+    permutation_floor,
+    run_level_bank,
+    run_level_columns,
+    varies_within,
+)
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
 from svrqp.gap.transfer.surrogates import TransferSurrogates
 from svrqp.gap.transfer.windows import (
@@ -104,9 +124,13 @@ from svrqp.gap.transfer.windows import (
     window_axes,
 )
 
-TRANSFORMS = ("level", "rate", "lag", "local")
-"""Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
-``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.transfer.windows`)."""
+TRANSFORMS = ("level", "rate", "lag", "rise", "local")
+"""Transforms refitted for every candidate (a model feature: no ``level`` and no ``rise``, which beside the
+feature would only add its starting level per run; a run-level candidate: ``level`` and ``local`` only;
+``local``: :mod:`svrqp.gap.transfer.windows`)."""
+
+WITHIN_RUNS = ("rate", "lag", RISE)
+"""Transforms that follow a candidate within each run: rotated within runs whatever its run levels do."""
 
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
@@ -129,6 +153,10 @@ RIVAL_FRACTION = 0.5
 
 LAG_BATCH = 20
 """Surrogates whose lags are filtered as one batch."""
+
+PARAMETRIC_NOTE = ("tested between its {runs} run levels by a t-test (svrqp.gap.transfer.between): no ordering "
+                   "of them could reach significance")
+"""The note of a run-level cause whose p-value is the t-test's rather than a permutation's."""
 
 CONDITIONAL_SURROGATES = 99
 """Surrogates of a conditional test."""
@@ -179,17 +207,17 @@ class TransferRanker:
             run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
             moves = varies_within(data.C[:, j], data.groups)
             for transform in TRANSFORMS:
-                if transform == "level" and column in data.features:
+                if transform in ("level", RISE) and column in data.features:
                     continue
-                if run_level and transform in ("rate", "lag") and not moves:
-                    continue  # its rate and lag are zero
+                if run_level and transform in WITHIN_RUNS and not moves:
+                    continue  # its rate, lag and rise are zero
                 if transform == "local":  # untestable when run-level and not permutable (:meth:`untestable_form`)
                     out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
                             for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                within = transform in ("rate", "lag")  # rotated within runs whatever its run levels do
+                within = transform in WITHIN_RUNS  # rotated within runs whatever its run levels do
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
         return out
 
@@ -215,6 +243,9 @@ class TransferRanker:
             variants = [np.array([0])]
         elif effect.transform == "rate":
             own = rate(xk, t, groups)[:, None]
+            variants = [np.array([0])]
+        elif effect.transform == RISE:
+            own = rise(xk, groups)[:, None]
             variants = [np.array([0])]
         elif effect.transform == "local":
             own, variants = local_columns(xk, self.axes[effect.axis][0][known], effect.windows)
@@ -342,6 +373,10 @@ class TransferRanker:
         tested = [r for r in ranked if r.above_floor][:MAX_TESTED]
         sampled = []
         for row in tested:
+            if self.parametric(row.effect, len(ranked)):
+                row.p_raw, row.tested = self.between_p(row.effect), True
+                row.note = row.note or PARAMETRIC_NOTE.format(runs=self.n_real_runs)
+                continue
             orders = self.surrogates.orderings(row.effect)
             if orders is None or row.tested_by is not None:
                 sampled.append(row)
@@ -359,6 +394,30 @@ class TransferRanker:
                 hits[id(row)] += self.draw(test.effect, test.gain, stage)
                 row.p_raw, row.tested = _besag_clifford(hits[id(row)]), True
             self._adjust(ranked)
+
+    @property
+    def n_real_runs(self) -> int:
+        """Real runs (or blocks) of the diagnosis."""
+        return len(group_slices(self.data.groups[self.data.is_real]))
+
+    def parametric(self, effect: Effect, n_columns: int) -> bool:
+        """Whether a run-level effect is tested by the t-test between runs: at least
+        :data:`~svrqp.gap.transfer.between.PARAMETRIC_MIN_RUNS` real runs, whose orderings cannot reach
+        Benjamini–Hochberg's first threshold over ``n_columns`` (ties between run levels included)."""
+        if not effect.run_level or effect.windows is not None or self.n_real_runs < PARAMETRIC_MIN_RUNS:
+            return False
+        return permutation_floor(self.surrogates.run_levels(effect)) > ALPHA / n_columns
+
+    def between_p(self, effect: Effect) -> float:
+        """The p-value of :func:`~svrqp.gap.transfer.between.between_run_test` for a run-level effect: the run
+        summaries of the family's residual on the real rows against the candidate's run levels, given the family's
+        inputs; 1 when the relation rests on one run (not ``robust``)."""
+        data, family, real = self.data, self.family, self.data.is_real
+        residual = family.y - family.A @ np.linalg.lstsq(family.A, family.y, rcond=None)[0]
+        x = data.C[:, data.candidates.index(effect.column)]
+        bank = run_level_bank(effect.column, x[real], data.t[real], data.groups[real])
+        result = between_run_test(residual[real], family.A[real], data.groups[real], bank)
+        return result.p_value if result.robust else 1.0
 
     def _adjust(self, ranked: list[Ranked]) -> None:
         """Benjamini–Hochberg over every column (an untested one counts with p = 1)."""
@@ -432,8 +491,8 @@ class TransferRanker:
         if not ranked or ranked[0].significant:
             return
         best = self.untestable_local(ranked) or (ranked[0] if ranked[0].above_floor else None)
-        if best is None:
-            return
+        if best is None or self.parametric(best.effect, len(ranked)):
+            return  # tested between runs by the t-test: its evidence is not bounded by the orderings
         orders = self.surrogates.orderings(best.effect)
         if orders is None:
             return
