@@ -15,7 +15,9 @@ keeping what the null leaves free:
   design (without the candidate itself, when it is a model feature) leaves :math:`x = A c + u`, and
   a surrogate is :math:`A c + \mathrm{rot}(u)`; in prediction mode the design is the intercept and
   this is the plain rotation. One record cut into blocks is rotated as a whole, lifted at the seam
-  by its end-minus-start change (:func:`svrqp.gap.data.runs.lift_steps`). The local form's surrogates
+  by its end-minus-start change (:func:`svrqp.gap.data.runs.lift_steps`); so is a candidate whose
+  ``rise`` is tested, in every run: a plain rotation of a drifting reading jumps at the seam, and
+  its rise would take a shape no rise since a run's start has. The local form's surrogates
   also exchange run levels (:func:`exchange_run_levels`).
 """
 
@@ -28,12 +30,14 @@ from typing import Protocol
 import numpy as np
 
 from svrqp.gap.data import GapData, group_slices, lift_steps, rotated_rows, shift_offsets, wrapped_part
+from svrqp.gap.data.transforms import RISE
 
 
 class Effect(Protocol):
     """What a surrogate needs of a candidate × transform (:class:`svrqp.gap.results.records.Effect`)."""
 
     column: str
+    transform: str
     run_level: bool
     windows: np.ndarray | None
 
@@ -99,7 +103,10 @@ class TransferSurrogates:
         own = x[known] - explained
         offsets = shift_offsets(groups, count, rng, own)
         index = rotated_rows(groups, offsets)
-        lifted = wrapped_part(index, groups) * lift_steps(own, groups) if self.lift else None
+        # A rise starts at 0 and drifts: rotated plainly it would jump at the seam, a shape no real
+        # rise has, so its rotations are lifted there too (the rise of the rotated increments).
+        lift = self.lift or effect.transform == RISE
+        lifted = wrapped_part(index, groups) * lift_steps(own, groups) if lift else None
         for i, rows in enumerate(index):
             xs = x.copy()
             xs[known] = explained + (own[rows] if lifted is None else own[rows] + lifted[i])
