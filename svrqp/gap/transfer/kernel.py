@@ -10,12 +10,12 @@ all rows (the units of :mod:`svrqp.gap.transfer.linear`),
     \mathrm{RMSE}_\mathrm{after} = \sqrt{\overline{(y_u - g_{-u}([X, E_{\hat\tau_{-u}}]_u))^2}},
 
 averaged over the real rows of every unit :math:`u`, where :math:`f_{-u}` and :math:`g_{-u}`
-are the baseline's estimator (:func:`svrqp.gap.model.baseline.make_model`: the features and the
+are the baseline's estimator (:func:`svrqp.gap.model.make_model`: the features and the
 target standardised on the fit's own rows, an RBF kernel) fitted on every row outside :math:`u`
 — for :math:`g`, on those where the effect is recorded. The hyper-parameters stay those of the
 baseline: :math:`C` and :math:`\varepsilon` (in the fit's target standard deviations) as
-documented in :mod:`svrqp.gap.model.baseline`, and :math:`\gamma` the number the baseline resolved on
-its train rows (:attr:`svrqp.gap.model.baseline.Baseline.gamma`), also for the added standardised
+documented in :mod:`svrqp.gap.model`, and :math:`\gamma` the number the baseline resolved on
+its train rows (:attr:`svrqp.gap.model.Baseline.gamma`), also for the added standardised
 effect columns. The effect's columns :math:`E` are those of the linear screen
 (:meth:`svrqp.gap.transfer.ranking.TransferRanker.columns`); for ``lag`` the time constant
 :math:`\hat\tau_{-u}` is the one the linear family chose inside the same fit's rows
@@ -42,7 +42,7 @@ import numpy as np
 
 from svrqp.gap.contract import LINEAR
 from svrqp.gap.data import GapData
-from svrqp.gap.model.baseline import Baseline, fit_predict
+from svrqp.gap.model import Baseline, fit_predict
 from svrqp.gap.results.records import Ranking, TransferFit, Units
 from svrqp.gap.transfer.ranking import TransferRanker
 

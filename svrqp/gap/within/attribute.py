@@ -2,7 +2,7 @@ r"""Which candidate, in which transform, carries information about the real-row 
 
 For a candidate :math:`c` and transform :math:`t` (:mod:`svrqp.gap.transfer.candidates`) the
 discrepancy model of :mod:`svrqp.gap.data.discrepancy` adds the columns :math:`Z_{c,t}` to the base
-:math:`B` (offsets and the model's own inputs, :func:`svrqp.gap.model.recalibration.base_design`). Its gain
+:math:`B` (offsets and the model's own inputs, :func:`svrqp.gap.model.base_design`). Its gain
 is the relative drop of the out-of-sample squared error, blocked by group,
 
 .. math::

@@ -22,8 +22,7 @@ import numpy as np
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
 from svrqp.gap.data import GapData
 from svrqp.gap.detect import gate, noise_pvalue
-from svrqp.gap.model.baseline import Baseline, refit_shrink
-from svrqp.gap.model.recalibration import offsets_text
+from svrqp.gap.model import Baseline, offsets_text, refit_shrink
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
 from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.transfer.windows import region_text

@@ -145,8 +145,8 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
 
     from svrqp.gap.data.prepare import prepare
     from svrqp.gap.data.runs import blocked_folds
-    from svrqp.gap.model.baseline import fit_baseline
-    from svrqp.gap.model.recalibration import base_design
+    from svrqp.gap.model import fit_baseline
+    from svrqp.gap.model import base_design
 
     data = prepare(air_lag_problem(), GapQuestion(**ARGS))
     baseline = fit_baseline(data, "mlr")
