@@ -58,8 +58,7 @@ from svrqp.gap.transfer.linear import (
     transfer_units,
 )
 from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
-from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, evidence_within
-from svrqp.gap.within.surrogate_tests import check_surrogates
+from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, check_surrogates, evidence_within
 from svrqp.gap.words.report import GapReport
 from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
 from svrqp.metrics import rms

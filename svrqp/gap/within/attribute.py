@@ -58,13 +58,14 @@ from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN, N_BOOTSTRAP
 from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, block_bootstrap, block_length
 from svrqp.gap.results.records import BaseFit
 from svrqp.gap.transfer.between import RunLevelBank
-from svrqp.gap.transfer.candidates import Bank, build_banks
 from svrqp.gap.within.surrogate_tests import (
     MAX_SURROGATES,
     SURROGATE_KINDS,
+    Bank,
     BetweenRunTest,
     SurrogateTest,
     TestOutcome,
+    build_banks,
     check_surrogates,
     run_tests,
 )

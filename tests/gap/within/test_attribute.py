@@ -28,8 +28,7 @@ from svrqp.gap.data.transforms import tau_grid
 from svrqp.gap.diagnose import diagnose
 from svrqp.gap.model import base_design, fit_baseline
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.transfer.candidates import CandidateBank, build_banks
-from svrqp.gap.within.surrogate_tests import SurrogateTest, run_tests
+from svrqp.gap.within.surrogate_tests import CandidateBank, SurrogateTest, build_banks, run_tests
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}
 
