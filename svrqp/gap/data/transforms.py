@@ -37,9 +37,6 @@ from scipy.signal import lfilter, savgol_filter
 
 from svrqp.exceptions import ProblemError
 
-TRANSFORMS = ("level", "rate", "lag")
-"""Names of the transforms, in the order they are reported."""
-
 N_TAU = 8
 """Number of time constants on the grid searched for the ``lag`` transform."""
 
@@ -125,6 +122,19 @@ def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
     for rows in group_slices(group_codes):
         out[rows] = np.gradient(x[rows], t[rows], axis=0)
     return out
+
+
+DYNAMIC = {"rate": rate}
+"""The one-column transforms of a candidate's dynamics within a run, by name: each computed along the
+order axis and restarted at each group, as ``f(x, t, group_codes)`` → one value per row. A new
+transform of this kind is its function in this module and its entry here; the transfer ranking,
+the verdict's refit and the within-real-rows banks read it from this table."""
+
+WITHIN_RUN = (*DYNAMIC, "lag")
+"""The transforms that vary within a run whatever the candidate's run levels do (rotated within runs)."""
+
+TRANSFORMS = ("level", *DYNAMIC, "lag")
+"""Names of the transforms, in the order they are refitted and reported."""
 
 
 def filter_coefficients(t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from svrqp.gap.contract import EVIDENCE_BETWEEN, MIN_RUNS
-from svrqp.gap.data import GapData, group_slices, lag, negligible, rate
+from svrqp.gap.data import DYNAMIC, GapData, group_slices, lag, negligible
 from svrqp.gap.transfer.between import is_run_level, run_level_columns
 from svrqp.gap.transfer.windows import local_columns
 
@@ -40,8 +40,8 @@ def transform_columns(
     x = data.C[:, data.candidates.index(column)]
     if transform == "level":
         return x[:, None], None
-    if transform == "rate":
-        return rate(x, data.t, data.groups)[:, None], None
+    if transform in DYNAMIC:
+        return DYNAMIC[transform](x, data.t, data.groups)[:, None], None
     ell = lag(x, data.t, data.groups, taus)
     return ell, (None if column in data.features else x)
 

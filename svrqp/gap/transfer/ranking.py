@@ -88,7 +88,16 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.contract import ALPHA, MIN_GAIN, MIN_RUNS
-from svrqp.gap.data import GapData, filter_coefficients, group_slices, lag, lowpass_columns, rate
+from svrqp.gap.data import (
+    DYNAMIC,
+    TRANSFORMS as CANDIDATE_TRANSFORMS,
+    WITHIN_RUN,
+    GapData,
+    filter_coefficients,
+    group_slices,
+    lag,
+    lowpass_columns,
+)
 from svrqp.gap.results.records import Effect, Ranked, Ranking, TransferFit
 from svrqp.gap.transfer.between import is_run_level, run_level_columns, varies_within
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
@@ -104,7 +113,7 @@ from svrqp.gap.transfer.windows import (
     window_axes,
 )
 
-TRANSFORMS = ("level", "rate", "lag", "local")
+TRANSFORMS = (*CANDIDATE_TRANSFORMS, "local")
 """Transforms refitted for every candidate (a model feature: no ``level``; a run-level candidate:
 ``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.transfer.windows`)."""
 
@@ -181,7 +190,7 @@ class TransferRanker:
             for transform in TRANSFORMS:
                 if transform == "level" and column in data.features:
                     continue
-                if run_level and transform in ("rate", "lag") and not moves:
+                if run_level and transform in WITHIN_RUN and not moves:
                     continue  # its rate and lag are zero
                 if transform == "local":  # untestable when run-level and not permutable (:meth:`untestable_form`)
                     out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
@@ -189,7 +198,7 @@ class TransferRanker:
                     continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                within = transform in ("rate", "lag")  # rotated within runs whatever its run levels do
+                within = transform in WITHIN_RUN  # rotated within runs whatever its run levels do
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
         return out
 
@@ -213,8 +222,8 @@ class TransferRanker:
         elif effect.transform == "level":
             own = xk[:, None]
             variants = [np.array([0])]
-        elif effect.transform == "rate":
-            own = rate(xk, t, groups)[:, None]
+        elif effect.transform in DYNAMIC:
+            own = DYNAMIC[effect.transform](xk, t, groups)[:, None]
             variants = [np.array([0])]
         elif effect.transform == "local":
             own, variants = local_columns(xk, self.axes[effect.axis][0][known], effect.windows)

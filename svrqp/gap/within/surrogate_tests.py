@@ -36,6 +36,7 @@ from joblib import Parallel, delayed
 from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import EVIDENCE_WITHIN, MIN_RUNS
 from svrqp.gap.data import (
+    DYNAMIC,
     CrossValidatedDiscrepancy,
     GapData,
     filter_coefficients,
@@ -43,7 +44,6 @@ from svrqp.gap.data import (
     lowpass_columns,
     negligible,
     nested_errors,
-    rate,
     rotated_rows,
     shift_offsets,
     standardised,
@@ -420,7 +420,8 @@ def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
         partner = None if column in data.features else standardised(x[:, None])[0][:, 0]
         if column not in data.features:
             banks.append(CandidateBank(column, "level", None, partner[:, None]))
-        banks.append(CandidateBank(column, "rate", None, standardised(rate(x, data.t[real], groups)[:, None])[0]))
+        for name, dynamic in DYNAMIC.items():
+            banks.append(CandidateBank(column, name, None, standardised(dynamic(x, data.t[real], groups)[:, None])[0]))
         # The lag restarts at each real group's first row, exactly as its surrogates do.
         recipe = LagRecipe.of(x, data.t[real], groups, taus)
         banks.append(CandidateBank(column, "lag", taus, recipe.own(x[:, None])[:, 0, :], partner, recipe))
