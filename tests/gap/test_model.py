@@ -11,12 +11,11 @@ from support.gap_problems import CANDIDATES, air_lag_problem
 
 from svrqp import datasets
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.data.runs import blocked_folds
 from svrqp.gap.data.transforms import smooth
-from svrqp.gap.diagnose import diagnose
 from svrqp.gap.model import LSSVR_C, SVR_C, SVR_EPSILON, fit_baseline
-from svrqp.gap.question import GapQuestion
 
 
 # -- the baseline ----------------------------------------------------------------------------------

@@ -6,9 +6,8 @@ import pytest
 from support.gap_problems import CANDIDATES, null_problem
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.data.prepare import prepare
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
             "order": "time_min", "group": "run"}

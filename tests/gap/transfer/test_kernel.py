@@ -13,10 +13,8 @@ import pandas as pd
 import pytest
 from sklearn.svm import SVR
 
-from svrqp.gap.diagnose import diagnose
+from svrqp.gap import GapQuestion, diagnose, load_schema
 from svrqp.gap.model import LSSVR_C, SVR_C, SVR_EPSILON
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.document import load_schema
 from svrqp.gap.transfer.kernel import KERNEL_CAUSES, MIN_KERNEL_ROWS
 
 

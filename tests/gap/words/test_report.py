@@ -13,9 +13,8 @@ import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.document import _finite, load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
+from svrqp.gap.results.document import _finite
 from svrqp.gap.words.report import _num, share_text
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
