@@ -10,9 +10,11 @@ Model kinds (``--model``), fitted on the train rows only:
     :class:`svrqp.estimators.kernel.EpsilonSVR` with an RBF kernel on standardised features and a
     standardised target: ``C = 10``, ``epsilon = 0.05`` (in target standard deviations),
     ``gamma="scale"`` (:math:`1/p` for :math:`p` unit-variance features), solved exactly by
-    svrqp's interior point and crossover (``solver="dual_ipm"``): the baseline is refitted once
-    per cross-validation fold and once more with the effect, so the fast exact path matters
-    (3,012 train rows: 5 s for the whole diagnosis against 59 s through Clarabel).
+    svrqp's default exact path and its fallback (``solver="auto"``: SMO and crossover, else the
+    interior point and crossover, every answer certified): the baseline is refitted once per
+    cross-validation fold and once more with the effect, so the fast exact path matters. A
+    same-family transfer refit that still fails its certificate is reported and replaced by the
+    linear family's numbers (:mod:`svrqp.gap.transfer.kernel`); it never aborts the diagnosis.
 ``lssvr``
     :class:`svrqp.estimators.kernel.LSSVR` with an RBF kernel on standardised features and target:
     ``C = 10``, ``gamma="scale"``.
@@ -116,7 +118,7 @@ def make_model(kind: str, gamma: float | str = "scale") -> RegressorMixin:
     if kind == "mlr":
         return LinearLS(rank_deficient="lstsq")
     if kind == "svr":
-        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma=gamma, solver="dual_ipm")
+        core = EpsilonSVR(C=SVR_C, epsilon=SVR_EPSILON, gamma=gamma, solver="auto")
     elif kind == "lssvr":
         core = LSSVR(C=LSSVR_C, gamma=gamma)
     else:
