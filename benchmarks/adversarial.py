@@ -38,8 +38,8 @@ from sklearn.svm import SVR
 import adversarial_documents  # the tampered-file family, beside this script
 
 from svrqp import LSSVR, EpsilonSVR
-from svrqp.estimators import LinearLS, RecursiveLS
 from svrqp.exceptions import SvrqpError
+from svrqp.estimators import LinearLS, RecursiveLS
 from svrqp.query import QueryError, select_rows
 from svrqp.solvers import available_backends
 

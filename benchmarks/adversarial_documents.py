@@ -42,11 +42,11 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from svrqp import EpsilonSVR, Guarded
-from svrqp.estimators import LinearLS, PolynomialLS
 from svrqp.exceptions import SvrqpError
 from svrqp.export import build_document, content_sha256, evaluate, read_document, verify
 from svrqp.export.c_source import c_source
 from svrqp.export.guarded import predict_guarded
+from svrqp.estimators import LinearLS, PolynomialLS
 
 OUTCOMES = ("documented error", "right answer", "silent wrong", "crash")
 

@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from svrqp import LSSVR, __version__
-from svrqp.datasets.build import miao2013
 from svrqp.export import build_document, write
+from svrqp.datasets.build import miao2013
 
 N_SUPPORT = 56
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -53,9 +53,8 @@ import pandas as pd
 
 from svrqp import datasets
 from svrqp.estimators import LinearLS
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.words.report import GapReport, markdown_table
+from svrqp.gap import GapQuestion, GapReport, diagnose
+from svrqp.gap.words.report import markdown_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import (  # noqa: E402  benchmarks/ is not a package: imported from its folder

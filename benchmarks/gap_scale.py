@@ -34,8 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gap_suite as gs  # benchmarks/ is not a package: imported from its folder
 
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
+from svrqp.gap import GapQuestion, diagnose
 
 RESULTS = Path(__file__).resolve().parent / "results"
 CASES = {"short": (5, 480.0, 0), "half day": (10, 720.0, 8), "day": (10, 1440.0, 24)}

@@ -60,8 +60,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 import svrqp
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
+from svrqp.gap import GapQuestion, diagnose
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from transfer_oracle import as_well_as_truth, best_shrink, lstsq_predict

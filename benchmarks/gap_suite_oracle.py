@@ -18,7 +18,7 @@ import pandas as pd
 
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.diagnose import diagnose
-from svrqp.gap.model.baseline import LSSVR_C, fit_baseline
+from svrqp.gap.model import LSSVR_C, fit_baseline
 from svrqp.gap.question import GapQuestion
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -38,9 +38,9 @@ from sklearn.preprocessing import StandardScaler  # noqa: E402
 
 import svrqp  # noqa: E402
 from svrqp import LSSVR, EpsilonSVR, ExtrapolationWarning, Guarded, datasets  # noqa: E402
-from svrqp.datasets.build import miao2013  # noqa: E402
-from svrqp.estimators import LinearLS  # noqa: E402
 from svrqp.guard.figures import draw_guard, interval_columns  # noqa: E402
+from svrqp.estimators import LinearLS  # noqa: E402
+from svrqp.datasets.build import miao2013  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "fl_thermal" / "data.csv"

@@ -22,12 +22,12 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.svm import LinearSVR
 from threadpoolctl import threadpool_limits
 
+from svrqp.solvers import dual_ipm
 from svrqp.bench.cases import make_case
 from svrqp.bench.outcomes import beta_certificates
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.exceptions import SolverError
 from svrqp.formulations import epsilon_svr
-from svrqp.solvers import dual_ipm
 from svrqp.solvers import solve_qp
 
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -31,14 +31,14 @@ import pandas as pd
 from sklearn.svm import SVR
 from threadpoolctl import threadpool_limits
 
+from svrqp.solvers import dual_ipm
 from svrqp.bench.cases import GENERATORS, resolve_gamma
 from svrqp.bench.report import machine_info, machine_sentence, markdown_table, package_versions
 from svrqp.formulations.epsilon_svr import dual_objective
 from svrqp.formulations.low_rank import objective_error_bound, pivot_coefficients
-from svrqp.kernels import gram
-from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
-from svrqp.solvers import dual_ipm
+from svrqp.linalg.kernel_columns import KernelColumns
+from svrqp.kernels import gram
 
 RESULTS = Path(__file__).resolve().parent / "results"
 C, EPSILON = 10.0, 0.1

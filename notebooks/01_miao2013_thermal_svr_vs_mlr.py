@@ -40,8 +40,8 @@ from sklearn.svm import SVR
 
 from svrqp import EpsilonSVR, datasets, tuning
 from svrqp.compensate import residual_metrics
-from svrqp.estimators import LinearLS
 from svrqp.formulations import epsilon_svr, least_squares
+from svrqp.estimators import LinearLS
 from svrqp.problems import LinearSystem
 from svrqp.solvers import solve_linear_system
 

@@ -41,10 +41,10 @@ from sklearn.model_selection import KFold
 from sklearn.svm import SVR
 
 from svrqp import EpsilonSVR, datasets, tuning
-from svrqp.datasets.build import ZHOU_AXIS
-from svrqp.estimators import PolynomialLS
 from svrqp.formulations import epsilon_svr, least_squares, nine_line
 from svrqp.kernels import gamma_from_sigma_s0
+from svrqp.estimators import PolynomialLS
+from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.machine.geometry import effect_components, measure_nine_line
 from svrqp.problems import LinearSystem
 from svrqp.solvers import solve_linear_system

@@ -40,9 +40,8 @@ import numpy as np
 import pandas as pd
 
 from svrqp import datasets
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.estimators import LinearLS
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
 
 # svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
 # %matplotlib inline

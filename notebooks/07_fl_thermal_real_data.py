@@ -38,9 +38,8 @@ from threadpoolctl import threadpool_limits
 
 from svrqp import EpsilonSVR, LSSVR, datasets, tuning
 from svrqp.compensate import residual_metrics
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.estimators import LinearLS
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
 
 # svrqp.gap draws its report figures with the Agg backend; plots here are shown inline.
 # %matplotlib inline

@@ -22,9 +22,9 @@ import numpy as np
 from svrqp import datasets
 from svrqp.demo import figures, steps
 from svrqp.demo.report import SIMULATED_NOTE, report_html
-from svrqp.estimators.linear import LinearLS
 from svrqp.export import build_document, verify, write
 from svrqp.kernels import gamma_from_sigma_s4
+from svrqp.estimators.linear import LinearLS
 
 Progress = Callable[[str, float], None]
 

@@ -28,17 +28,16 @@ import pandas as pd
 from sklearn.model_selection import LeaveOneOut
 
 from svrqp.compensate import CompensatedRun, compensate_recorded_run, improvement_percent, residual_metrics
-from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.estimators.kernel import DUAL_IPM, LSSVR, EpsilonSVR
-from svrqp.estimators.linear import LinearLS, PolynomialLS
 from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.words.report import GapReport
 from svrqp.guard import Guarded
 from svrqp.guard.figures import interval_columns
 from svrqp.kernels import gamma_from_sigma_s0, gamma_from_sigma_s4
+from svrqp.estimators.linear import LinearLS, PolynomialLS
+from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.machine.geometry import effect_components, measure_nine_line
 from svrqp.tuning import Execution, SearchResult, grid_search
 

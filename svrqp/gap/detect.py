@@ -5,7 +5,7 @@ r"""Steps 2 and 3: is there a gap beyond chance (the gate), and where does the e
 Excess error
     The mean squared residual on the real rows, :math:`s_r^2`, against the out-of-sample
     mean squared residual on the train rows, :math:`s_t^2` (the error to expect where
-    nothing is missing, :mod:`svrqp.gap.model.baseline`). Under "no gap" their ratio is
+    nothing is missing, :mod:`svrqp.gap.model`). Under "no gap" their ratio is
     F-distributed; because the rows are autocorrelated, each sample counts with its
     effective size (Bartlett's AR(1) correction)
 

@@ -1,7 +1,7 @@
 """``diagnose``: the sim-to-real gap diagnosis, step by step.
 
 1. **Honest residuals** — fit the baseline on the train rows or read the prediction
-   (:mod:`svrqp.gap.model.baseline`); the real rows are the others.
+   (:mod:`svrqp.gap.model`); the real rows are the others.
 2. **Gate** — one-sided: the real rows must fit worse than the train rows (both out of
    sample) and beyond chance (:mod:`svrqp.gap.detect`). No gap, no culprit: candidates that
    would improve the model everywhere may be listed in the reason, none is named.
@@ -29,7 +29,7 @@
 6. **Report** — :class:`svrqp.gap.words.report.GapReport`: a summary of at most two sentences with
    the transfer shrink (leading with extrapolation when a model input is used outside its train
    range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
-   model input and candidate against its train range (:mod:`svrqp.gap.model.recalibration`).
+   model input and candidate against its train range (:mod:`svrqp.gap.model`).
 """
 
 from __future__ import annotations
@@ -45,8 +45,7 @@ from svrqp.exceptions import ProblemError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
 from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
 from svrqp.gap.detect import gap_detected, gate, localise, region_of
-from svrqp.gap.model.baseline import Baseline, fit_baseline
-from svrqp.gap.model.recalibration import base_design, base_fit, input_use, offset_columns
+from svrqp.gap.model import Baseline, base_design, base_fit, fit_baseline, input_use, offset_columns
 from svrqp.gap.question import GapQuestion
 from svrqp.gap.results.records import Cause, GateResult, Ranking, Series, Units, Verdict
 from svrqp.gap.transfer.candidates import constant_on_real_rows, region_axis, untestable_between_runs
@@ -59,8 +58,7 @@ from svrqp.gap.transfer.linear import (
     transfer_units,
 )
 from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
-from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, evidence_within
-from svrqp.gap.within.surrogate_tests import check_surrogates
+from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, check_surrogates, evidence_within
 from svrqp.gap.words.report import GapReport
 from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
 from svrqp.metrics import rms
@@ -219,6 +217,7 @@ def _report(question: GapQuestion, where: list, findings: _Findings, text: str, 
         n_real=int(data.is_real.sum()),
         n_dropped=data.n_dropped,
         n_dropped_short_groups=data.n_dropped_short_groups,
+        order_sorted=data.order_sorted,
         gap=context.gap,
         gap_detected=context.detected,
         where=where,

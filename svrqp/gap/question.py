@@ -33,7 +33,7 @@ class GapQuestion:
     group : str, optional
         Run/batch column; transforms restart and cross-validation is blocked per group.
     model : {"mlr", "svr", "lssvr"}
-        Baseline model family (features mode; :mod:`svrqp.gap.model.baseline`).
+        Baseline model family (features mode; :mod:`svrqp.gap.model`).
     local : bool
         Also refit every candidate in the ``local`` form, acting in one window of the
         ``order`` axis only (:mod:`svrqp.gap.transfer.windows`), and name that window with a verdict.

@@ -13,9 +13,9 @@ import pandas as pd
 import pytest
 from support.benchmark_modules import load_benchmark
 
+from svrqp.gap import GapQuestion
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.data.transforms import group_slices
-from svrqp.gap.question import GapQuestion
 from svrqp.gap.results.records import Units
 from svrqp.gap.transfer.linear import LinearTransfer
 from svrqp.gap.transfer.ranking import TransferRanker

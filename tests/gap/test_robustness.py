@@ -21,9 +21,7 @@ import pandas as pd
 import pytest
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.document import load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
 
 
 def awkward_case(seed: int) -> tuple[pd.DataFrame, dict, dict]:

@@ -14,6 +14,9 @@ from svrqp.gap.data.runs import (
     wrapped_part,
 )
 from svrqp.gap.data.transforms import (
+    DYNAMIC,
+    TRANSFORMS,
+    WITHIN_RUN,
     filter_coefficients,
     group_slices,
     lag,
@@ -27,8 +30,8 @@ from svrqp.gap.data.transforms import (
 )
 
 __all__ = [
-    "CrossValidatedDiscrepancy", "GapData", "block_bootstrap", "block_length", "blocked_folds",
-    "filter_coefficients", "group_slices", "holds_out_groups", "lag", "lag1_autocorrelation", "lift_steps",
-    "lowpass_columns", "negligible", "nested_errors", "prepare", "rate", "rise", "rotated_rows", "shift_offsets",
-    "smooth", "standardised", "tau_grid", "wrapped_part",
+    "CrossValidatedDiscrepancy", "DYNAMIC", "GapData", "TRANSFORMS", "WITHIN_RUN", "block_bootstrap",
+    "block_length", "blocked_folds", "filter_coefficients", "group_slices", "holds_out_groups", "lag",
+    "lag1_autocorrelation", "lift_steps", "lowpass_columns", "negligible", "nested_errors", "prepare",
+    "rate", "rise", "rotated_rows", "shift_offsets", "smooth", "standardised", "tau_grid", "wrapped_part",
 ]

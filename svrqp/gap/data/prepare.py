@@ -17,7 +17,9 @@ Handling of awkward input (documented contract):
 * without ``order`` the row position within the group is the order axis (``"row"``);
   without ``group`` all rows form one group.
 
-Rows are returned sorted by group (in order of first appearance) and by order within a group.
+Rows are returned sorted by group (in order of first appearance) and by order within a group; a
+group whose rows do not come in increasing ``order`` is sorted along it, and named
+(``order_sorted`` in the JSON): a stated fallback, since a file may list a run backwards.
 """
 
 from __future__ import annotations
@@ -77,6 +79,8 @@ class GapData:
         Rows dropped for missing or non-finite values.
     n_dropped_short_groups : int
         Rows dropped because their group (or its real part) had fewer than :data:`MIN_GROUP_ROWS` rows.
+    order_sorted : list of str
+        Groups whose rows did not come in increasing order and were sorted along it.
     """
 
     target: str
@@ -96,6 +100,7 @@ class GapData:
     row_index: np.ndarray
     n_dropped: int
     n_dropped_short_groups: int
+    order_sorted: list[str] = field(default_factory=list)
     along: dict[str, np.ndarray] = field(default_factory=dict)
     """Values of the ``local_along`` columns (:class:`svrqp.gap.question.GapQuestion`) on the rows."""
 
@@ -158,6 +163,7 @@ def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
     codes, group_labels, long_enough = _group_codes(table, question.group, is_train)
     table, codes, is_train = table.loc[long_enough], codes[long_enough], is_train[long_enough]
     t_raw = _order_values(table, question.order, codes, len(group_labels))
+    order_sorted = _unsorted_groups(codes, t_raw, group_labels)
     sort = np.lexsort((t_raw, codes))
     codes, t_raw, is_train = codes[sort], t_raw[sort], is_train[sort]
     table = table.iloc[sort]
@@ -183,6 +189,7 @@ def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
         row_index=table.index.to_numpy(),
         n_dropped=int((~keep).sum()),
         n_dropped_short_groups=int((~long_enough).sum()),
+        order_sorted=order_sorted,
         along={name: table[name].astype(float).to_numpy() for name in along},
     )
 
@@ -275,6 +282,14 @@ def _order_values(table: pd.DataFrame, order: str | None, codes: np.ndarray, n_g
         rows = codes == g
         t_raw[rows] = np.arange(rows.sum(), dtype=float)
     return t_raw
+
+
+def _unsorted_groups(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[str]) -> list[str]:
+    """Labels of the groups whose rows, as given, do not come in increasing order."""
+    by_group = np.argsort(codes, kind="stable")  # each group's rows in the order given
+    c, t = codes[by_group], t_raw[by_group]
+    falls = (c[1:] == c[:-1]) & (np.diff(t) < 0)
+    return [group_labels[g] for g in np.unique(c[1:][falls])]
 
 
 def _check_order(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[str], question: GapQuestion) -> None:

@@ -48,12 +48,6 @@ from scipy.signal import lfilter, savgol_filter
 
 from svrqp.exceptions import ProblemError
 
-TRANSFORMS = ("level", "rate", "lag", "rise")
-"""Names of the transforms, in the order they are reported."""
-
-RISE = "rise"
-"""The rise since the run's start (:func:`rise`)."""
-
 N_TAU = 8
 """Number of time constants on the grid searched for the ``lag`` transform."""
 
@@ -141,13 +135,31 @@ def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
     return out
 
 
-def rise(x: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
-    """The rise since each group's first row, :math:`x(t) - x(t_0)` (shape of ``x``; rows sorted by group)."""
+def rise(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
+    """The rise since each group's first row, :math:`x(t) - x(t_0)` (shape of ``x``; rows sorted by group;
+    ``t`` is not needed: the order only decides which row is first)."""
     x = np.asarray(x, dtype=float)
     out = np.empty_like(x)
     for rows in group_slices(group_codes):
         out[rows] = x[rows] - x[rows.start]
     return out
+
+
+DYNAMIC = {"rate": rate, "rise": rise}
+"""The one-column transforms of a candidate's dynamics within a run, by name: each computed along the
+order axis and restarted at each group, as ``f(x, t, group_codes)`` → one value per row. A new
+transform of this kind is its function in this module and its entry here; the transfer ranking,
+the verdict's refit and the within-real-rows banks read it from this table."""
+
+WITHIN_RUN = (*DYNAMIC, "lag")
+"""The transforms that vary within a run whatever the candidate's run levels do (rotated within runs)."""
+
+TRANSFORMS = ("level", *DYNAMIC, "lag")
+"""Names of the transforms, in the order they are refitted and reported."""
+
+RISE = "rise"
+"""The rise since the run's start (:func:`rise`): not offered for a model feature, beside which it adds
+only the feature's starting level per run."""
 
 
 def filter_coefficients(t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:

@@ -132,6 +132,7 @@ class GapResult:
     settings: dict[str, Any]
     runtime_s: float
     series: Series = field(repr=False)
+    order_sorted: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """The ``svrqp.gap/2`` document as plain Python (validated against the schema)."""
@@ -157,6 +158,7 @@ class GapResult:
             "n_real": self.n_real,
             "n_dropped": self.n_dropped,
             "n_dropped_short_groups": self.n_dropped_short_groups,
+            "order_sorted": list(self.order_sorted),
             "gap": gap,
             "where": [asdict(r) for r in self.where],
             "causes": [asdict(c) for c in self.causes],

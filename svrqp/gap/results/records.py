@@ -52,7 +52,7 @@ class Effect:
         """Columns added plus a fitted time constant or window bounds."""
         if self.block:
             return 2 * PROFILE_DEGREE + 1
-        return {"level": 1, "rate": 1, "rise": 1, "lag": 3, "local": 4}[self.transform]
+        return {"lag": 3, "local": 4}.get(self.transform, 1)  # level and the one-column dynamics: 1
 
 
 @dataclass

@@ -10,12 +10,12 @@ all rows (the units of :mod:`svrqp.gap.transfer.linear`),
     \mathrm{RMSE}_\mathrm{after} = \sqrt{\overline{(y_u - g_{-u}([X, E_{\hat\tau_{-u}}]_u))^2}},
 
 averaged over the real rows of every unit :math:`u`, where :math:`f_{-u}` and :math:`g_{-u}`
-are the baseline's estimator (:func:`svrqp.gap.model.baseline.make_model`: the features and the
+are the baseline's estimator (:func:`svrqp.gap.model.make_model`: the features and the
 target standardised on the fit's own rows, an RBF kernel) fitted on every row outside :math:`u`
 — for :math:`g`, on those where the effect is recorded. The hyper-parameters stay those of the
 baseline: :math:`C` and :math:`\varepsilon` (in the fit's target standard deviations) as
-documented in :mod:`svrqp.gap.model.baseline`, and :math:`\gamma` the number the baseline resolved on
-its train rows (:attr:`svrqp.gap.model.baseline.Baseline.gamma`), also for the added standardised
+documented in :mod:`svrqp.gap.model`, and :math:`\gamma` the number the baseline resolved on
+its train rows (:attr:`svrqp.gap.model.Baseline.gamma`), also for the added standardised
 effect columns. The effect's columns :math:`E` are those of the linear screen
 (:meth:`svrqp.gap.transfer.ranking.TransferRanker.columns`); for ``lag`` the time constant
 :math:`\hat\tau_{-u}` is the one the linear family chose inside the same fit's rows
@@ -27,6 +27,12 @@ Screening stays linear
     (:mod:`svrqp.gap.transfer.ranking`). The kernel refits quantify the same-input refit and the
     :data:`KERNEL_CAUSES` best-ranked causes plus the verdict candidate; the report says which
     family each number comes from (``family``, ``screened_by``).
+
+A failed refit
+    A kernel refit whose solver cannot certify its answer (:class:`svrqp.exceptions.SolverError`,
+    after the default path's own fallback) never aborts the diagnosis: the same-input refit's
+    failure makes every number the linear family's, a cause's makes that cause's, and the JSON
+    (``transfer.family_note`` or the cause's ``note``) and the reason say which refit failed and why.
 
 Too few rows
     A fit on fewer than :data:`MIN_KERNEL_ROWS` rows is not made (an RBF model on a handful of
@@ -40,9 +46,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from svrqp.exceptions import SolverError
 from svrqp.gap.contract import LINEAR
 from svrqp.gap.data import GapData
-from svrqp.gap.model.baseline import Baseline, fit_predict
+from svrqp.gap.model import Baseline, fit_predict
 from svrqp.gap.results.records import Ranking, TransferFit, Units
 from svrqp.gap.transfer.ranking import TransferRanker
 
@@ -159,7 +166,13 @@ def same_family_errors(data: GapData, baseline: Baseline, units: Units, ranker: 
     if baseline.kind not in ("svr", "lssvr"):
         return FamilyErrors(LINEAR, linear, linear)
     kernel = KernelTransfer(baseline.kind, baseline.gamma, data.X, data.y, units, data.is_real)
-    refit = kernel.refit()
+    try:
+        refit = kernel.refit()
+    except SolverError as err:
+        why = (str(err) or type(err).__name__).splitlines()[0][:160]
+        note = (f"a leave-one-unit-out refit of the {baseline.kind} failed ({why}), so every transfer number comes "
+                "from the linear family")
+        return FamilyErrors(LINEAR, linear, linear, note=note)
     if refit is None:
         note = (f"a leave-one-unit-out refit of the {baseline.kind} would rest on fewer than {MIN_KERNEL_ROWS} rows, "
                 "so every transfer number comes from the linear family")
@@ -170,7 +183,12 @@ def same_family_errors(data: GapData, baseline: Baseline, units: Units, ranker: 
     after, kept_linear = {}, {}
     for row in rows:
         E, variants, known = ranker.columns(row.effect)
-        fit = kernel.errors(E, variants, row.fit.variant, known)
+        try:
+            fit = kernel.errors(E, variants, row.fit.variant, known)
+        except SolverError as err:
+            why = (str(err) or type(err).__name__).splitlines()[0][:160]
+            kept_linear[row.effect.column] = f"its {baseline.kind} refit failed ({why}): linear-family numbers"
+            continue
         if fit is None:
             kept_linear[row.effect.column] = (f"recorded on too few rows for a {baseline.kind} refit without a "
                                               f"held-out unit (fewer than {MIN_KERNEL_ROWS}): linear-family numbers")

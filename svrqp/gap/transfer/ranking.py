@@ -99,7 +99,16 @@ import numpy as np
 from scipy.stats import false_discovery_control
 
 from svrqp.gap.contract import ALPHA, MIN_GAIN, MIN_RUNS
-from svrqp.gap.data import GapData, filter_coefficients, group_slices, lag, lowpass_columns, rate, rise
+from svrqp.gap.data import (
+    DYNAMIC,
+    TRANSFORMS as CANDIDATE_TRANSFORMS,
+    WITHIN_RUN,
+    GapData,
+    filter_coefficients,
+    group_slices,
+    lag,
+    lowpass_columns,
+)
 from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.records import Effect, Ranked, Ranking, TransferFit
 from svrqp.gap.transfer.between import (
@@ -124,13 +133,9 @@ from svrqp.gap.transfer.windows import (
     window_axes,
 )
 
-TRANSFORMS = ("level", "rate", "lag", "rise", "local")
-"""Transforms refitted for every candidate (a model feature: no ``level`` and no ``rise``, which beside the
-feature would only add its starting level per run; a run-level candidate: ``level`` and ``local`` only;
-``local``: :mod:`svrqp.gap.transfer.windows`)."""
-
-WITHIN_RUNS = ("rate", "lag", RISE)
-"""Transforms that follow a candidate within each run: rotated within runs whatever its run levels do."""
+TRANSFORMS = (*CANDIDATE_TRANSFORMS, "local")
+"""Transforms refitted for every candidate (a model feature: no ``level`` and no ``rise``; a run-level
+candidate: ``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.transfer.windows`)."""
 
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
@@ -209,15 +214,15 @@ class TransferRanker:
             for transform in TRANSFORMS:
                 if transform in ("level", RISE) and column in data.features:
                     continue
-                if run_level and transform in WITHIN_RUNS and not moves:
-                    continue  # its rate, lag and rise are zero
+                if run_level and transform in WITHIN_RUN and not moves:
+                    continue  # its rate, rise and lag are zero
                 if transform == "local":  # untestable when run-level and not permutable (:meth:`untestable_form`)
                     out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
                             for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
                 if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                within = transform in WITHIN_RUNS  # rotated within runs whatever its run levels do
+                within = transform in WITHIN_RUN  # rotated within runs whatever its run levels do
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
         return out
 
@@ -241,11 +246,8 @@ class TransferRanker:
         elif effect.transform == "level":
             own = xk[:, None]
             variants = [np.array([0])]
-        elif effect.transform == "rate":
-            own = rate(xk, t, groups)[:, None]
-            variants = [np.array([0])]
-        elif effect.transform == RISE:
-            own = rise(xk, groups)[:, None]
+        elif effect.transform in DYNAMIC:
+            own = DYNAMIC[effect.transform](xk, t, groups)[:, None]
             variants = [np.array([0])]
         elif effect.transform == "local":
             own, variants = local_columns(xk, self.axes[effect.axis][0][known], effect.windows)

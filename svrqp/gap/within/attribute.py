@@ -2,7 +2,7 @@ r"""Which candidate, in which transform, carries information about the real-row 
 
 For a candidate :math:`c` and transform :math:`t` (:mod:`svrqp.gap.transfer.candidates`) the
 discrepancy model of :mod:`svrqp.gap.data.discrepancy` adds the columns :math:`Z_{c,t}` to the base
-:math:`B` (offsets and the model's own inputs, :func:`svrqp.gap.model.recalibration.base_design`). Its gain
+:math:`B` (offsets and the model's own inputs, :func:`svrqp.gap.model.base_design`). Its gain
 is the relative drop of the out-of-sample squared error, blocked by group,
 
 .. math::
@@ -58,13 +58,14 @@ from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN, N_BOOTSTRAP
 from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, block_bootstrap, block_length
 from svrqp.gap.results.records import BaseFit
 from svrqp.gap.transfer.between import RunLevelBank
-from svrqp.gap.transfer.candidates import Bank, build_banks
 from svrqp.gap.within.surrogate_tests import (
     MAX_SURROGATES,
     SURROGATE_KINDS,
+    Bank,
     BetweenRunTest,
     SurrogateTest,
     TestOutcome,
+    build_banks,
     check_surrogates,
     run_tests,
 )

@@ -5,7 +5,7 @@ model (:mod:`svrqp.gap.within.attribute`). Each surrogate rotates the candidate 
 every group by a random offset (:func:`svrqp.gap.data.runs.shift_offsets`, which keeps both
 series' autocorrelation and avoids whole periods of a periodic candidate) and recomputes the
 gain, :math:`\tau` search included (a lag is filtered again from the rotated candidate,
-:class:`~svrqp.gap.transfer.candidates.LagRecipe`). The Monte-Carlo p-value is sequential
+:class:`LagRecipe`). The Monte-Carlo p-value is sequential
 (Besag & Clifford 1991): surrogates are drawn in batches (:data:`SURROGATE_BATCHES`); once
 :data:`STOP_EXCEEDANCES` of them reach the observed gain
 
@@ -18,6 +18,10 @@ Further batches are drawn only for tests whose decision is still open (:func:`ru
 to :data:`MAX_SURROGATES` draws. ``surrogates="continuous"`` (:data:`SURROGATE_KINDS`) lifts the
 part that wraps round by the group's end-minus-start change, so every surrogate is continuous
 at the seam. A run-level bank is tested between runs instead (:class:`BetweenRunTest`).
+
+The banks tested are built here too (:func:`build_banks`): every candidate × transform as
+standardised columns on the real rows (:class:`CandidateBank`, or a run-level candidate's
+:class:`svrqp.gap.transfer.between.RunLevelBank`).
 ``docs/gap.md`` ("How attribution works") gives the reasons and the trade-offs.
 """
 
@@ -30,9 +34,21 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.data import CrossValidatedDiscrepancy, group_slices, rotated_rows, shift_offsets
-from svrqp.gap.transfer.between import RunLevelBank, between_run_test
-from svrqp.gap.transfer.candidates import Bank, CandidateBank
+from svrqp.gap.contract import EVIDENCE_WITHIN, MIN_RUNS
+from svrqp.gap.data import (
+    DYNAMIC,
+    CrossValidatedDiscrepancy,
+    GapData,
+    filter_coefficients,
+    group_slices,
+    lowpass_columns,
+    negligible,
+    nested_errors,
+    rotated_rows,
+    shift_offsets,
+    standardised,
+)
+from svrqp.gap.transfer.between import RunLevelBank, between_run_test, is_run_level, run_level_bank
 
 SURROGATE_KINDS = ("rotation", "continuous")
 """Surrogate schemes of the significance tests (module docstring)."""
@@ -290,3 +306,123 @@ def run_tests(
                 test.record([h for (owner, _), h in zip(work, hits) if owner is test])
             rejected = decided(np.array([t.p_value for t in tests]))
     return [t.outcome() for t in tests]
+
+
+@dataclass(frozen=True)
+class LagRecipe:
+    r"""How a ``lag`` bank's own columns are computed from the candidate, for its surrogates.
+
+    A lag carries memory: the filter starts in equilibrium with a run's first value, so a
+    noisy reading gives every run a transient from its first sample. Rotating the *filtered*
+    column would move that transient into the middle of the run, where it breaks the
+    surrogate's smoothness and makes the observed column fit a smooth residual better than
+    any surrogate. The surrogates therefore rotate the candidate itself and filter it again.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n_real,)
+        The candidate on the real rows.
+    alpha : ndarray, shape (n_real, v)
+        Filter coefficients (:func:`svrqp.gap.data.transforms.filter_coefficients`), restarting
+        at each real group's first row.
+    centre, scale : ndarray, shape (v,)
+        Standardisation of the observed columns :math:`\ell_\tau`, applied to surrogates alike.
+    """
+
+    x: np.ndarray
+    alpha: np.ndarray
+    centre: np.ndarray
+    scale: np.ndarray
+
+    @classmethod
+    def of(cls, x: np.ndarray, t: np.ndarray, groups: np.ndarray, taus: np.ndarray) -> LagRecipe:
+        """The recipe of candidate values ``x`` on the real rows (order ``t``, groups ``groups``)."""
+        alpha = filter_coefficients(t, groups, taus)
+        ell = lowpass_columns(x[:, None], alpha)[:, 0, :] - x[:, None]
+        centre = ell.mean(axis=0)
+        scale = ell.std(axis=0)
+        return cls(x, alpha, centre, np.where(negligible(scale, ell), np.inf, scale))
+
+    def own(self, X: np.ndarray) -> np.ndarray:
+        r"""Standardised :math:`\ell_\tau` of the series ``X`` (n, s): shape (n, s, v)."""
+        out = lowpass_columns(X, self.alpha)
+        out -= X[:, :, None]  # in place: for long records these arrays hold millions of values
+        out -= self.centre
+        out /= self.scale
+        return out
+
+
+@dataclass(frozen=True)
+class CandidateBank:
+    """Standardised columns of one candidate transform on the real rows.
+
+    Attributes
+    ----------
+    column : str
+        Candidate column.
+    transform : str
+        ``"level"``, ``"rate"`` or ``"lag"``.
+    taus : ndarray or None
+        Time constant of each variant (``lag``), else None.
+    Z : ndarray, shape (n_real, v)
+        Own column of each of the ``v`` variants (time constants).
+    partner : ndarray, shape (n_real,) or None
+        Column every variant also holds (the level :math:`x` in ``lag`` of an unmodelled
+        candidate), else None.
+    recipe : LagRecipe or None
+        For ``lag``: how surrogates recompute ``Z`` from the rotated candidate.
+    """
+
+    column: str
+    transform: str
+    taus: np.ndarray | None
+    Z: np.ndarray
+    partner: np.ndarray | None = None
+    recipe: LagRecipe | None = None
+    evidence: str = EVIDENCE_WITHIN
+
+    def block(self, variant: int) -> np.ndarray:
+        """Columns of one variant, shape (n_real, k)."""
+        own = self.Z[:, variant : variant + 1]
+        return own if self.partner is None else np.column_stack([self.partner, own])
+
+    def tau(self, variant: int) -> float | None:
+        """Time constant of a variant (None unless ``lag``)."""
+        return None if self.taus is None else float(self.taus[variant])
+
+    def out_of_sample_errors(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
+                             groups: np.ndarray) -> np.ndarray:
+        """Errors of ``r ~ B + block`` on the real rows, the variant chosen inside each fold (nested CV)."""
+        return nested_errors(r, B, self.Z, self.partner, folds, groups)
+
+
+Bank = CandidateBank | RunLevelBank
+"""Anything :func:`attribute` tests: a candidate transform, or a run-level candidate's level."""
+
+
+def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
+    """Every candidate × transform bank to be tested, standardised on the real rows.
+
+    With at least :data:`svrqp.gap.contract.MIN_RUNS` real runs, a run-level candidate
+    (:func:`svrqp.gap.transfer.between.is_run_level`) that is not a model feature also gets a bank
+    of its level tested between runs. Its transforms are tested within runs as well: a
+    temperature whose level differs by season between runs can still carry the effect's
+    dynamics within each of them.
+    """
+    real = data.is_real
+    groups = data.groups[real]
+    between = len(group_slices(groups)) >= MIN_RUNS
+    banks: list[Bank] = []
+    for j, column in enumerate(data.candidates):
+        x = data.C[real, j]
+        if between and column not in data.features and is_run_level(x, groups):
+            banks.append(run_level_bank(column, x, data.t[real], groups))
+        partner = None if column in data.features else standardised(x[:, None])[0][:, 0]
+        if column not in data.features:
+            banks.append(CandidateBank(column, "level", None, partner[:, None]))
+        for name, dynamic in DYNAMIC.items():
+            banks.append(CandidateBank(column, name, None, standardised(dynamic(x, data.t[real], groups)[:, None])[0]))
+        # The lag restarts at each real group's first row, exactly as its surrogates do.
+        recipe = LagRecipe.of(x, data.t[real], groups, taus)
+        banks.append(CandidateBank(column, "lag", taus, recipe.own(x[:, None])[:, 0, :], partner, recipe))
+    return banks

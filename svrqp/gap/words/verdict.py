@@ -19,12 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from svrqp.exceptions import SolverError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
 from svrqp.gap.data import GapData
 from svrqp.gap.data.transforms import RISE
 from svrqp.gap.detect import gate, noise_pvalue
-from svrqp.gap.model.baseline import Baseline, refit_shrink
-from svrqp.gap.model.recalibration import offsets_text
+from svrqp.gap.model import Baseline, offsets_text, refit_shrink
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
 from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.transfer.windows import region_text
@@ -188,8 +188,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
                   f"{family_text(cause, context)}{thin}{recalibration}")
         return no_cause(reason)
-    train_refit = refit_shrink(data, context.baseline, effect_columns(data, cause.column, cause.transform, cause.tau,
-                                                              cause.evidence, cause.region))
+    train_refit, train_refit_text = _train_refit(data, context.baseline, cause)
     after = errors_after[cause.column]
     residual_gate = gate(after, data.groups[data.is_real], context.baseline.train_reference,
                          data.groups[data.is_train])
@@ -199,7 +198,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
               f"{cause.shrink_ci[1]:.0%}), {cause.shrink_beyond_refit:.0%} beyond the same refit without it "
               f"({cause.rmse_refit:.3g}; CI {cause.shrink_beyond_refit_ci[0]:.0%} … "
               f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q = {cause.p_value:.2g}. "
-              + capitalised(refit_text(train_refit, cause.column)) + family_text(cause, context) + thin + recalibration)
+              + capitalised(train_refit_text) + family_text(cause, context) + thin + recalibration)
     if top.tested_by is not None:  # a level too few runs can permute, tested through its dynamics within runs
         reason += (f" Its run levels are too few for any ordering of them to reach significance; the transfer test is "
                    f"that of its {top.tested_by.effect.transform}, rotated within runs (as valid under \"it carries "
@@ -214,6 +213,21 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                    shrink_beyond_refit=cause.shrink_beyond_refit,
                    shrink_beyond_refit_ci=cause.shrink_beyond_refit_ci, thin=units.thin,
                    family=cause.family, untestable=ranking.untestable, region=cause.region), residual_gate
+
+
+def _train_refit(data: GapData, baseline: Baseline, cause: Cause) -> tuple[float | None, str]:
+    """The verdict's refit of the model family on the train rows with the cause's effect, and it in words.
+
+    A refit whose solver cannot certify its answer leaves the shrink null and says so; it does not
+    abort the diagnosis.
+    """
+    effect = effect_columns(data, cause.column, cause.transform, cause.tau, cause.evidence, cause.region)
+    try:
+        refit = refit_shrink(data, baseline, effect)
+    except SolverError as err:
+        why = (str(err) or type(err).__name__).splitlines()[0][:160]
+        return None, f"the model could not be refitted with it as an input: its solver failed ({why})."
+    return refit, refit_text(refit, cause.column)
 
 
 def capitalised(text: str) -> str:

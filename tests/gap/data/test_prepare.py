@@ -3,12 +3,11 @@
 import numpy as np
 import pandas as pd
 import pytest
-from support.gap_problems import CANDIDATES, null_problem
+from support.gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.data.prepare import prepare
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
             "order": "time_min", "group": "run"}
@@ -27,6 +26,41 @@ def test_rows_are_sorted_by_group_and_order(table):
     for g in range(4):
         assert np.all(np.diff(data.t[data.groups == g]) > 0)
     np.testing.assert_array_equal(data.y, shuffled.loc[data.row_index, "error_um"].to_numpy())
+    assert set(data.order_sorted) == set(data.group_labels)  # every shuffled run was sorted, and said so
+    assert prepare(table, GapQuestion(**ARGS)).order_sorted == []
+
+
+def _diagnosed(table, **question):
+    """The schema-valid JSON document of a diagnosis."""
+    import json
+
+    import jsonschema
+
+    from svrqp.gap import load_schema
+
+    document = json.loads(diagnose(table, GapQuestion(**ARGS | question)).to_json())
+    jsonschema.validate(document, load_schema())
+    return document
+
+
+def test_a_run_listed_backwards_is_sorted_and_named(table):
+    backwards = pd.concat([table[table.run != "r2"], table[table.run == "r2"].iloc[::-1]], ignore_index=True)
+    document = _diagnosed(backwards)
+    assert document["order_sorted"] == ["r2"]
+    assert _diagnosed(table)["order_sorted"] == []
+
+
+def test_a_candidate_of_one_value_is_named_not_tested(table):
+    document = _diagnosed(table.assign(k_C=5.0), candidates=[*CANDIDATES, "k_C"])
+    cause = next(c for c in document["causes"] if c["column"] == "k_C")
+    assert cause["note"].startswith("constant on the real rows (5)") and not cause["significant"]
+
+
+def test_a_record_of_one_run_is_cut_into_blocks():
+    one = air_lag_problem().query("run == 'r1'")
+    document = _diagnosed(one, train=f"time_min < {one.time_min.median()}")
+    assert document["blocks"] is not None and document["blocks"]["n"] >= 5
+    assert "held-out blocks" in document["summary"]
 
 
 @pytest.mark.parametrize("option, value, message", [

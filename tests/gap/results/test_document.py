@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap.results.document import SCHEMA_ID, load_schema, read_document, validate_document
+from svrqp.gap import load_schema, read_document
+from svrqp.gap.results.document import SCHEMA_ID, validate_document
 
 OLD = Path(__file__).with_name("gap_v1_miao2013.json")
 """The README example's document as svrqp.gap/1 wrote it (before round and p_paired were dropped)."""

@@ -7,11 +7,10 @@ from numpy.polynomial import legendre
 from scipy import stats
 from sklearn.linear_model import LinearRegression
 
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.contract import EVIDENCE_BETWEEN, MIN_RUNS, PROFILE_DEGREE
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.data.runs import blocked_folds
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
 from svrqp.gap.transfer.between import (
     between_run_test,
     is_run_level,

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from support.gap_problems import AXIS_CANDIDATES, axis_passes
 
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
+from svrqp.gap import GapQuestion, diagnose
+
 
 ARGS = {"target": "error_um", "train": "run == 'p0'", "prediction": "prediction_um", "order": "x_mm", "group": "run"}
 

@@ -13,10 +13,8 @@ import pandas as pd
 import pytest
 from sklearn.svm import SVR
 
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.model.baseline import LSSVR_C, SVR_C, SVR_EPSILON
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.document import load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
+from svrqp.gap.model import LSSVR_C, SVR_C, SVR_EPSILON
 from svrqp.gap.transfer.kernel import KERNEL_CAUSES, MIN_KERNEL_ROWS
 
 
@@ -136,3 +134,57 @@ def test_too_few_rows_for_a_kernel_refit_fall_back_to_the_linear_family_and_say_
     else:
         assert document["transfer"]["family"] == "lssvr" and document["transfer"]["family_note"] is None
         assert "too few rows" in c_c.note
+
+
+def _failing_fit_predict(monkeypatch, fails):
+    """Make the kernel module's refits raise the solver's certificate failure where ``fails(design)`` is true."""
+    from svrqp.exceptions import SolverError
+    from svrqp.gap.transfer import kernel
+
+    real = kernel.fit_predict
+
+    def fit_predict(kind, X_train, y_train, X, gamma="scale"):
+        if fails(X_train):
+            raise SolverError("gap certificate 2.31e-06 > 1e-06\nsecond line")
+        return real(kind, X_train, y_train, X, gamma)
+
+    monkeypatch.setattr(kernel, "fit_predict", fit_predict)
+
+
+def test_a_failed_same_input_refit_falls_back_to_the_linear_family(monkeypatch):
+    """One certificate failure in the same-input kernel refit: the diagnosis goes on with the linear
+    family's numbers, and the JSON and the reason say which refit failed and why."""
+    _failing_fit_predict(monkeypatch, lambda X: X.shape[1] == 1)  # the features alone: the same-input refit
+    report = diagnose(kernel_problem(), GapQuestion(**QUESTION, model="svr"))
+    document = json.loads(report.to_json())
+    jsonschema.validate(document, load_schema())
+    assert document["transfer"]["family"] == "linear"
+    assert "refit of the svr failed (gap certificate 2.31e-06 > 1e-06)" in document["transfer"]["family_note"]
+    assert all(cause["family"] == "linear" for cause in document["causes"])
+    assert document["causes"] and document["verdict"]["reason"]
+
+
+def test_a_failed_refit_of_one_cause_keeps_its_linear_numbers(monkeypatch):
+    """A cause whose kernel refit fails keeps the linear screen's numbers with a note; the others are
+    refitted with the kernel family as usual."""
+    _failing_fit_predict(monkeypatch, lambda X: X.shape[1] > 1)  # any refit with an effect added
+    report = diagnose(kernel_problem(), GapQuestion(**QUESTION, model="svr"))
+    document = json.loads(report.to_json())
+    jsonschema.validate(document, load_schema())
+    assert document["transfer"]["family"] == "svr" and document["transfer"]["family_note"] is None
+    noted = [c for c in document["causes"] if "its svr refit failed (gap certificate" in (c["note"] or "")]
+    assert noted and all(c["family"] == "linear" for c in noted)
+
+
+def test_a_failed_train_refit_of_the_verdict_is_said_not_raised(monkeypatch):
+    from svrqp.exceptions import SolverError
+    from svrqp.gap.words import verdict
+
+    def refit_shrink(data, baseline, effect):
+        raise SolverError("gap certificate 2.31e-06 > 1e-06")
+
+    monkeypatch.setattr(verdict, "refit_shrink", refit_shrink)
+    report = diagnose(kernel_problem(), GapQuestion(**QUESTION, model="svr"))
+    assert report.verdict.column == "c_C" and report.verdict.refit_shrink is None
+    assert "could not be refitted with it as an input: its solver failed (gap certificate" in report.verdict.reason
+    jsonschema.validate(json.loads(report.to_json()), load_schema())

@@ -11,10 +11,8 @@ import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, extrapolation_problem, first_order_lag, null_problem
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion, diagnose, load_schema
 from svrqp.gap.contract import MIN_BLOCKS
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.document import load_schema
 from svrqp.gap.transfer.linear import decorrelation_length
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}

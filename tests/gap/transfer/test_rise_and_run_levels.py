@@ -99,7 +99,7 @@ def independent_shrink_beyond_refit(table: pd.DataFrame, columns: np.ndarray, tr
 def test_rise_is_the_change_since_each_runs_first_row():
     x = np.array([5.0, 6.0, 8.0, 1.0, 0.5, 3.0])
     groups = np.array([0, 0, 0, 1, 1, 1])
-    np.testing.assert_array_equal(rise(x, groups), [0.0, 1.0, 3.0, 0.0, -0.5, 2.0])
+    np.testing.assert_array_equal(rise(x, np.arange(6.0), groups), [0.0, 1.0, 3.0, 0.0, -0.5, 2.0])
 
 
 @pytest.mark.parametrize(("levels", "floor"), [

@@ -13,8 +13,7 @@ import pytest
 from support.benchmark_modules import load_benchmark
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.transfer.surrogates import exchange_run_levels
 from svrqp.gap.transfer.windows import MIN_REGION_ROWS, collinear, threshold_dictionary, window_dictionary
 

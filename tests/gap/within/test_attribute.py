@@ -21,16 +21,13 @@ from support.gap_problems import (
 )
 
 from svrqp.exceptions import ProblemError
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.data.runs import blocked_folds
 from svrqp.gap.data.transforms import tau_grid
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.model.baseline import fit_baseline
-from svrqp.gap.model.recalibration import base_design
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.transfer.candidates import CandidateBank, build_banks
-from svrqp.gap.within.surrogate_tests import SurrogateTest, run_tests
+from svrqp.gap.model import base_design, fit_baseline
+from svrqp.gap.within.surrogate_tests import CandidateBank, SurrogateTest, build_banks, run_tests
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "order": "time_min", "group": "run"}
 

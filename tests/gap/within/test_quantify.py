@@ -4,13 +4,12 @@ import numpy as np
 import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, first_order_lag
 
+from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.contract import EVIDENCE_WITHIN
 from svrqp.gap.data.discrepancy import nested_errors
 from svrqp.gap.data.prepare import prepare
 from svrqp.gap.data.runs import blocked_folds
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.model.baseline import fit_baseline, refit_shrink
-from svrqp.gap.question import GapQuestion
+from svrqp.gap.model import fit_baseline, refit_shrink
 from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.within.attribute import estimate_shrink, shrink_interval
 

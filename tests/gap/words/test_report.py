@@ -13,9 +13,8 @@ import pytest
 from support.gap_problems import CANDIDATES, air_lag_problem, null_problem
 
 from svrqp.exceptions import SvrqpError
-from svrqp.gap.diagnose import diagnose
-from svrqp.gap.question import GapQuestion
-from svrqp.gap.results.document import _finite, load_schema
+from svrqp.gap import GapQuestion, diagnose, load_schema
+from svrqp.gap.results.document import _finite
 from svrqp.gap.words.report import _num, share_text
 
 ARGS = {"target": "error_um", "train": "run == 'r0'", "features": ["spindle_C"], "candidates": CANDIDATES,
@@ -145,8 +144,8 @@ def test_base_shrink_equals_scikit_learn_cross_validation_of_the_base(report):
 
     from svrqp.gap.data.prepare import prepare
     from svrqp.gap.data.runs import blocked_folds
-    from svrqp.gap.model.baseline import fit_baseline
-    from svrqp.gap.model.recalibration import base_design
+    from svrqp.gap.model import fit_baseline
+    from svrqp.gap.model import base_design
 
     data = prepare(air_lag_problem(), GapQuestion(**ARGS))
     baseline = fit_baseline(data, "mlr")
