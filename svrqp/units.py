@@ -106,3 +106,19 @@ def unit_of(name: str) -> str | None:
 def quantity(value: float, unit: str | None) -> str:
     """A number to three significant digits with its unit (``4.09 μm``), or bare when ``unit`` is None."""
     return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
+
+
+P_FLOOR = 1e-10
+"""Below this a p- or q-value is written "< 1e-10": its digits say nothing a reader can use, and past
+double precision's tail (5.3e-195) they are rounding."""
+
+
+def probability(p: float) -> str:
+    """A p- or q-value to two significant digits, or ``< 1e-10`` below :data:`P_FLOOR`."""
+    return f"< {P_FLOOR:g}" if p < P_FLOOR else f"{p:.2g}"
+
+
+def probability_relation(p: float) -> str:
+    """``= 0.012`` or ``< 1e-10``: a p- or q-value after its symbol (``q = 0.012``, ``q < 1e-10``)."""
+    text = probability(p)
+    return text if text.startswith("<") else f"= {text}"

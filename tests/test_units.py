@@ -12,6 +12,8 @@ from svrqp.units import (
     UNIT_SUFFIXES,
     axis_label,
     latex_symbol,
+    probability,
+    probability_relation,
     quantity,
     ratio_unit,
     split_unit,
@@ -65,3 +67,10 @@ def test_unit_of_reads_the_suffix_and_the_measured_spellings(name, unit):
 
 def test_quantity_has_three_digits_and_its_unit():
     assert quantity(4.0912, "μm") == "4.09 μm" and quantity(13.44, None) == "13.4"
+
+
+@pytest.mark.parametrize(("p", "text", "relation"), [
+    (0.012, "0.012", "= 0.012"), (1.0, "1", "= 1"), (5.32e-195, "< 1e-10", "< 1e-10"), (1e-10, "1e-10", "= 1e-10"),
+])
+def test_probabilities_below_1e_10_are_written_as_a_bound(p, text, relation):
+    assert probability(p) == text and probability_relation(p) == relation

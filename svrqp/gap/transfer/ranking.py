@@ -132,6 +132,7 @@ from svrqp.gap.transfer.windows import (
     region_text,
     window_axes,
 )
+from svrqp.units import probability_relation
 
 TRANSFORMS = (*CANDIDATE_TRANSFORMS, "local")
 """Transforms refitted for every candidate (a model feature: no ``level`` and no ``rise``; a run-level
@@ -470,7 +471,7 @@ class TransferRanker:
         if stronger is not None:
             top.note = f"adds nothing beyond {stronger.effect.column} on held-out runs"
             n_real = len(group_slices(self.data.groups[self.data.is_real]))
-            untested = (f"is not significant between {n_real} real runs (q = {stronger.q_value:.2g})" if stronger.tested
+            untested = (f"is not significant between {n_real} real runs (q {probability_relation(stronger.q_value)})" if stronger.tested
                         else f"cannot be tested between {MIN_RUNS - 1} or fewer real runs")
             result.withheld = (
                 f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "

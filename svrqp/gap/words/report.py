@@ -21,7 +21,7 @@ from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.records import Verdict
 from svrqp.gap.words.figures import before_after_figure, gap_figure
 from svrqp.gap.words.verdict import RISE_WORDS
-from svrqp.units import unit_of
+from svrqp.units import probability, unit_of
 
 BOUND_DIGITS = 4
 """Significant digits of region bounds and input ranges in the tables (close bounds such as 26.76 … 26.9 °C)."""
@@ -91,7 +91,7 @@ class GapReport(GapResult):
                   for r in self.where])
         causes = (["rank", "column", "transform", "τ", "q (transfer)", f"{rmse} after", "shrink (95 % CI)",
                    "beyond the refit", "per-run recalibration", "note"],
-                  [[str(i + 1), c.column, c.transform, _num(c.tau), _num(c.p_value), _num(c.rmse_after),
+                  [[str(i + 1), c.column, c.transform, _num(c.tau), probability(c.p_value), _num(c.rmse_after),
                     f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
                     "–" if c.shrink_beyond_refit is None else f"{c.shrink_beyond_refit:.0%}",
                     "–" if c.within_shrink is None else f"{c.within_shrink:.0%}",

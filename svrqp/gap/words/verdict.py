@@ -28,7 +28,7 @@ from svrqp.gap.model import Baseline, offsets_text, refit_shrink
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
 from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.transfer.windows import region_text
-from svrqp.units import quantity, unit_of
+from svrqp.units import probability_relation, quantity, unit_of
 
 
 @dataclass(frozen=True)
@@ -175,7 +175,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
         return no_cause(reason)
     cause = next(c for c in causes if c.column == top.effect.column)
     if cause.shrink <= 0.0:
-        reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}) and "
+        reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q {probability_relation(cause.p_value)}) and "
                   f"adds {cause.shrink_beyond_refit:.0%} to a refit, but the refit with it still leaves the real-row "
                   f"error larger than the given model's ({cause.rmse_after:.3g} against {cause.rmse_before:.3g}); no "
                   f"cause is named.{family_text(cause, context)}{thin}{recalibration}")
@@ -183,7 +183,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
     if cause.shrink_beyond_refit <= 0.0 or (cause.shrink_beyond_refit_ci[0] <= 0.0 and not units.thin):
         # Thin evidence excuses the interval, never an effect that leaves the same-input refit no better.
         where = "" if cause.shrink_beyond_refit <= 0.0 else f" on every resample of the held-out {unit_word(units)}s"
-        reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q = {cause.p_value:.2g}), "
+        reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q {probability_relation(cause.p_value)}), "
                   f"but what it adds to a refit is not above zero{where}: {cause.shrink_beyond_refit:.0%} (95 % CI "
                   f"{cause.shrink_beyond_refit_ci[0]:.0%} … {cause.shrink_beyond_refit_ci[1]:.0%}); no cause is named."
                   f"{family_text(cause, context)}{thin}{recalibration}")
@@ -197,7 +197,7 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
               f"{cause.rmse_before:.3g} to {cause.rmse_after:.3g} ({cause.shrink:.0%}, 95 % CI {cause.shrink_ci[0]:.0%} … "
               f"{cause.shrink_ci[1]:.0%}), {cause.shrink_beyond_refit:.0%} beyond the same refit without it "
               f"({cause.rmse_refit:.3g}; CI {cause.shrink_beyond_refit_ci[0]:.0%} … "
-              f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q = {cause.p_value:.2g}. "
+              f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q {probability_relation(cause.p_value)}. "
               + capitalised(train_refit_text) + family_text(cause, context) + thin + recalibration)
     if top.tested_by is not None:  # a level too few runs can permute, tested through its dynamics within runs
         reason += (f" Its run levels are too few for any ordering of them to reach significance; the transfer test is "
