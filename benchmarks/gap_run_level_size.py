@@ -7,13 +7,14 @@ parametric test is only as good as its size, so this script measures it on null 
 nothing the candidates carry reaches the target:
 
 ``t-test alone``
-    the raw test on :data:`N_DRAWS` null draws per number of runs: residual = a profile along each
+    the raw test on :data:`N_DRAWS` null draws per number of real runs (four to seven): residual = a
+    profile along each
     run and an offset that differ from run to run at random, plus AR(1) noise within runs; the
     candidate's run levels independent of it, at two levels (ties) or all distinct. Its rejection
     rate at α = 0.05 should be at most 0.05.
 ``engine``
-    :data:`N_RECORDS` whole ``svrqp gap`` diagnoses of such null records in prediction mode (two
-    train runs, five to eight real runs whose run-to-run variation no candidate explains, three
+    :data:`N_RECORDS` whole ``svrqp gap`` diagnoses of such null records in prediction mode (five to
+    eight runs: one train run, the real runs' run-to-run variation explained by no candidate; three
     run-level candidates and one that moves within runs). Any verdict is a false attribution;
     the target is at most 0.05.
 
@@ -37,7 +38,7 @@ from svrqp.gap.transfer.between import between_run_test, run_level_bank
 
 RESULTS = Path(__file__).resolve().parent / "results"
 RUNS = (5, 6, 7, 8)
-"""Numbers of real runs measured."""
+"""Numbers of runs measured: one train run, the others real (the t-test's observations)."""
 ROWS_PER_RUN = 60
 N_DRAWS = 1000
 """Null draws of the t-test alone, per number of runs."""
@@ -82,12 +83,11 @@ def ttest_draw(seed: int, n_runs: int, ties: bool) -> float:
     return result.p_value if result.robust else 1.0
 
 
-def null_record(seed: int, n_real: int) -> pd.DataFrame:
-    """A null record: two train runs, ``n_real`` real runs whose run-to-run variation no candidate explains."""
+def null_record(seed: int, n_runs: int) -> pd.DataFrame:
+    """A null record of ``n_runs`` runs: one train run, real runs whose run-to-run variation no candidate explains."""
     rng = np.random.default_rng(seed)
-    n_runs = 2 + n_real
     groups = np.repeat(np.arange(n_runs), ROWS_PER_RUN)
-    spread = np.repeat(np.r_[0.3, 0.3, np.full(n_real, 3.0)], ROWS_PER_RUN)
+    spread = np.repeat(np.r_[0.3, np.full(n_runs - 1, 3.0)], ROWS_PER_RUN)
     residual = _residual(rng, n_runs, spread=1.0) * spread / spread.mean()
     prediction = 5.0 * np.sin(np.tile(np.linspace(0, 3, ROWS_PER_RUN), n_runs))
     humidity = np.empty(groups.size)  # a stationary reading that moves within runs (AR(1), not a random walk)
@@ -106,16 +106,16 @@ def null_record(seed: int, n_real: int) -> pd.DataFrame:
     })
 
 
-def diagnose_null(seed: int, n_real: int) -> dict:
+def diagnose_null(seed: int, n_runs: int) -> dict:
     """Diagnose one null record; any verdict is a false attribution."""
-    table = null_record(seed, n_real)
-    question = GapQuestion(target="error_um", train="run in ['r0', 'r1']", prediction="prediction_um",
+    table = null_record(seed, n_runs)
+    question = GapQuestion(target="error_um", train="run == 'r0'", prediction="prediction_um",
                            candidates=["load_kg", "axis_C", "ambient_C", "humidity_pct"], order="time_min",
                            group="run")
     started = time.perf_counter()
     report = diagnose(table, question, seed=seed)
     by_t = [c for c in report.causes if c.note and "t-test" in c.note]
-    return {"seed": seed, "real_runs": n_real, "gap_detected": report.gap_detected, "verdict": report.verdict.column,
+    return {"seed": seed, "runs": n_runs, "gap_detected": report.gap_detected, "verdict": report.verdict.column,
             "verdict_run_level": report.verdict.column in RUN_LEVEL, "t_tested": len(by_t),
             "runtime_s": time.perf_counter() - started}
 
@@ -126,14 +126,14 @@ def report_text(draws: pd.DataFrame, records: pd.DataFrame) -> str:
              "reaches the target), fixed seeds.", "",
              f"## The t-test alone ({N_DRAWS} null draws per cell; rejection rate at α = {ALPHA})", "",
              "| real runs | levels | rejection rate | target |", "|---|---|---|---|"]
-    for (runs, ties), part in draws.groupby(["runs", "ties"]):
+    for (runs, ties), part in draws.groupby(["real_runs", "ties"]):
         rate = float((part.p < ALPHA).mean())
         lines.append(f"| {runs} | {'two (ties)' if ties else 'distinct'} | {rate:.3f} | ≤ {ALPHA} |")
     false = int(records.verdict.notna().sum())
     lines += ["", f"## The engine ({len(records)} null records diagnosed by `svrqp.gap.diagnose`)", "",
-              "| real runs | records | with a gap | causes decided by the t-test | verdicts (false) | of them "
+              "| runs (one train) | records | with a gap | causes decided by the t-test | verdicts (false) | of them "
               "run-level |", "|---|---|---|---|---|---|"]
-    for runs, part in records.groupby("real_runs"):
+    for runs, part in records.groupby("runs"):
         lines.append(f"| {runs} | {len(part)} | {int(part.gap_detected.sum())} | {int(part.t_tested.sum())} | "
                      f"{int(part.verdict.notna().sum())} | {int(part.verdict_run_level.sum())} |")
     lines += ["", f"False attribution: {false} of {len(records)} records ({false / len(records):.3f}; target ≤ "
@@ -148,7 +148,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--records", type=int, default=N_RECORDS)
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
-    draws = pd.DataFrame([{"runs": runs, "ties": ties, "p": ttest_draw(10_000 * runs + 2 * i + ties, runs, ties)}
+    draws = pd.DataFrame([{"real_runs": runs - 1, "ties": ties,
+                           "p": ttest_draw(10_000 * runs + 2 * i + ties, runs - 1, ties)}
                           for runs in RUNS for ties in (False, True) for i in range(N_DRAWS)])
     jobs = [(900_000 + i, RUNS[i % len(RUNS)]) for i in range(args.records)]
     records = pd.DataFrame(Parallel(n_jobs=args.jobs, verbose=5)(delayed(diagnose_null)(s, k) for s, k in jobs))

@@ -84,9 +84,10 @@ LEAVE_OUT_ALPHA = 0.05
 """Level at which the relation must hold with its most influential run left out."""
 
 PARAMETRIC_MIN_RUNS = 5
-"""Real runs from which a run-level candidate is tested by :func:`between_run_test` in the transfer
-ranking when no ordering of its run levels can reach Benjamini–Hochberg's first threshold
-(:func:`permutation_floor`): the t-test's size at five to eight runs is measured by
+"""Runs (train and real, the runs a permutation test exchanges) from which a run-level candidate is
+tested by :func:`between_run_test` over its real runs in the transfer ranking, when no ordering of
+its run levels can reach Benjamini–Hochberg's first threshold (:func:`permutation_floor`): five runs
+give 120 orderings, 60 with one repeated level. The t-test's size at five to eight runs is measured by
 ``benchmarks/gap_run_level_size.py``. With fewer runs the exact permutation stays the test."""
 
 

@@ -405,11 +405,13 @@ class TransferRanker:
 
     def parametric(self, effect: Effect, n_columns: int) -> bool:
         """Whether a run-level effect is tested by the t-test between runs: at least
-        :data:`~svrqp.gap.transfer.between.PARAMETRIC_MIN_RUNS` real runs, whose orderings cannot reach
-        Benjamini–Hochberg's first threshold over ``n_columns`` (ties between run levels included)."""
-        if not effect.run_level or effect.windows is not None or self.n_real_runs < PARAMETRIC_MIN_RUNS:
+        :data:`~svrqp.gap.transfer.between.PARAMETRIC_MIN_RUNS` runs whose levels are permuted (train and real),
+        :data:`svrqp.gap.contract.MIN_RUNS` of them real (the t-test's observations), and orderings that cannot
+        reach Benjamini–Hochberg's first threshold over ``n_columns`` (ties between run levels included)."""
+        if not effect.run_level or effect.windows is not None or self.n_real_runs < MIN_RUNS:
             return False
-        return permutation_floor(self.surrogates.run_levels(effect)) > ALPHA / n_columns
+        levels = self.surrogates.run_levels(effect)
+        return levels.size >= PARAMETRIC_MIN_RUNS and permutation_floor(levels) > ALPHA / n_columns
 
     def between_p(self, effect: Effect) -> float:
         """The p-value of :func:`~svrqp.gap.transfer.between.between_run_test` for a run-level effect: the run
