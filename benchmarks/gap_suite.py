@@ -360,13 +360,15 @@ def main(argv: list[str] | None = None) -> int:
     rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates, args.local) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
-    name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh"}[args.grid]
+    name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh",
+            "confirm": "gap_suite_confirm"}[args.grid]
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
     name += "_local_everywhere" if args.local else ""
     name += "_quick" if args.quick else ""
     name += "_" + args.only.replace(",", "_").replace("-", "").strip("_") if args.only else ""
     table.to_csv(args.out / f"{name}.csv", index=False)
-    title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid"}[args.grid]
+    title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid",
+             "confirm": "confirmation grid (run once)"}[args.grid]
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
     title += ", local form on every scenario" if args.local else ""
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"
