@@ -19,7 +19,7 @@ its train rows (:attr:`svrqp.gap.model.Baseline.gamma`), also for the added stan
 effect columns. The effect's columns :math:`E` are those of the linear screen
 (:meth:`svrqp.gap.transfer.ranking.TransferRanker.columns`); for ``lag`` the time constant
 :math:`\hat\tau_{-u}` is the one the linear family chose inside the same fit's rows
-(:attr:`svrqp.gap.transfer.linear.TransferFit.variant`), so it never sees the held-out unit.
+(:attr:`svrqp.gap.results.records.TransferFit.variant`), so it never sees the held-out unit.
 
 Screening stays linear
     Ranking, the surrogate tests and the conditional tests refit every candidate × transform

@@ -300,7 +300,7 @@ def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray
                     progress: Callable[[str, float], None] = lambda stage, done: None) -> dict:
     """The within-real-rows evidence of every candidate column, as the causes table carries it.
 
-    Runs :func:`attribute` over every candidate transform (:func:`svrqp.gap.transfer.candidates.build_banks`)
+    Runs :func:`attribute` over every candidate transform (:func:`svrqp.gap.within.surrogate_tests.build_banks`)
     and returns :func:`within_numbers`: per column ``(within_shrink, its interval, p_within,
     shrink_beyond_base)``. Only asked for (``diagnose(..., within_evidence=True)``,
     ``--within-evidence``): it never enters a transfer shrink, the verdict or the summary.

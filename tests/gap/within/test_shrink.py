@@ -1,4 +1,5 @@
-"""Out-of-sample shrink, its bootstrap interval and the refit check (svrqp.gap.within.quantify)."""
+"""Out-of-sample shrink within the real rows and its bootstrap interval (svrqp.gap.within.attribute), and the
+verdict's refit check on the train rows (svrqp.gap.model.refit_shrink)."""
 
 import numpy as np
 import pytest
