@@ -52,9 +52,9 @@ import numpy as np
 import pandas as pd
 
 from svrqp import datasets
-from svrqp.gap import GapQuestion, GapReport, diagnose
-from svrqp.gap.report import markdown_table
 from svrqp.estimators import LinearLS
+from svrqp.gap import GapQuestion, GapReport, diagnose
+from svrqp.gap.words.report import markdown_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gap_fl_data import (  # noqa: E402  benchmarks/ is not a package: imported from its folder

@@ -4,7 +4,7 @@ The grids of :mod:`gap_suite` always offer the withheld effect's sensor among th
 (and their *unmeasured* scenarios are gantry effects only). A user cannot know that the cause
 was measured at all. Here the thermal/prediction scenarios of the development design, with
 seeds of their own (:data:`SEED_OFFSET`), are diagnosed three ways, once per surrogate scheme
-(``surrogates="rotation"``, the default, and ``"continuous"``, see :mod:`svrqp.gap.surrogate_tests`):
+(``surrogates="rotation"``, the default, and ``"continuous"``, see :mod:`svrqp.gap.within.surrogate_tests`):
 
 ``truth offered``
     as in the grids: the truth columns and the decoys (top-1 = power);

@@ -3,7 +3,8 @@
 The project names columns with their unit as a suffix (``T7_C``, ``error_um``, ``x_mm``); measured
 tables may instead write ``name(unit)`` (``t1(°C)``, ``ch1(um)``). This module is the one table of
 those suffixes and how each unit is written, used by the estimators' coefficient tables, the
-exported model documents and the simulators' plot labels.
+exported model documents, the simulators' plot labels and the gap report's words and figures
+(:func:`unit_of`, :func:`quantity`).
 
 The micro sign is the Greek small letter mu, μ (U+03BC). The compatibility character MICRO SIGN
 (U+00B5), which looks the same, is read as μ wherever a unit is read (:func:`normalise_micro`), so
@@ -22,6 +23,14 @@ UNIT_SUFFIXES: dict[str, str] = {
     "C": "°C", "K": "K", "um": f"{MICRO}m", "mm": "mm", "m": "m", "min": "min", "s": "s", "h": "h",
     "rpm": "rpm", "urad": f"{MICRO}rad", "arcsec": "arcsec", "deg": "°",
 }
+
+#: Further ``_suffix`` spellings measured tables bring (``Fehler_μm``, ``t_degC``, ``duty_pct``), read by
+#: :func:`unit_of` besides :data:`UNIT_SUFFIXES`.
+MEASURED_SUFFIXES: dict[str, str] = {f"{MICRO}m": f"{MICRO}m", "°C": "°C", "degC": "°C", "pct": "%"}
+
+#: Axis names that count positions rather than measure a quantity (the gap diagnosis orders the rows
+#: of a group by position, ``row``, when no order column is given), and their unit.
+COUNT_AXES: dict[str, str] = {"row": "rows"}
 
 _PARENTHESISED_UNIT = re.compile(r"^\s*(?P<base>.*?)\s*\((?P<unit>[^()]*)\)\s*$")
 _INDEXED_SYMBOL = re.compile(r"^(?P<letters>[A-Za-z]+)_?(?P<index>\d+)$")
@@ -78,3 +87,38 @@ def axis_label(name: str) -> str:
     """A column as an axis label: ``"time_min"`` → ``"time (min)"``; a name without a unit suffix as is."""
     base, _, suffix = name.rpartition("_")
     return f"{base} ({UNIT_SUFFIXES[suffix]})" if base and suffix in UNIT_SUFFIXES else name
+
+
+def unit_of(name: str) -> str | None:
+    """The unit of a column from its name's ``_suffix`` (``"error_um"`` → ``"μm"``), None when there is none.
+
+    Reads :data:`UNIT_SUFFIXES` and the measured spellings of :data:`MEASURED_SUFFIXES`, a MICRO SIGN
+    (U+00B5) in the suffix as μ; a count axis of :data:`COUNT_AXES` (``"row"``) has its own unit.
+    Unlike :func:`unit_from_name`, a parenthesised unit (``ch1(um)``) is not read.
+    """
+    if name in COUNT_AXES:
+        return COUNT_AXES[name]
+    stem, _, suffix = name.rpartition("_")
+    suffix = normalise_micro(suffix)
+    return (UNIT_SUFFIXES.get(suffix) or MEASURED_SUFFIXES.get(suffix)) if stem else None
+
+
+def quantity(value: float, unit: str | None) -> str:
+    """A number to three significant digits with its unit (``4.09 μm``), or bare when ``unit`` is None."""
+    return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
+
+
+P_FLOOR = 1e-10
+"""Below this a p- or q-value is written "< 1e-10": its digits say nothing a reader can use, and past
+double precision's tail (5.3e-195) they are rounding."""
+
+
+def probability(p: float) -> str:
+    """A p- or q-value to two significant digits, or ``< 1e-10`` below :data:`P_FLOOR`."""
+    return f"< {P_FLOOR:g}" if p < P_FLOOR else f"{p:.2g}"
+
+
+def probability_relation(p: float) -> str:
+    """``= 0.012`` or ``< 1e-10``: a p- or q-value after its symbol (``q = 0.012``, ``q < 1e-10``)."""
+    text = probability(p)
+    return text if text.startswith("<") else f"= {text}"

@@ -12,7 +12,7 @@ import pytest
 from svrqp.cli import main
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion
-from svrqp.gap.prepare import prepare
+from svrqp.gap.data.prepare import prepare
 from svrqp.query import QueryError, select_rows
 
 HOSTILE = "t < 25 and @pd.io.common.os.system('touch PWNED') == 0"

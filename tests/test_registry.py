@@ -47,7 +47,7 @@ def test_unknown_names_list_the_valid_ones():
 
 
 def test_tuning_and_gap_use_the_registry_names():
-    from svrqp.gap.baseline import make_model
+    from svrqp.gap.model import make_model
     from svrqp.tuning.checks import check_model
 
     assert registry.baselines()[0] == registry.DEFAULT_BASELINE

@@ -7,7 +7,19 @@ from pathlib import Path
 import pytest
 
 import svrqp
-from svrqp.units import MICRO, UNIT_SUFFIXES, axis_label, latex_symbol, ratio_unit, split_unit, unit_from_name
+from svrqp.units import (
+    MICRO,
+    UNIT_SUFFIXES,
+    axis_label,
+    latex_symbol,
+    probability,
+    probability_relation,
+    quantity,
+    ratio_unit,
+    split_unit,
+    unit_from_name,
+    unit_of,
+)
 
 MICRO_SIGN = "\N{MICRO SIGN}"  # U+00B5, the look-alike the project does not write
 PACKAGE = Path(svrqp.__file__).parent
@@ -43,3 +55,22 @@ def _files_with_micro_sign() -> set[str]:
 
 def test_no_module_writes_the_micro_sign_look_alike():
     assert _files_with_micro_sign() == set()
+
+
+@pytest.mark.parametrize("name, unit", [
+    ("error_um", "μm"), ("Fehler_\N{MICRO SIGN}m", "μm"), ("Fehler_μm", "μm"), ("spindle_box_C", "°C"), ("t_degC", "°C"),
+    ("duty_pct", "%"), ("time_min", "min"), ("deviation", None), ("row", "rows"), ("_um", None), ("ch1(um)", None),
+])
+def test_unit_of_reads_the_suffix_and_the_measured_spellings(name, unit):
+    assert unit_of(name) == unit
+
+
+def test_quantity_has_three_digits_and_its_unit():
+    assert quantity(4.0912, "μm") == "4.09 μm" and quantity(13.44, None) == "13.4"
+
+
+@pytest.mark.parametrize(("p", "text", "relation"), [
+    (0.012, "0.012", "= 0.012"), (1.0, "1", "= 1"), (5.32e-195, "< 1e-10", "< 1e-10"), (1e-10, "1e-10", "= 1e-10"),
+])
+def test_probabilities_below_1e_10_are_written_as_a_bound(p, text, relation):
+    assert probability(p) == text and probability_relation(p) == relation

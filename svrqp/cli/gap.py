@@ -9,8 +9,8 @@
 
 ``--seed``, ``--surrogates``, ``--local``, ``--local-along`` and ``--force`` are additions: the seed
 of the surrogates and bootstrap, how the significance tests draw surrogates
-(:mod:`svrqp.gap.surrogate_tests`), the localised form of every candidate and the columns other than
-the order axis its windows may lie along (:mod:`svrqp.gap.windows`), and permission to overwrite
+(:mod:`svrqp.gap.within.surrogate_tests`), the localised form of every candidate and the columns other than
+the order axis its windows may lie along (:mod:`svrqp.gap.transfer.windows`), and permission to overwrite
 existing output files.
 """
 
@@ -54,15 +54,20 @@ def gap(
         None, "--order", help="Time (min) or position (mm) column; rates and filters run along it."),
     group: str = typer.Option(
         None, "--group", help="Run/batch column; transforms restart and cross-validation is blocked per group."),
-    json_out: Path = typer.Option(..., "--json", help="Where to write the svrqp.gap/1 JSON."),
+    json_out: Path = typer.Option(..., "--json", help="Where to write the svrqp.gap/2 JSON."),
     report: Path = typer.Option(
         None, "--report", help="Also write a report: .html (self-contained) or .md (with PNG figures beside it)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the surrogate tests and the bootstrap."),
+    within_evidence: bool = typer.Option(
+        False, "--within-evidence", help="Also test each candidate within the real rows themselves (what a per-run "
+        "recalibration would remove: the causes' p_within, within_shrink, shrink_beyond_base; null without it). "
+        "It never enters a shrink or the summary, and takes about a third of the time."),
     surrogates: str = typer.Option(
-        "rotation", "--surrogates", help="rotation (default) | continuous: rotations made continuous at the seam, "
-        "safer when the true cause may be missing and candidates drift within a run (less power on slow effects)."),
-    jobs: int = typer.Option(1, "--jobs", help="Threads for the significance tests (-1: one per core); the result "
-                             "does not depend on it."),
+        "rotation", "--surrogates", help="With --within-evidence: rotation (default) | continuous: rotations made "
+        "continuous at the seam, safer when the true cause may be missing and candidates drift within a run (less "
+        "power on slow effects)."),
+    jobs: int = typer.Option(1, "--jobs", help="Threads for the within-real-rows tests (-1: one per core); the "
+                             "result does not depend on it."),
     local: bool = typer.Option(
         False, "--local", help="Also try each candidate acting in one window of the --order axis only (a start-up "
         "transient, an acceleration zone, a guideway patch) and name the window."),
@@ -110,6 +115,7 @@ def gap(
             seed=seed,
             surrogates=surrogates,
             n_jobs=jobs,
+            within_evidence=within_evidence,
             progress=lambda stage, done: progress.update(task, completed=done, description=stage),
         )
     written = [result.write_json(json_out, force=force)]

@@ -6,7 +6,7 @@ Files written (relative to the output directory):
 * ``s0_predictions.csv`` (per-sample measured and predicted error), ``s0_cv_grid.csv``,
   ``s0_x1.png``, ``s0_x2.png``, ``s0_x3.png``, ``s4_straightness.png``, ``s2_delta_x.png``;
 * ``export/s0_svr.json`` (``svrqp.model/1``), ``export/s0_svr.csv``, ``export/svrqp_model.c/.h``;
-* ``gap/gap.json`` (``svrqp.gap/1``), ``gap/gap.html``.
+* ``gap/gap.json`` (``svrqp.gap/2``), ``gap/gap.html``.
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ from svrqp.estimators.kernel import LSSVR, EpsilonSVR
 from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
 from svrqp.gap import GapQuestion, diagnose
-from svrqp.gap.report import GapReport
+from svrqp.gap.words.report import GapReport
 from svrqp.guard import Guarded
 from svrqp.guard.figures import interval_columns
 from svrqp.kernels import gamma_from_sigma_s0, gamma_from_sigma_s4

@@ -1,33 +1,35 @@
 """``diagnose``: the sim-to-real gap diagnosis, step by step.
 
 1. **Honest residuals** — fit the baseline on the train rows or read the prediction
-   (:mod:`svrqp.gap.baseline`); the real rows are the others.
+   (:mod:`svrqp.gap.model`); the real rows are the others.
 2. **Gate** — one-sided: the real rows must fit worse than the train rows (both out of
-   sample) and beyond chance (:mod:`svrqp.gap.gate`). No gap, no culprit: candidates that
+   sample) and beyond chance (:mod:`svrqp.gap.detect`). No gap, no culprit: candidates that
    would improve the model everywhere may be listed in the reason, none is named.
 3. **Localise** — where along the order axis (pooled over the runs, and within single runs)
-   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.localise`).
+   and along candidate columns the squared error concentrates (:mod:`svrqp.gap.detect`).
 4. **Transfer** — the user's question is "if I add this effect and refit, how much smaller is
    my error on a run I have not fitted?" Every candidate × transform is added to the model
    family and refitted leave-one-unit-out over all rows (units: the ``--group`` groups, or
    contiguous blocks of a record without runs), scored on the real rows
-   (:mod:`svrqp.gap.transfer`); the refit without any effect says what more data alone buys.
+   (:mod:`svrqp.gap.transfer.linear`); the refit without any effect says what more data alone buys.
    Causes are ranked by that transfer gain and tested against surrogates that respect what
    varies where, with the false-discovery rate controlled and confounded pairs checked by
-   conditional tests (:mod:`svrqp.gap.ranking`); this screen refits the linear family. For an
+   conditional tests (:mod:`svrqp.gap.transfer.ranking`); this screen refits the linear family. For an
    ``svr`` or ``lssvr`` model the reported numbers of the same-input refit, the best-ranked
    causes and the verdict candidate come from refits of that kernel family itself, its C, ε
-   and γ fixed (:mod:`svrqp.gap.kernel_transfer`). The verdict is the best-transferring
+   and γ fixed (:mod:`svrqp.gap.transfer.kernel`). The verdict is the best-transferring
    significant cause whose shrink is positive and whose shrink beyond the refit has an
    interval above zero.
-5. **Within the real rows** — the earlier evidence, discrepancy models fitted on the real rows
-   themselves (:mod:`svrqp.gap.attribute`), stays under its own keys (``p_within``,
-   ``within_shrink``, ``shrink_beyond_base``, ``base``): it says what a per-run recalibration
-   would remove, which no new run gets, and never enters ``shrink`` or the summary.
-6. **Report** — :class:`svrqp.gap.report.GapReport`: a summary of at most two sentences with
+5. **Within the real rows** (only with ``within_evidence=True``, ``--within-evidence``) — the
+   earlier evidence, discrepancy models fitted on the real rows themselves
+   (:mod:`svrqp.gap.within.attribute`), stays under its own keys (``p_within``,
+   ``within_shrink``, ``shrink_beyond_base``; null when not asked for): it says what a per-run
+   recalibration would remove, which no new run gets, and never enters ``shrink`` or the summary.
+   The per-run recalibration base alone (``base``) is always reported.
+6. **Report** — :class:`svrqp.gap.words.report.GapReport`: a summary of at most two sentences with
    the transfer shrink (leading with extrapolation when a model input is used outside its train
    range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
-   model input and candidate against its train range (:mod:`svrqp.gap.inputs`).
+   model input and candidate against its train range (:mod:`svrqp.gap.model`).
 """
 
 from __future__ import annotations
@@ -40,48 +42,25 @@ import numpy as np
 import pandas as pd
 
 from svrqp.exceptions import ProblemError
-from svrqp.gap.attribute import (
-    ALPHA,
-    MIN_AMPLITUDE,
-    MIN_GAIN,
-    Attribution,
-    AttributionProblem,
-    attribute,
-)
-from svrqp.gap.base import base_design, base_fit, offset_columns
-from svrqp.gap.baseline import Baseline, fit_baseline
-from svrqp.gap.between import EVIDENCE_BETWEEN
-from svrqp.gap.blocks import blocked_folds
-from svrqp.gap.candidates import (
-    build_banks,
-    constant_on_real_rows,
-    region_axis,
-    untestable_between_runs,
-)
-from svrqp.gap.figures import Series
-from svrqp.gap.gate import GateResult, gap_detected, gate
-from svrqp.gap.inputs import input_use
-from svrqp.gap.kernel_transfer import LINEAR, FamilyErrors, same_family_errors
-from svrqp.gap.localise import localise, region_of
-from svrqp.gap.prepare import GapData, prepare
-from svrqp.gap.quantify import estimate_shrink
+from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
+from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
+from svrqp.gap.detect import gap_detected, gate, localise, region_of
+from svrqp.gap.model import Baseline, base_design, base_fit, fit_baseline, input_use, offset_columns
 from svrqp.gap.question import GapQuestion
-from svrqp.gap.ranked import Ranking
-from svrqp.gap.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES
-from svrqp.gap.ranking import TransferRanker
-from svrqp.gap.report import BaseFit, Cause, GapReport, Verdict
-from svrqp.gap.summary import extrapolation_text, summary
-from svrqp.gap.surrogate_tests import MAX_SURROGATES, check_surrogates
-from svrqp.gap.transfer import (
+from svrqp.gap.results.records import Cause, GateResult, Ranking, Series, Units, Verdict
+from svrqp.gap.transfer.candidates import constant_on_real_rows, region_axis, untestable_between_runs
+from svrqp.gap.transfer.kernel import FamilyErrors, same_family_errors
+from svrqp.gap.transfer.linear import (
     LinearTransfer,
-    Units,
     bootstrap_index,
     shrink_of_gain,
     transfer_shrink,
     transfer_units,
 )
-from svrqp.gap.transforms import tau_grid
-from svrqp.gap.verdict import VerdictContext, decide, refit_closes
+from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
+from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, check_surrogates, evidence_within
+from svrqp.gap.words.report import GapReport
+from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
 from svrqp.metrics import rms
 
 Progress = Callable[[str, float], None]
@@ -91,6 +70,7 @@ Progress = Callable[[str, float], None]
 class _Findings:
     """What the cause search leaves for the report (:func:`_search_causes`)."""
 
+    context: VerdictContext
     causes: list[Cause]
     verdict: Verdict
     errors_after: dict[str, np.ndarray]
@@ -99,7 +79,7 @@ class _Findings:
 
 
 def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogates: str = "rotation",
-             n_jobs: int = 1, progress: Progress | None = None) -> GapReport:
+             n_jobs: int = 1, within_evidence: bool = False, progress: Progress | None = None) -> GapReport:
     """Diagnose the gap between a model (or a simulation) and real measurements.
 
     Parameters
@@ -113,7 +93,7 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     seed : int
         Seed of the surrogates and the bootstrap (results are reproducible).
     surrogates : {"rotation", "continuous"}
-        How the significance tests draw surrogates (:mod:`svrqp.gap.surrogate_tests`): plain
+        How the within-real-rows significance tests draw surrogates (:mod:`svrqp.gap.within.surrogate_tests`): plain
         rotations within each group (the default), or rotations made continuous at the seam —
         safer when the true cause may be missing from the candidates and some of them drift
         within a run, at some loss of power on slow, trend-like effects.
@@ -122,6 +102,11 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
         the transfer refits and their tests run on one. The result does not depend on it.
         A record of 13,000 real rows and 32 candidates gains little from a second thread now
         that most of its time is the transfer tests (``benchmarks/results/gap_scale.md``).
+    within_evidence : bool
+        Also compute the within-real-rows evidence (:mod:`svrqp.gap.within`, step 5 above): the
+        causes' ``p_within``, ``within_shrink``, ``within_shrink_ci`` and ``shrink_beyond_base``,
+        null otherwise. Off by default: it never enters a shrink, the verdict or the summary,
+        and costs about a third of a diagnosis.
     progress : callable, optional
         Called as ``progress(stage, fraction_done)``.
 
@@ -154,39 +139,41 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
         {"rmse_before": float(rms(r)), "rmse_refit": None, "shrink_refit": None,
          "refit_closes_gap": None, "units": units.n_units, "unit_kind": units.kind, "thin": units.thin})
     if exact:
-        findings = _Findings([], Verdict(column=None, reason="The model reproduces the real rows exactly (the residual "
+        findings = _Findings(context, [], Verdict(column=None, reason="The model reproduces the real rows exactly (the residual "
                                          "is zero to rounding); there is no gap and no cause is named."), {}, None, [])
     else:
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, np.random.default_rng(seed), surrogates,
                                      n_jobs)
-        findings = _search_causes(problem, taus, context, seed, report_progress, question.local)
+        findings = _search_causes(problem, taus, context, seed, report_progress, question.local, within_evidence)
     report_progress("reporting", 0.98)
     if findings.verdict.region is not None:  # a local verdict: where it acts comes first
         where = [region_of(region_axis(data, findings.verdict.region)[real], r, findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
                 "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
-                "local": question.local, "local_along": list(data.along)}
-    report = _report(context, question, where, findings, summary(context, findings.verdict, exact), settings)
+                "local": question.local, "local_along": list(data.along), "within_evidence": within_evidence}
+    text = summary(findings.context, findings.verdict, exact)
+    report = _report(question, where, findings, text, settings)
     report.runtime_s = time.perf_counter() - started
     report_progress("done", 1.0)
     return report
 
 
 def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: VerdictContext, seed: int,
-                   report_progress: Progress, local: bool) -> _Findings:
-    """Test within the real rows, rank and test by transfer (``local``: with the local form too), tabulate
-    the causes and decide the verdict.
+                   report_progress: Progress, local: bool, within: bool) -> _Findings:
+    """Rank and test by transfer (``local``: with the local form too), tabulate the causes and decide the
+    verdict; with ``within``, test within the real rows too.
 
-    Fills ``context.transfer`` with the same-input refit's numbers.
+    The findings carry ``context`` with its ``transfer`` entry complete (the same-input refit's numbers).
     """
-    data, units, transfer = context.data, context.units, context.transfer
+    data, units = context.data, context.units
     real, r, groups = data.is_real, problem.r, problem.groups
-    report_progress("computing candidate transforms", 0.2)
-    attribution = attribute(problem, build_banks(data, taus),
-                            lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
+    numbers = {}
+    if within:
+        report_progress("computing candidate transforms", 0.2)
+        numbers = evidence_within(problem, data, taus, context.base,
+                                  lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
     report_progress("refitting on held-out runs", 0.6)
-    within = _within_numbers(attribution, r, groups, context.base, problem.rng)
     ranker = TransferRanker(data, family_of(data, context.baseline, units), taus, np.random.default_rng([seed, 19]),
                             local=local)
     ranked = ranker.rank()
@@ -194,24 +181,25 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     ranking = ranker.choose(ranked)
     report_progress("refitting the model family", 0.8)
     family = same_family_errors(data, context.baseline, units, ranker, ranking)
-    transfer["rmse_refit"] = float(rms(family.refit))
-    transfer["shrink_refit"] = 1 - transfer["rmse_refit"] / transfer["rmse_before"]
-    transfer["refit_closes_gap"] = context.detected and refit_closes(family.refit, groups)
-    transfer |= {"family": family.family, "screened_by": LINEAR, "family_note": family.note}
+    rmse_refit = float(rms(family.refit))
+    context = replace(context, transfer=context.transfer | {
+        "rmse_refit": rmse_refit, "shrink_refit": 1 - rmse_refit / context.transfer["rmse_before"],
+        "refit_closes_gap": context.detected and refit_closes(family.refit, groups),
+        "family": family.family, "screened_by": LINEAR, "family_note": family.note})
     report_progress("quantifying", 0.9)
     notes = untestable_between_runs(data) | constant_on_real_rows(data) | family.kept_linear
-    causes, errors_after = _causes(ranking, r, family, units, units.code[real], within, notes,
+    causes, errors_after = _causes(ranking, r, family, units, units.code[real], numbers, notes,
                                    np.random.default_rng([seed, 20]))
     verdict, residual_gate = decide(ranking, causes, errors_after, context)
     verdict = replace(verdict, reason=verdict.reason + extrapolation_text(context))
     remaining = [c.column for c in causes[1:] if verdict.column and c.significant
                  and (c.note or "").startswith("carries information beyond")]
-    return _Findings(causes, verdict, errors_after, residual_gate, remaining)
+    return _Findings(context, causes, verdict, errors_after, residual_gate, remaining)
 
 
-def _report(context: VerdictContext, question: GapQuestion, where: list, findings: _Findings, text: str,
-            settings: dict) -> GapReport:
+def _report(question: GapQuestion, where: list, findings: _Findings, text: str, settings: dict) -> GapReport:
     """The :class:`GapReport` of a diagnosis (``runtime_s`` set by the caller)."""
+    context = findings.context
     data, baseline, units = context.data, context.baseline, context.units
     series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels, data.is_train,
                     data.y, baseline.y_hat, findings.errors_after.get(findings.verdict.column))
@@ -229,6 +217,7 @@ def _report(context: VerdictContext, question: GapQuestion, where: list, finding
         n_real=int(data.is_real.sum()),
         n_dropped=data.n_dropped,
         n_dropped_short_groups=data.n_dropped_short_groups,
+        order_sorted=data.order_sorted,
         gap=context.gap,
         gap_detected=context.detected,
         where=where,
@@ -257,11 +246,11 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
 
 
 def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer:
-    """The linear family the ranking and the tests refit (:mod:`svrqp.gap.transfer`).
+    """The linear family the ranking and the tests refit (:mod:`svrqp.gap.transfer.linear`).
 
     Features mode: least squares of the target on an intercept and the features (the ``mlr``
     model itself; for ``svr`` and ``lssvr`` the screen, whose best causes
-    :mod:`svrqp.gap.kernel_transfer` refits with the kernel family). Prediction mode: the
+    :mod:`svrqp.gap.transfer.kernel` refits with the kernel family). Prediction mode: the
     discrepancy model, target − prediction on an intercept.
     """
     ones = np.ones((len(data.y), 1))
@@ -270,30 +259,15 @@ def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer
     return LinearTransfer(data.y, np.column_stack([ones, data.X]), units, data.is_real)
 
 
-def _within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray, base: BaseFit,
-                    rng: np.random.Generator) -> dict[str, tuple[float, tuple[float, float], float, float | None]]:
-    """Per column: the within-real-rows shrink, its interval, its p-value (BH) and its shrink beyond the base.
-
-    These numbers come from discrepancy models fitted on the real rows themselves: they say
-    what a per-run recalibration with the effect would remove, not what the effect buys on a
-    new run, and stay under their own keys.
-    """
-    out = {}
-    for column in dict.fromkeys(e.test.column for e in attribution.evidence):
-        ev = attribution.best(column)
-        estimate = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
-        beyond = 1.0 - estimate.rmse_after / base.rmse_after if base.rmse_after > 0 else None
-        out[column] = (estimate.shrink, (estimate.ci_low, estimate.ci_high), ev.q_value, beyond)
-    return out
-
 
 def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units, real_units: np.ndarray,
             within: dict, notes: dict, rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
     """The causes table, best transfer first (by the linear screen): one row per column with its transfer numbers.
 
-    ``family`` holds the same-family refits (:mod:`svrqp.gap.kernel_transfer`); a cause it did not
+    ``family`` holds the same-family refits (:mod:`svrqp.gap.transfer.kernel`); a cause it did not
     refit keeps the linear screen's numbers, said by its ``family``. ``real_units`` is the held-out
-    unit of each real row; ``within`` the numbers of :func:`_within_numbers`; ``notes`` the
+    unit of each real row; ``within`` the numbers of :func:`svrqp.gap.within.attribute.evidence_within` (empty
+    unless asked for); ``notes`` the
     attribution's notes on columns.
     """
     index = bootstrap_index(units.n_units, rng)
@@ -310,7 +284,7 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             evidence=EVIDENCE_BETWEEN if effect.block else "within runs",
             p_value=row.q_value, p_raw=row.p_raw, gain=row.gain, significant=row.significant,
             rmse_before=numbers.rmse_before, rmse_after=numbers.rmse_after, shrink=numbers.shrink,
-            shrink_ci=numbers.shrink_ci, round=1, note=note, ambiguous=row.ambiguous,
+            shrink_ci=numbers.shrink_ci, note=note, ambiguous=row.ambiguous,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
             shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
             tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
@@ -319,4 +293,3 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
         ))
         errors_after[effect.column] = after
     return causes, errors_after
-

@@ -33,10 +33,10 @@ class GapQuestion:
     group : str, optional
         Run/batch column; transforms restart and cross-validation is blocked per group.
     model : {"mlr", "svr", "lssvr"}
-        Baseline model family (features mode; :mod:`svrqp.gap.baseline`).
+        Baseline model family (features mode; :mod:`svrqp.gap.model`).
     local : bool
         Also refit every candidate in the ``local`` form, acting in one window of the
-        ``order`` axis only (:mod:`svrqp.gap.windows`), and name that window with a verdict.
+        ``order`` axis only (:mod:`svrqp.gap.transfer.windows`), and name that window with a verdict.
         Off by default: offered to every diagnosis it changes some borderline verdicts of
         global effects (docs/gap.md, "Localised effects").
     local_along : str or list of str, optional

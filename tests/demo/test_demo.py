@@ -18,7 +18,7 @@ from svrqp.cli import main
 from svrqp.demo.report import verdict_label
 from svrqp.demo.run import prepare_directory
 from svrqp.export import predict, read_document, verify
-from svrqp.gap.report import load_schema as load_gap_schema
+from svrqp.gap.results.document import load_schema as load_gap_schema
 
 
 @pytest.fixture(scope="module")

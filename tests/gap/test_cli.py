@@ -43,7 +43,20 @@ def test_prediction_mode(data_csv, tmp_path, capsys):
                           "--prediction", "spindle_C", "--candidates", "air_C,nut_C", "--json", str(out),
                           "--jobs", "2"], capsys)
     assert code == 0, printed.err
-    assert json.loads(out.read_text())["mode"] == "prediction"
+    document = json.loads(out.read_text())
+    assert document["mode"] == "prediction" and document["settings"]["within_evidence"] is False
+    assert all(cause["p_within"] is None for cause in document["causes"])
+
+
+def test_within_evidence_is_a_flag(data_csv, tmp_path, capsys):
+    out = tmp_path / "within.json"
+    code, printed = _run(["gap", str(data_csv), "--target", "error_um", "--train", "run == 'r0'",
+                          "--prediction", "spindle_C", "--candidates", "air_C,nut_C", "--json", str(out),
+                          "--within-evidence"], capsys)
+    assert code == 0, printed.err
+    document = json.loads(out.read_text())
+    assert document["settings"]["within_evidence"] is True
+    assert any(cause["p_within"] is not None for cause in document["causes"])
 
 
 @pytest.mark.parametrize("extra, message", [

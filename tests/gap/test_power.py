@@ -1,4 +1,4 @@
-"""Power of the transfer tests (svrqp.gap.ranking) without false attribution.
+"""Power of the transfer tests (svrqp.gap.transfer.ranking) without false attribution.
 
 What the tests must get right: a reading that holds nearly one level per run may still carry an
 effect's dynamics within each run (its ``rate`` and ``lag`` are refitted and rotated within runs,
@@ -14,10 +14,11 @@ import pytest
 from support.benchmark_modules import load_benchmark
 
 from svrqp.gap import GapQuestion
-from svrqp.gap.prepare import prepare
-from svrqp.gap.ranking import TransferRanker
-from svrqp.gap.transfer import LinearTransfer, Units
-from svrqp.gap.transforms import group_slices
+from svrqp.gap.data.prepare import prepare
+from svrqp.gap.data.transforms import group_slices
+from svrqp.gap.results.records import Units
+from svrqp.gap.transfer.linear import LinearTransfer
+from svrqp.gap.transfer.ranking import TransferRanker
 
 
 @pytest.fixture(scope="module")
@@ -34,10 +35,12 @@ def _scenario(suite, name):
                                               ("tp-coolant_chiller-6", "coolant_C")])
 def test_the_lag_of_a_reading_nearly_constant_within_runs_is_named(suite, name, column):
     """Both readings vary within runs by under 5 % of their variance (one level per run, by season), yet
-    the withheld effect follows their dynamics within each run: their lag transfers and is named."""
+    the withheld effect follows their dynamics within each run: a transform that follows them within runs
+    transfers and is named — the lag, or for the headstock the rise since the run's start, which transfers
+    better than any lag there (transfer gain 0.27 against the lag's 0.24)."""
     scenario = _scenario(suite, name)
     report = suite.diagnose_case(scenario, suite.case_for(scenario))
-    assert report.verdict.column == column and report.verdict.transform == "lag"
+    assert report.verdict.column == column and report.verdict.transform in ("lag", "rise")
     assert report.verdict.shrink_beyond_refit > 0.1
 
 
@@ -103,9 +106,11 @@ def test_a_surrogate_keeps_what_the_model_inputs_explain():
 
 
 def test_a_cause_no_better_than_the_kernel_refit_is_not_named(suite):
-    """tf-null-9 (an LS-SVR model, two held-out runs): the linear screen finds T5_C significant, but refitted
-    with the LS-SVR itself it adds nothing to the same-input refit: no cause, and the reason says why."""
-    scenario = _scenario(suite, "tf-null-9")
+    """Held-out tf-null-9 (an LS-SVR model): the linear screen finds the rise of speed_rpm significant, but
+    refitted with the LS-SVR itself it adds nothing to the same-input refit: no cause, and the reason says why.
+    (Development tf-null-9 showed the same with T5_C until the rise joined the transforms: T5_C's best
+    transform there is now its rise, which the screen itself finds not significant.)"""
+    scenario = next(s for s in suite.scenarios(grid="holdout") if s.name == "tf-null-9")
     report = suite.diagnose_case(scenario, suite.case_for(scenario))
     assert report.verdict.column is None
     cause = next(c for c in report.causes if c.significant)

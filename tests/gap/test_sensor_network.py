@@ -24,7 +24,7 @@ def network():
 ])
 def test_withheld_sensor_or_one_that_transfers_as_well_is_named(network, mode, seed, truth):
     """DESIGN §4: the engine must name the withheld sensor or a candidate whose leave-one-run-out refit
-    transfers at least as well (the shrinks are the engine's, which tests/gap/test_transfer.py checks
+    transfers at least as well (the shrinks are the engine's, which tests/gap/transfer/test_linear.py checks
     against independent refits). Seed 90019: the lag of bearing_C transfers 74 %, headstock_C 66 %."""
     df, args, _ = network.case(mode, "withheld", 1.0, seed)
     report = network.diagnose(df, network.GapQuestion(**args))

@@ -146,5 +146,5 @@ def test_a_local_decoy_is_checked_by_the_suite_s_own_local_refit(suite):
     scenario = next(s for s in suite.scenarios(grid="fresh") if s.name == "lt-window-5")
     case = suite.case_for(scenario)
     low, high = suite.window_bounds(case.table, scenario)
-    assert suite._local_as_well(scenario, case, "ambient_C", {"column": "time_min", "low": low, "high": high})
-    assert not suite._local_as_well(scenario, case, "ambient_C", {"column": "time_min", "low": 211.0, "high": 239.0})
+    assert suite.local_as_well(scenario, case, "ambient_C", {"column": "time_min", "low": low, "high": high})
+    assert not suite.local_as_well(scenario, case, "ambient_C", {"column": "time_min", "low": 211.0, "high": 239.0})

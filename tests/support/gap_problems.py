@@ -12,7 +12,7 @@ The error is
 
 with the effect one of: none; ``b``·(air through a first-order lag of ``tau`` min); ``b``·air;
 ``b``·d(spindle)/dt. The first run is the train run. Lags use :func:`scipy.signal.lfilter`,
-independently of :mod:`svrqp.gap.transforms`.
+independently of :mod:`svrqp.gap.data.transforms`.
 """
 
 from __future__ import annotations
