@@ -24,7 +24,7 @@ from svrqp.machine.thermal import Ambient
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: Transforms :mod:`transfer_oracle` refits.
-ORACLE_TRANSFORMS = ("level", "rate", "lag")
+ORACLE_TRANSFORMS = ("level", "rate", "rise", "lag")
 AR_PHI = 0.8
 SUMMER_DAYS = (170.0, 230.0)
 WINTER_DAYS = (0.0, 40.0)

@@ -243,7 +243,7 @@ def _truth_transfers(s: Scenario, case: Case) -> bool:
     :data:`transfer_oracle.AS_WELL`). Where none does, DESIGN §4 leaves no offered cause to name: the
     effect as measured buys nothing on a run the fit never saw.
 
-    The transforms are level, rate and lag (:func:`transfer_oracle.transform_variants`) and the
+    The transforms are level, rate, rise and lag (:func:`transfer_oracle.transform_variants`) and the
     between-run block of a reading's run mean :math:`\bar c` scaling a profile along the run,
     :math:`[P, \bar c, \bar c P]` with :math:`P` the Legendre polynomials of degree 1 to 3 of the
     run phase (−1 at a run's first row, 1 at its last), written here from that definition.

@@ -13,7 +13,8 @@ least as well as the truth's. The benchmarks score that rule here with plain lea
 (:func:`numpy.linalg.lstsq`), so that the engine's numbers are checked, not reused.
 
 Transforms of a column ``x`` along the order axis ``t``, restarted in every group: ``level``
-:math:`[x]`; ``rate`` :math:`[\dot x]` (:func:`numpy.gradient`); ``lag`` :math:`[x, x_\tau]`,
+:math:`[x]`; ``rate`` :math:`[\dot x]` (:func:`numpy.gradient`); ``rise`` :math:`[x - x(t_0)]`, the
+change since the group's first row; ``lag`` :math:`[x, x_\tau]`,
 the first-order low-pass :math:`x_{\tau,k} = x_{\tau,k-1} + (1 - e^{-(t_k - t_{k-1})/\tau})
 (x_k - x_{\tau,k-1})` from equilibrium, one variant per :math:`\tau` of :func:`tau_grid`;
 the variant (the :math:`\tau`) is chosen inside each fit by its own rows' squared error.
@@ -73,7 +74,11 @@ def transform_variants(x: np.ndarray, t: np.ndarray, groups: np.ndarray,
         for k in range(1, rows.size):
             state = state + (1 - np.exp(-(tg[k] - tg[k - 1]) / taus)) * (x[rows[k]] - state)
             lowpass[rows[k]] = state
-    return {"level": [x[:, None]], "rate": [rate[:, None]],
+    start = np.empty_like(x)  # each group's first value: the rise is x - x(t0)
+    for g in pd.unique(groups):
+        rows = np.flatnonzero(groups == g)
+        start[rows] = x[rows[0]]
+    return {"level": [x[:, None]], "rate": [rate[:, None]], "rise": [(x - start)[:, None]],
             "lag": [np.column_stack([x, lowpass[:, j]]) for j in range(taus.size)]}
 
 
