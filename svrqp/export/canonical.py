@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from svrqp.exceptions import ProblemError
+from svrqp.table_checks import repeated
 
 HASH_FIELD = "content_sha256"
 
@@ -107,8 +108,7 @@ def nesting_depth(text: str) -> int:
 
 
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    keys = [key for key, _ in pairs]
-    duplicates = sorted({key for key in keys if keys.count(key) > 1})
+    duplicates = repeated(key for key, _ in pairs)
     if duplicates:
         raise ProblemError(f"model file repeats the key(s) {duplicates}; each key may appear once")
     return dict(pairs)
