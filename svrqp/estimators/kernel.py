@@ -28,7 +28,7 @@ from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_
 from svrqp.export import describe
 from svrqp.export.mixin import ExportMixin
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate, ls_svr
-from svrqp.kernels import gram
+from svrqp.kernels import MAX_DEGREE, check_kernel_range, gram
 from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
 from svrqp.problems import check_psd
 from svrqp.solution import Solution, require_certificates
@@ -51,7 +51,7 @@ FALLBACK_SOLVER = "clarabel"
 _KERNEL_CHECKS = {
     "kernel": [OneOf(frozenset({"linear", "poly", "rbf", "precomputed"}))],
     "gamma": [OneOf(frozenset({"scale", "auto"})), Number(0.0)],
-    "degree": [Number(1, closed="left", integer=True)],
+    "degree": [Number(1, MAX_DEGREE, closed="both", integer=True)],
     "coef0": [Number()],
 }
 
@@ -229,6 +229,7 @@ class EpsilonSVR(CompactFitMixin, ExportMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
+        check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
         self.solver_, self.fallback_reason_ = self.solver, None
         try:
             beta, b = self._solve(X, y, self.solver, self.formulation)
@@ -379,6 +380,7 @@ class LSSVR(CompactSystemMixin, ExportMixin, _KernelModel):
         check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         self.gamma_ = self._resolve_gamma(X)
+        check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
         K = self._training_gram(X)
         self._keep_fit_data(K if self.kernel == "precomputed" else None, y)
         self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept) if self.solver == "lu" else None
