@@ -61,6 +61,18 @@ def split_pipeline(model: Any) -> tuple[dict[str, Any] | None, Any]:
     return {"method": "standard", "mean": floats(mean), "scale": floats(scale)}, estimator
 
 
+def with_centre(scaling: dict[str, Any] | None, centre: Any) -> dict[str, Any] | None:
+    """The ``scaling`` section that also subtracts a model's own input centre (in the model's
+    coordinates): :math:`u = (x - m)/s - c = (x - (m + s c))/s`."""
+    if centre is None:
+        return scaling
+    centre = np.asarray(centre, dtype=float)
+    if scaling is None:
+        return {"method": "standard", "mean": floats(centre), "scale": floats(np.ones_like(centre))}
+    scale = np.asarray(scaling["scale"], dtype=float)
+    return {**scaling, "mean": floats(np.asarray(scaling["mean"], dtype=float) + scale * centre)}
+
+
 def floats(values: Any) -> list[float]:
     """An array as a flat list of Python floats (JSON writes them exactly, as ``repr``)."""
     return [float(value) for value in np.asarray(values, dtype=float).ravel()]
@@ -73,6 +85,11 @@ class Sections(NamedTuple):
     """Coefficients and formula (the document's ``model``)."""
     solver: dict[str, Any]
     """How the coefficients were computed and their certificates (the document's ``solver``)."""
+    centre: Any = None
+    """A linear model's input centre :math:`\\bar x`, or None: the model is then written as
+    :math:`f = b + (x - \\bar x)^\\top a` (``intercept`` is :math:`b`, the value at the centre) and the
+    centre goes into the document's ``scaling`` (:func:`with_centre`), so that inputs offset far from
+    zero keep their digits in every evaluator of the file."""
 
 
 def kind_of(estimator: Any) -> str:

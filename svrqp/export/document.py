@@ -125,7 +125,8 @@ def build_document(
         model = model.estimator_  # the model that predicts; the interval and domain come from outer
     scaling, estimator = describe.split_pipeline(model)
     kind = describe.kind_of(estimator)
-    section, solver = describe.sections(estimator)
+    section, solver, centre = describe.sections(estimator)
+    scaling = describe.with_centre(scaling, centre)
     d = int(estimator.n_features_in_)
     names = _names(feature_names, X, outer, d)
     if target_name is None:
