@@ -11,7 +11,8 @@ def export_model(
     path: str | Path,
     format: str | None = None,
     *,
-    overwrite: bool = False,
+    force: bool = False,
+    overwrite: bool | None = None,
     **document: Any,
 ) -> list[Path]:
     """Export a fitted model (an estimator or a ``Pipeline(StandardScaler, estimator)``).
@@ -24,8 +25,10 @@ def export_model(
         Output file (``.json``, ``.csv``, ``.c``) or, for C, a directory.
     format
         ``"json"``, ``"csv"`` or ``"c"``; default: from the suffix of ``path``.
+    force
+        Replace existing files (default: refuse with ``FileExistsError``); see :mod:`svrqp.output`.
     overwrite
-        Replace existing files (default: refuse with ``FileExistsError``).
+        Deprecated spelling of ``force`` (a ``DeprecationWarning``).
     **document
         The keyword arguments of :func:`svrqp.export.document.build_document`, forwarded
         unchanged: ``X``, ``y`` (the training data: its hash and the scikit-learn cross-check),
@@ -37,9 +40,9 @@ def export_model(
         The files written.
     """
     from svrqp.export.document import build_document
-    from svrqp.export.writers import write
+    from svrqp.export.writers import resolve_force, write
 
-    return write(build_document(model, **document), path, format, overwrite=overwrite)
+    return write(build_document(model, **document), path, format, force=resolve_force(force, overwrite))
 
 
 class ExportMixin:
@@ -61,6 +64,6 @@ class ExportMixin:
 
         ``options`` are the keyword arguments of :func:`svrqp.export.export_model` (``X``, ``y``,
         ``feature_names``, ``feature_units``, ``target_name``, ``target_unit``, ``probes``,
-        ``overwrite``), forwarded unchanged, so the two cannot drift apart.
+        ``force``), forwarded unchanged, so the two cannot drift apart.
         """
         return export_model(self, path, format, **options)
