@@ -34,8 +34,9 @@ from svrqp.table_checks import repeated
 
 HASH_FIELD = "content_sha256"
 
-#: Largest model file read (bytes): ~50 000 support vectors of 20 inputs as JSON text.
-MAX_BYTES = 64 * 2**20
+#: Largest model file read (bytes): the largest model file svrqp.export.budget allows (10 000 support
+#: vectors of 20 inputs, ~5 MB) with room to spare; parsing it takes about a second, not minutes.
+MAX_BYTES = 16 * 2**20
 
 #: Deepest nesting of arrays and objects; an svrqp.model/1 document needs 5.
 MAX_DEPTH = 32
