@@ -334,11 +334,17 @@ def fit_linear(
             f"constant column(s) {constant}: a constant regressor is collinear with the "
             "intercept, so its coefficient is not identifiable"
         )
+    # x_mean is rounded to the grid of the offset (2.4e-7 at 1.7e9): the centred columns then keep
+    # a mean of that size, which their normal equations (no intercept column) would pass to the
+    # answer times the slope. Subtract it too, and evaluate about x_mean with the matching value.
+    drift = centred.mean(axis=0)
+    centred = centred - drift
     solution = solve_normal_equations(
         centred, y - y_mean, rank_deficient=rank_deficient, column_names=names
     )
-    intercept = y_mean - float(x_mean @ solution.coef)
-    return LinearFit(solution.coef, intercept, solution.rank, solution.condition_number, x_mean, y_mean)
+    intercept = y_mean - float(x_mean @ solution.coef) - float(drift @ solution.coef)
+    return LinearFit(solution.coef, intercept, solution.rank, solution.condition_number, x_mean,
+                     y_mean - float(drift @ solution.coef))
 
 
 def _to_unit_interval(x: np.ndarray, domain: tuple[float, float]) -> np.ndarray:
