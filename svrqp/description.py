@@ -45,6 +45,11 @@ class Sections(NamedTuple):
     """Coefficients and formula (the document's ``model``)."""
     solver: dict[str, Any]
     """How the coefficients were computed and their certificates (the document's ``solver``)."""
+    centre: Any = None
+    """A linear model's input centre :math:`\bar x`, or None: the model is then written as
+    :math:`f = b + (x - \bar x)^\top a` (``intercept`` is :math:`b`, the value at the centre) and the
+    centre goes into the document's ``scaling`` (:func:`svrqp.export.describe.with_centre`), so that
+    inputs offset far from zero keep their digits in every evaluator of the file."""
 
 
 @runtime_checkable

@@ -87,14 +87,42 @@ def kernel_arguments(kernel_parameters: Mapping[str, Any]) -> dict[str, Any]:
     return {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
 
 
+#: Highest polynomial-kernel degree accepted (by the estimators, :func:`gram` and the model files'
+#: ``verify``): far above any error model of a machine tool, and low enough that a kernel value is
+#: never raised to a power a user could not mean (``degree=2**40`` used to hang or overflow).
+MAX_DEGREE = 100
+#: Largest polynomial-kernel value accepted, as for the inputs (:data:`svrqp.table_checks.MAX_MAGNITUDE`):
+#: a sum of products of such values stays finite in float64.
+MAX_KERNEL_VALUE = 1e150
+
+
 def check_kernel_parameters(kernel: str, gamma: float, degree: int) -> None:
-    """Raise :class:`ProblemError` naming the kernel parameter that is out of range."""
+    """Raise :class:`ProblemError` naming the kernel parameter that is out of range (a ``degree``
+    above :data:`MAX_DEGREE` included)."""
     if kernel not in KERNELS:
         raise ProblemError(f"kernel must be one of {KERNELS}, got {kernel!r}")
     if kernel != "linear":
         _positive(gamma, "gamma")
-    if kernel == "poly" and (int(degree) != degree or degree < 1):
-        raise ProblemError(f"degree must be a positive integer, got {degree!r}")
+    if kernel == "poly" and (int(degree) != degree or not 1 <= degree <= MAX_DEGREE):
+        raise ProblemError(f"degree must be an integer in [1, {MAX_DEGREE}], got {degree!r}")
+
+
+def check_kernel_range(X: NDArray[np.float64], kernel: str, gamma: float, degree: int, coef0: float) -> None:
+    r"""Raise :class:`ProblemError` before any work when a polynomial kernel's values on ``X`` can
+    exceed :data:`MAX_KERNEL_VALUE`.
+
+    The bound is :math:`|k(x_i, x_j)| \le (\gamma \max_i \lVert x_i\rVert^2 + |c|)^d`, taken in
+    logarithms so that it cannot overflow itself (``coef0=1e200`` used to reach the solver and
+    fail there as "dual coefficients are not finite").
+    """
+    if kernel != "poly" or X.size == 0:
+        return
+    check_kernel_parameters(kernel, gamma, degree)
+    base = float(gamma) * float(np.einsum("ij,ij->i", X, X).max()) + abs(float(coef0))
+    if not np.isfinite(base) or (base > 1.0 and int(degree) * np.log10(base) > np.log10(MAX_KERNEL_VALUE)):
+        raise ProblemError(f"the poly kernel reaches values up to ({base:.3g})^{int(degree)} on these inputs "
+                           f"(gamma={gamma:.3g}, coef0={float(coef0):.3g}, degree={int(degree)}); at most "
+                           f"{MAX_KERNEL_VALUE:.0e} is supported: scale the features or lower coef0 / degree")
 
 
 def centred(kernel: str, X: NDArray[np.float64],
@@ -158,7 +186,9 @@ def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, in_
     points by the few ulps of the expansion's own rounding, which a product carries anyway.
     """
     with np.errstate(over="ignore", invalid="ignore"):
-        if kernel == "poly":
+        if kernel == "poly" and int(degree) > 8:
+            np.power(inner, int(degree), out=inner)  # never more than one pass (degree <= MAX_DEGREE)
+        elif kernel == "poly":
             # Repeated products: libm's pow per entry is several times slower for small degrees.
             base = inner.copy()  # one cache-sized block
             for _ in range(int(degree) - 1):

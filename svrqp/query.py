@@ -3,7 +3,9 @@ r"""Row filters for ``--train``: a small query language that selects rows and ca
 A filter is a boolean expression over the columns of a table, with the syntax of a pandas query
 restricted to an explicit allow-list:
 
-* column names (``T7_C``), or any name in backticks (```T7 [°C]```);
+* column names (``T7_C``), or any name in backticks (```T7 [°C]```); a name denotes the column
+  spelt with exactly the characters typed (never a Unicode-normalised form of them: ``ｔ`` is not
+  ``t``), and backticks inside a string literal are part of the string;
 * literals: numbers, strings, ``True``/``False``/``None``; a unary minus on a number or a column;
 * comparisons ``== != < <= > >=``, chained (``20 < T7_C <= 30``);
 * ``in`` / ``not in`` a list or tuple of literals (``batch in ['x1', 'x2']``);
@@ -57,32 +59,53 @@ class QueryError(ProblemError):
     """A ``--train`` filter is malformed or uses a construct outside the filter language."""
 
 
+def _string_end(query: str, i: int) -> int:
+    """Index just past the string literal opening at ``query[i]`` (one of ``'`` ``"``, single or
+    triple quoted); backslash escapes are skipped. An unterminated literal runs to the end (the
+    parser then reports it)."""
+    delimiter = query[i] * 3 if query.startswith(query[i] * 3, i) else query[i]
+    j = i + len(delimiter)
+    while j < len(query):
+        if query[j] == "\\":
+            j += 2
+        elif query.startswith(delimiter, j):
+            return j + len(delimiter)
+        else:
+            j += 1
+    return len(query)
+
+
+def _placeholder_prefix(query: str) -> str:
+    """A prefix for the backtick placeholders that occurs nowhere in ``query``, so a placeholder can
+    never be mistaken for a column the filter names directly."""
+    prefix = "svrqp_column_"
+    while prefix in query:
+        prefix = "svrqp_" + prefix
+    return prefix
+
+
 def _backticks_to_names(query: str) -> tuple[str, dict[str, str]]:
-    """Replace each ```name``` outside string literals by a placeholder identifier; refuse ``@``."""
+    """Replace each ```name``` outside string literals by a placeholder identifier that occurs nowhere
+    else in the filter; string literals (triple-quoted ones included) are copied untouched; refuse ``@``."""
     out: list[str] = []
     names: dict[str, str] = {}
-    quote: str | None = None
+    prefix = _placeholder_prefix(query)
     i = 0
     while i < len(query):
         char = query[i]
-        if quote is not None:
-            out.append(char)
-            if char == "\\" and i + 1 < len(query):
-                out.append(query[i + 1])
-                i += 1
-            elif char == quote:
-                quote = None
-        elif char in "'\"":
-            quote = char
-            out.append(char)
-        elif char == "@":
+        if char in "'\"":
+            end = _string_end(query, i)
+            out.append(query[i:end])
+            i = end
+            continue
+        if char == "@":
             raise QueryError(f"forbidden token '@' at position {i} in {query!r}: a filter refers to columns "
                              "only, not to variables")
-        elif char == "`":
+        if char == "`":
             end = query.find("`", i + 1)
             if end < 0:
                 raise QueryError(f"unclosed backtick at position {i} in {query!r}")
-            placeholder = f"svrqp_column_{len(names)}"
+            placeholder = f"{prefix}{len(names)}"
             names[placeholder] = query[i + 1:end]
             out.append(f" {placeholder} ")
             i = end
@@ -90,6 +113,19 @@ def _backticks_to_names(query: str) -> tuple[str, dict[str, str]]:
             out.append(char)
         i += 1
     return "".join(out), names
+
+
+def _resolve_names(tree: ast.Expression, source: str, names: dict[str, str]) -> None:
+    """Set each name of ``tree`` to the column it denotes, read from the filter's own text.
+
+    Python's parser NFKC-normalises identifiers (full-width ``ｔ`` becomes ``t``), which would
+    silently select another column; the exact characters the user typed are taken from the source
+    instead, and backtick placeholders are replaced by the names they stand for.
+    """
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            typed = ast.get_source_segment(source, node) or node.id
+            node.id = names.get(typed, typed)
 
 
 def _describe(node: ast.AST) -> str:
@@ -153,8 +189,9 @@ def parse(query: str) -> tuple[ast.Expression, dict[str, str]]:
     if len(query) > MAX_QUERY_LENGTH:
         raise QueryError(f"filter of {len(query)} characters: at most {MAX_QUERY_LENGTH} are accepted")
     source, names = _backticks_to_names(query)
+    source = source.strip()
     try:
-        tree = ast.parse(source.strip(), mode="eval")
+        tree = ast.parse(source, mode="eval")
     except SyntaxError as err:
         raise QueryError(f"cannot evaluate query {query!r}: {err.msg}") from None
     except (ValueError, RecursionError, MemoryError) as err:  # NUL bytes, absurd nesting
@@ -163,6 +200,7 @@ def parse(query: str) -> tuple[ast.Expression, dict[str, str]]:
         _check(tree, query)
     except RecursionError:
         raise QueryError(f"filter nested too deeply: {query[:80]!r}...") from None
+    _resolve_names(tree, source, names)
     return tree, names
 
 
@@ -172,7 +210,7 @@ def _evaluate(node: ast.AST, table: pd.DataFrame, names: dict[str, str], query: 
     if isinstance(node, ast.Constant):
         return node.value
     if isinstance(node, ast.Name):
-        column = names.get(node.id, node.id)
+        column = node.id  # the exact name (see _resolve_names)
         if column not in table.columns:
             raise QueryError(f"filter {query!r}: unknown column {column!r}; columns: {list(map(str, table.columns))}")
         return table[column]
@@ -235,6 +273,8 @@ def select_rows(table: pd.DataFrame, query: str) -> pd.Series:
         raise QueryError(f"filter nested too deeply: {query[:80]!r}...") from None
     except (TypeError, ValueError) as err:  # e.g. a number compared with a text column
         raise QueryError(f"cannot evaluate query {query!r}: {err}") from None
+    except OverflowError as err:  # an integer literal beyond float64 compared with a float column
+        raise QueryError(f"cannot evaluate query {query!r}: a number is out of range ({err})") from None
     result = _mask(result, query)
     if isinstance(result, bool):
         return pd.Series(result, index=table.index)

@@ -20,6 +20,7 @@ import pandas as pd
 # A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
 from matplotlib.figure import Figure
 
+from svrqp import output
 from svrqp.bench.cases import PROFILES
 from svrqp.bench.evaluate import aggregate, ratios_to_reference
 from svrqp.bench.run import BenchConfig
@@ -195,15 +196,17 @@ def write_outputs(rows: pd.DataFrame, config: BenchConfig, output_dir: Path, *, 
     ------
     FileExistsError
         When one of the files exists and ``force`` is false (a user's file is never overwritten silently).
+    ProblemError
+        When one of the paths is a FIFO, a folder or a device (:mod:`svrqp.output`).
     """
     paths = output_paths(output_dir, stem)
-    existing = [str(path) for path in paths.values() if path.exists()]
-    if existing and not force:
-        raise FileExistsError(f"output file(s) exist: {existing}; pass --force to overwrite")
-    Path(output_dir).mkdir(parents=True, exist_ok=True)
-    rows.to_csv(paths["csv"], index=False)
+    for path in paths.values():  # svrqp.output: links replaced, never written through; FIFOs refused
+        output.check_target(path, force=force)
+    with output.replacing(paths["csv"], force=force) as temporary:
+        rows.to_csv(temporary, index=False)
     backends = set(rows["backend"])
-    paths["markdown"].write_text(markdown_report(rows, config, machine_info(), package_versions(backends), title,
-                                                 extra_sections))
-    plot_time_vs_n(rows, paths["plot"])
+    output.write_text(paths["markdown"], markdown_report(rows, config, machine_info(), package_versions(backends),
+                                                         title, extra_sections), force=force)
+    with output.replacing(paths["plot"], force=force) as temporary:
+        plot_time_vs_n(rows, temporary)
     return paths

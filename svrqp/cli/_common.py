@@ -82,11 +82,15 @@ def read_table(path: str | Path) -> pd.DataFrame:
                 f"reading {path.name} needs a Parquet engine: pip install 'svrqp[parquet]' (pyarrow)") from err
         _refuse_repeated_names(path, [str(name) for name in table.columns])
         return table
+    names, has_rows = _csv_header(path)
+    _refuse_repeated_names(path, names)
+    if names and not has_rows:
+        # Checked before pandas reads it: pandas builds one empty column per name (minutes for 1e5 names).
+        raise ProblemError(f"{path.name}: the file has a header of {len(names)} column(s) but no data rows")
     try:
         table = pd.read_csv(path)
     except pd.errors.EmptyDataError as err:
         raise ProblemError(f"{path.name}: the file is empty (no header row)") from err
-    _refuse_repeated_names(path, _csv_header(path))
     header = str(table.columns[0])
     separator = next((sep for sep in (";", "\t", "|") if sep in header), None)
     if table.shape[1] == 1 and separator is not None:
@@ -96,17 +100,20 @@ def read_table(path: str | Path) -> pd.DataFrame:
     return table
 
 
-def _csv_header(path: Path) -> list[str]:
-    """The column names of a CSV file as written (pandas renames a repeated ``T1_C`` to ``T1_C.1``)."""
+def _csv_header(path: Path) -> tuple[list[str], bool]:
+    """The column names of a CSV file as written (pandas renames a repeated ``T1_C`` to ``T1_C.1``),
+    and whether a non-blank row follows the header."""
     with path.open(newline="", encoding="utf-8-sig", errors="replace") as handle:
-        return next(csv.reader(handle), [])
+        rows = csv.reader(handle)
+        names = next(rows, [])
+        has_rows = any(any(cell.strip() for cell in row) for row in rows)
+    return names, has_rows
 
 
 def _refuse_repeated_names(path: Path, names: list[str]) -> None:
-    repeated = sorted({name for name in names if names.count(name) > 1})
-    if repeated:
-        raise ProblemError(f"{path.name}: column name(s) {repeated} appear more than once in the header; "
-                           "give every column its own name")
+    from svrqp.table_checks import check_unique_names
+
+    check_unique_names(names, path.name)
 
 
 def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: bool = False) -> list[str]:

@@ -71,9 +71,10 @@ def bench(
         gamma=_gamma(gamma), formulations=_names(formulations, "--formulations"), backends=chosen_backends,
         ls_svr=ls_svr, profile=profile, time_limit_s=time_limit_s, threads=threads, seed=seed,
     )
-    existing = [str(path) for path in output_paths(output_dir).values() if path.exists()]
-    if existing and not force:  # fail before the long run, not after it
-        raise FileExistsError(f"output file(s) exist: {existing}; pass --force to overwrite")
+    from svrqp import output
+
+    for path in output_paths(output_dir).values():  # fail before the long run, not after it
+        output.check_target(path, force=force)
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, transient=False) as progress:
         task = progress.add_task("benchmark", total=config.n_runs())

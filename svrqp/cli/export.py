@@ -103,7 +103,7 @@ def export_command(
             document = build_document(fitted_model, X, y)
     else:
         raise ProblemError(f"SOURCE must be a model file (.json) or a data table (.csv, .parquet), got {source}")
-    for path in write(document, out, format, overwrite=force):
+    for path in write(document, out, format, force=force):
         typer.echo(f"wrote {path}")
     if "interval" in document:
         typer.echo(describe_interval(document["interval"]))

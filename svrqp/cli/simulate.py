@@ -30,6 +30,7 @@ from rich.progress import (
     TimeElapsedColumn,
 )
 
+from svrqp import output
 from svrqp.cli._common import read_table, split_columns
 from svrqp.exceptions import ProblemError
 from svrqp.units import axis_label
@@ -54,12 +55,6 @@ class NineLineSet(str, Enum):
 
     original = "original"
     improved = "improved"
-
-
-def check_output(path: Path, force: bool) -> None:
-    """Refuse to overwrite an existing file unless ``force`` is set."""
-    if path.exists() and not force:
-        raise FileExistsError(f"{path} exists; pass --force to overwrite it")
 
 
 def run_simulation(
@@ -172,17 +167,18 @@ def register(app: typer.Typer) -> None:
         nine_line: NineLineSet = typer.Option(None, "--nine-line", help="axis only: write the "
                                               "interferometer readings of this nine-line set "
                                               "instead of the tool-point error table."),
-        force: bool = typer.Option(False, "--force", help="Overwrite --out if it exists."),
+        force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic link is replaced, never written through)."),
     ) -> None:
         """Simulate a machine with switchable physical effects and write the table as CSV."""
-        check_output(out, force)
+        output.check_target(out, force=force)
         with Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
                       TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
             task = bar.add_task(f"simulating {kind.value}", total=1.0)
             table = run_simulation(kind, config, seed, nine_line,
                                    progress=lambda done: bar.update(task, completed=done))
             bar.update(task, completed=1.0)
-        table.to_csv(out, index=False)
+        with output.replacing(out, force=force) as temporary:
+            table.to_csv(temporary, index=False)
         effects = [c.removeprefix("effect_").removesuffix("_um")
                    for c in table if c.startswith("effect_")]
         typer.echo(f"wrote {out}: {len(table)} rows, {table.shape[1]} columns"
@@ -199,10 +195,10 @@ def register(app: typer.Typer) -> None:
                                          "columns (default every *_C column)."),
         group: str = typer.Option(None, "--group", help="Column with one panel column per value "
                                   "(default batch when present)."),
-        force: bool = typer.Option(False, "--force", help="Overwrite --out if it exists."),
+        force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic link is replaced, never written through)."),
     ) -> None:
         """Plot temperatures and error over time, as the figures of S0 do."""
-        check_output(out, force)
+        output.check_target(out, force=force)
         table = read_table(data)
         if target is not None:
             split_columns(target, table, "--target", numeric=True)
@@ -210,7 +206,8 @@ def register(app: typer.Typer) -> None:
             split_columns(group, table, "--group")
         chosen = split_columns(temperatures, table, "--temperatures", numeric=True) if temperatures else None
         figure = plot_table(table, target=target, temperatures=chosen, group=group)
-        figure.savefig(out, dpi=120, bbox_inches="tight")
+        with output.replacing(out, force=force) as temporary:
+            figure.savefig(temporary, dpi=120, bbox_inches="tight")
         import matplotlib.pyplot as plt
 
         plt.close(figure)

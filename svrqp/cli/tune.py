@@ -15,7 +15,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from svrqp import registry
+from svrqp import output, registry
 from svrqp.cli._common import SOLVER_HELP, TunableModel, model_option, read_table, select_train_rows, split_columns
 from svrqp.exceptions import ProblemError
 
@@ -47,11 +47,6 @@ def _numbers(text: str, option: str) -> list[float]:
         return [float(part) for part in text.split(",") if part.strip()]
     except ValueError:
         raise ProblemError(f"{option}: expected comma-separated numbers, got {text!r}") from None
-
-
-def _writable(path: Path | None, force: bool) -> None:
-    if path is not None and path.exists() and not force:
-        raise FileExistsError(f"{path} exists; pass --force to overwrite it")
 
 
 def _finite_or_none(value: float) -> float | None:
@@ -137,8 +132,9 @@ def tune(
         plot_grid_scores,
     )
 
-    _writable(plot, force)
-    _writable(json_path, force)
+    for path in (plot, json_path):  # refused before the search, not after it
+        if path is not None:
+            output.check_target(path, force=force)
     X, y = _data(data, target, features, train)
     texts = {name: given or DEFAULTS[method][name] for name, given in (("C", C), ("gamma", gamma), ("epsilon", epsilon))}
     values = {name: [] if text == "scale" else _numbers(text, f"--{name}") for name, text in texts.items()}
@@ -159,10 +155,11 @@ def tune(
     _print_result(Console(), result)
     if plot is not None:
         figure = plot_grid_scores(result, target_unit) if method == Method.grid else plot_convergence(result, target_unit)
-        figure.savefig(plot, dpi=150)
+        with output.replacing(plot, force=force) as temporary:
+            figure.savefig(temporary, dpi=150)
         console.print(f"plot written to {plot}")
     if json_path is not None:
-        json_path.write_text(json.dumps(_report(result, folds), indent=2))
+        output.write_text(json_path, json.dumps(_report(result, folds), indent=2), force=force)
         console.print(f"results written to {json_path}")
 
 

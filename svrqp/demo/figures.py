@@ -10,6 +10,7 @@ import pandas as pd
 # A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
 from matplotlib.figure import Figure
 
+from svrqp import output
 from svrqp.demo.steps import S2_TRAVEL_MM, S2Result, S4Result
 from svrqp.guard.figures import draw_guard
 
@@ -18,7 +19,8 @@ BATCH_TITLES = {"x1": "x1 (summer, training batch)", "x2": "x2 (summer)", "x3": 
 
 def _save(figure: Figure, path: Path) -> Path:
     figure.tight_layout()
-    figure.savefig(path, dpi=90)
+    with output.replacing(path, force=True) as temporary:  # inside the demo's own folder (prepare_directory)
+        figure.savefig(temporary, dpi=90)
     return path
 
 

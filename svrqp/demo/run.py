@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from svrqp import datasets
+from svrqp import datasets, output
 from svrqp.demo import figures, steps
 from svrqp.demo.report import SIMULATED_NOTE, report_html
 from svrqp.export import build_document, verify, write
@@ -206,9 +206,9 @@ def reproduction_table(s0: dict[str, Any], s4: dict[str, Any], s2: dict[str, Any
 
 def _export_section(result: steps.S0Result, out: Path, force: bool) -> dict[str, Any]:
     document = build_document(result.svr, result.X_train, result.y_train)
-    written = [*write(document, out / "export" / "s0_svr.json", overwrite=force),
-               *write(document, out / "export" / "s0_svr.csv", overwrite=force),
-               *write(document, out / "export" / "svrqp_model.c", overwrite=force)]
+    written = [*write(document, out / "export" / "s0_svr.json", force=force),
+               *write(document, out / "export" / "s0_svr.csv", force=force),
+               *write(document, out / "export" / "svrqp_model.c", force=force)]
     report = verify(out / "export" / "s0_svr.json")
     return {
         "files": [path.relative_to(out).as_posix() for path in written],
@@ -290,8 +290,11 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
     gap.write_json(out / "gap" / "gap.json", force=force)
     gap.to_html(out / "gap" / "gap.html", force=force)
     step()
-    s0.predictions.to_csv(out / "s0_predictions.csv", index=False)
-    s0.search.table.to_csv(out / "s0_cv_grid.csv", index=False)
+    # prepare_directory accepted out (fresh, or --force): the demo's own files in it are replaced
+    # through svrqp.output, so a link planted there is replaced, never written through.
+    for name, table in (("s0_predictions.csv", s0.predictions), ("s0_cv_grid.csv", s0.search.table)):
+        with output.replacing(out / name, force=True) as temporary:
+            table.to_csv(temporary, index=False)
     results: dict[str, Any] = {
         "note": SIMULATED_NOTE, "quick": quick,
         "s0": _s0_section(s0, s0_absolute, quick), "s4": _s4_section(s4), "s2": _s2_section(s2), "export": export,
@@ -304,8 +307,8 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
     figures.s4_figure(s4, out / results["s4"]["figure"])
     figures.s2_figure(s2, out / results["s2"]["figure"])
     results["runtime_s"] = time.perf_counter() - started
-    (out / "results.json").write_text(json.dumps(results, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
-                                      encoding="utf-8")
-    (out / "report.html").write_text(report_html(results), encoding="utf-8")
+    output.write_text(out / "results.json", json.dumps(results, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
+                      force=True)
+    output.write_text(out / "report.html", report_html(results), force=True)
     report("done", 1.0)
     return results

@@ -23,7 +23,7 @@ from svrqp import description
 from svrqp.estimators.fitted_state import CompactFitMixin, CompactSystemMixin
 from svrqp.exceptions import ProblemError, SolverError, input_errors_as_problem_errors
 from svrqp.formulations import epsilon_svr, ls_svr
-from svrqp.kernels import gram, training_gram
+from svrqp.kernels import MAX_DEGREE, check_kernel_range, gram, training_gram
 from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
 from svrqp.solvers.epsilon_svr import SOLVERS, SolveOptions, SVRTask, solve_epsilon_svr
 from svrqp.solvers.linear import solve_linear_system
@@ -33,7 +33,7 @@ from svrqp.table_checks import check_magnitude, check_numeric_array
 _KERNEL_CHECKS = {
     "kernel": [OneOf(frozenset({"linear", "poly", "rbf", "precomputed"}))],
     "gamma": [OneOf(frozenset({"scale", "auto"})), Number(0.0)],
-    "degree": [Number(1, closed="left", integer=True)],
+    "degree": [Number(1, MAX_DEGREE, closed="both", integer=True)],
     "coef0": [Number()],
 }
 
@@ -207,6 +207,7 @@ class EpsilonSVR(CompactFitMixin, _KernelModel):
         if self.formulation == "primal" and self.kernel != "linear":
             raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
+        check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
         fit = solve_epsilon_svr(X, y, SVRTask(self.C, self.epsilon, self._kernel_parameters()),
                                 SolveOptions(self.solver, self.formulation, self.tol, self.check_tol, self.fallback))
         self.problem_, self.solution_, self.polished_ = fit.problem, fit.solution, fit.polished
@@ -282,6 +283,7 @@ class LSSVR(CompactSystemMixin, _KernelModel):
         check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         self.gamma_ = self._resolve_gamma(X)
+        check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
         K = training_gram(X, self._kernel_parameters())
         self._keep_fit_data(K if self.kernel == "precomputed" else None, y)
         self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept) if self.solver == "lu" else None

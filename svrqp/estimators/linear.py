@@ -137,6 +137,12 @@ class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
     ----------
     coef_ : ndarray of shape (n_features,)
     intercept_ : float
+    x_centre_ : ndarray of shape (n_features,)
+        The centre :math:`\\bar x` of the training inputs (zeros without an intercept):
+        ``predict`` evaluates :math:`\\bar y + (x - \\bar x)^\\top a`, which keeps its digits when
+        the inputs are offset far from zero (``intercept_ + X @ coef_`` would not).
+    centre_value_ : float
+        The prediction at ``x_centre_`` (:math:`\\bar y`; 0 without an intercept).
     rank_ : int
         Numerical rank of the (centred) design.
     condition_number_ : float
@@ -158,9 +164,10 @@ class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
     def export_sections(self) -> description.Sections:
         """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
         return description.Sections(
-            description.linear_model(self.coef_, self.intercept_, self.fit_intercept),
+            description.linear_model(self.coef_, self.centre_value_, self.fit_intercept),
             description.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
-                                             {"condition_number": self.condition_number_, "rank": self.rank_}))
+                                             {"condition_number": self.condition_number_, "rank": self.rank_}),
+            centre=self.x_centre_ if self.fit_intercept else None)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LinearLS:
         """Solve the normal equations for (X, y).
@@ -178,14 +185,16 @@ class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
                                        rank_deficient=self.rank_deficient, column_names=names)
         self.coef_ = fit.coef
         self.intercept_ = fit.intercept
+        self.x_centre_ = fit.x_centre if fit.x_centre is not None else np.zeros(X.shape[1])
+        self.centre_value_ = fit.centre_value
         self.rank_ = fit.rank
         self.condition_number_ = fit.condition_number
         self.target_name_ = target_name
         return self
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
-        """Predict :math:`a_0 + X a`."""
-        return _finite_inputs(self, X) @ self.coef_ + self.intercept_
+        """Predict :math:`a_0 + X a`, evaluated as :math:`\\bar y + (X - \\bar x) a` (see ``x_centre_``)."""
+        return (_finite_inputs(self, X) - self.x_centre_) @ self.coef_ + self.centre_value_
 
 
 class PolynomialLS(RegressorMixin, BaseEstimator):
@@ -262,7 +271,8 @@ class RecursiveLS(_LinearFormula, RegressorMixin, BaseEstimator):
     The recursion runs on the regressors :math:`(1, x - x_\\mathrm{ref})`, with
     :math:`x_\\mathrm{ref}` the first sample (``x_offset_``): the same model, but without the large
     common offset of temperatures near 30 °C that would otherwise dominate the information
-    matrix and cost digits at every step. ``coef_`` and ``intercept_`` are in the original units.
+    matrix and cost digits at every step. ``coef_`` and ``intercept_`` are in the original units;
+``predict`` evaluates the model on those regressors (inputs offset by 1.7e9 keep their digits).
 
     Parameters
     ----------
@@ -297,9 +307,10 @@ class RecursiveLS(_LinearFormula, RegressorMixin, BaseEstimator):
     def export_sections(self) -> description.Sections:
         """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
         return description.Sections(
-            description.linear_model(self.coef_, self.intercept_, True, forgetting=float(self.forgetting),
+            description.linear_model(self.coef_, float(self.state_.a[0]), True, forgetting=float(self.forgetting),
                                      n_samples_seen=int(self.n_samples_seen_)),
-            description.least_squares_solver(RECURSION, {"forgetting": self.forgetting}, {"sigma2": self.sigma2_}))
+            description.least_squares_solver(RECURSION, {"forgetting": self.forgetting}, {"sigma2": self.sigma2_}),
+            centre=self.x_offset_)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> RecursiveLS:
         """Forget any previous state and run the recursion over the rows of (X, y) in order.
@@ -368,8 +379,9 @@ class RecursiveLS(_LinearFormula, RegressorMixin, BaseEstimator):
         self.sigma2_ = state.sigma2 if state.weight > state.a.size else float("nan")
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
-        """Predict :math:`a_0 + X a` with the current coefficients."""
-        return _finite_inputs(self, X) @ self.coef_ + self.intercept_
+        """Predict :math:`a_0 + X a` with the current coefficients, evaluated on the recursion's own
+        regressors :math:`(1, x - x_\\mathrm{ref})` so that offset inputs keep their digits."""
+        return self._regressors(_finite_inputs(self, X)) @ self.state_.a
 
 
 def _regressors(X: NDArray, x_offset: NDArray) -> NDArray:

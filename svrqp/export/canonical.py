@@ -14,7 +14,7 @@ Training-data hash (``training_data.sha256``)
 Reading is strict: duplicate keys, ``NaN``/``Infinity`` and numbers that overflow a double are
 rejected, and nothing but ``json`` parsing happens (no pickle, no ``eval``). Hostile text is refused
 before the parser sees it or as it reads it: more than :data:`MAX_BYTES` bytes, arrays/objects nested
-deeper than :data:`MAX_DEPTH`, or a number written with more than :data:`MAX_NUMBER_CHARS`
+deeper than :data:`MAX_DEPTH`, more than :data:`MAX_ARRAYS` arrays, or a number written with more than :data:`MAX_NUMBER_CHARS`
 characters (an integer with more than :data:`MAX_INTEGER_DIGITS` digits).
 """
 
@@ -30,14 +30,21 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from svrqp.exceptions import ProblemError
+from svrqp.export.budget import MAX_INPUTS, MAX_PROBES, MAX_SUPPORT_VECTORS
+from svrqp.table_checks import repeated
 
 HASH_FIELD = "content_sha256"
 
-#: Largest model file read (bytes): ~50 000 support vectors of 20 inputs as JSON text.
-MAX_BYTES = 64 * 2**20
+#: Largest model file read (bytes): the largest model file svrqp.export.budget allows (10 000 support
+#: vectors of 20 inputs, ~5 MB) with room to spare; parsing it takes about a second, not minutes.
+MAX_BYTES = 16 * 2**20
 
 #: Deepest nesting of arrays and objects; an svrqp.model/1 document needs 5.
 MAX_DEPTH = 32
+
+#: Most arrays in a model file: a row per support vector and probe point (svrqp.export.budget), a
+#: precision-matrix row per input, and the document's few vectors.
+MAX_ARRAYS = MAX_SUPPORT_VECTORS + MAX_PROBES + MAX_INPUTS + 64
 
 #: Longest number text; Python's repr of a double needs at most 24 characters.
 MAX_NUMBER_CHARS = 64
@@ -99,16 +106,22 @@ def _bounded_int(text: str) -> int:
     return int(text)
 
 
+def _structure(text: str) -> tuple[int, int]:
+    """Deepest nesting of ``[``/``{`` and the number of arrays in JSON ``text`` (brackets inside
+    strings not counted), by one vectorised pass over its bytes."""
+    codes = np.frombuffer(_JSON_STRING.sub('""', text).encode("utf-8"), dtype=np.uint8)
+    opening = codes == ord("[")
+    step = (opening | (codes == ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0)), int(opening.sum())
+
+
 def nesting_depth(text: str) -> int:
     """Deepest nesting of ``[``/``{`` in JSON ``text``, brackets inside strings not counted."""
-    codes = np.frombuffer(_JSON_STRING.sub('""', text).encode("utf-8"), dtype=np.uint8)
-    step = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
-    return int(np.cumsum(step).max(initial=0))
+    return _structure(text)[0]
 
 
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    keys = [key for key, _ in pairs]
-    duplicates = sorted({key for key in keys if keys.count(key) > 1})
+    duplicates = repeated(key for key, _ in pairs)
     if duplicates:
         raise ProblemError(f"model file repeats the key(s) {duplicates}; each key may appear once")
     return dict(pairs)
@@ -116,9 +129,12 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 def parse_strict(text: str) -> Any:
     """Parse JSON text, rejecting duplicate keys, non-finite or over-long numbers and deep nesting."""
-    depth = nesting_depth(text)
+    depth, arrays = _structure(text)
     if depth > MAX_DEPTH:
         raise ProblemError(f"model file nests arrays/objects {depth} deep (at most {MAX_DEPTH})")
+    if arrays > MAX_ARRAYS:  # before parsing: a million probe rows are refused in a fraction of a second
+        raise ProblemError(f"model file holds {arrays} arrays, more than the {MAX_ARRAYS} a model file may have "
+                           "(one per support vector, probe point and input, and a few more)")
     try:
         return json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float,
                           parse_int=_bounded_int, object_pairs_hook=_unique_keys)

@@ -50,6 +50,18 @@ def split_pipeline(model: Any) -> tuple[dict[str, Any] | None, Any]:
     return {"method": "standard", "mean": floats(mean), "scale": floats(scale)}, estimator
 
 
+def with_centre(scaling: dict[str, Any] | None, centre: Any) -> dict[str, Any] | None:
+    """The ``scaling`` section that also subtracts a model's own input centre (in the model's
+    coordinates): :math:`u = (x - m)/s - c = (x - (m + s c))/s`."""
+    if centre is None:
+        return scaling
+    centre = np.asarray(centre, dtype=float)
+    if scaling is None:
+        return {"method": "standard", "mean": floats(centre), "scale": floats(np.ones_like(centre))}
+    scale = np.asarray(scaling["scale"], dtype=float)
+    return {**scaling, "mean": floats(np.asarray(scaling["mean"], dtype=float) + scale * centre)}
+
+
 def kind_of(estimator: Any) -> str:
     """The ``kind`` of an exportable estimator (its ``export_kind``, :class:`~svrqp.description.Describable`)."""
     if not isinstance(estimator, Describable):

@@ -17,9 +17,11 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from svrqp import registry
 from svrqp._version import __version__
 from svrqp.exceptions import ExtrapolationWarning, ProblemError
 from svrqp.export import canonical, crosscheck, describe, evaluate, guarded
+from svrqp.export.budget import check_budget
 from svrqp.export.schema import SCHEMA_ID, validate_document
 from svrqp.export.verify import PROBE_RELATIVE_TOLERANCE
 from svrqp.units import unit_from_name
@@ -59,7 +61,9 @@ def _as_model_input(model: Any, X: NDArray[np.float64]) -> Any:
 
 def _probe_inputs(document: dict[str, Any], X: NDArray[np.float64] | None) -> NDArray[np.float64]:
     if X is not None:
-        rows = np.unique(np.linspace(0, len(X) - 1, min(N_PROBES, len(X))).round().astype(int))
+        # Enough probes to pin a linear model (d + 1) or a polynomial (degree + 1), at least N_PROBES.
+        count = max(N_PROBES, len(document["inputs"]) + 1, int(document["model"].get("degree") or 0) + 1)
+        rows = np.unique(np.linspace(0, len(X) - 1, min(count, len(X))).round().astype(int))
         return X[rows]
     support_vectors = document["model"].get("support_vectors")
     if support_vectors is None:
@@ -125,7 +129,8 @@ def build_document(
         model = model.estimator_  # the model that predicts; the interval and domain come from outer
     scaling, estimator = describe.split_pipeline(model)
     kind = describe.kind_of(estimator)
-    section, solver = describe.sections(estimator)
+    section, solver, centre = describe.sections(estimator)
+    scaling = describe.with_centre(scaling, centre)
     d = int(estimator.n_features_in_)
     names = _names(feature_names, X, outer, d)
     if target_name is None:
@@ -151,16 +156,36 @@ def build_document(
         document["cross_check"] = crosscheck.cross_check(
             kind, section, evaluate.model_coordinates(document, X_raw), y_raw, prediction)
     probe_X = _probe_inputs(document, X_raw) if probes is None else np.asarray(probes, dtype=float)
-    probe_prediction = model.predict(_as_model_input(model, probe_X))
-    magnitude = float(evaluate.term_magnitude(document, probe_X).max())
-    document["probes"] = {"X": [describe.floats(row) for row in probe_X],
-                          "prediction": describe.floats(probe_prediction),
-                          "tolerance": PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude)}
+    document["probes"] = _probes(document, model, probe_X)
     if outer is not model:
         _add_guard(document, outer, probe_X)
     document["content_sha256"] = canonical.content_sha256(document)
     validate_document(document)
     return document
+
+
+def _probes(document: dict[str, Any], model: Any, probe_X: NDArray[np.float64]) -> dict[str, Any]:
+    """The probes section: the live model's predictions at the probe inputs and, for kernel models,
+    at every support vector (which pins every dual coefficient, see :mod:`svrqp.export.verify`)."""
+    check_budget({"probes": {"X": list(probe_X)}, "model": document["model"]})
+    checked = [probe_X]
+    section: dict[str, Any] = {"X": [describe.floats(row) for row in probe_X],
+                               "prediction": describe.floats(_predicted(model, probe_X))}
+    if registry.formula(document["kind"]) == registry.KERNEL:
+        support_X = evaluate.support_inputs(document)
+        section["support_prediction"] = describe.floats(_predicted(model, support_X))
+        checked.append(support_X)
+    magnitude = max(float(evaluate.term_magnitude(document, points).max(initial=0.0)) for points in checked)
+    section["tolerance"] = PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude)
+    return section
+
+
+def _predicted(model: Any, X: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``model.predict(X)`` by row blocks (a kernel model's Gram block stays small)."""
+    m = len(getattr(model, "support_", ())) or 1
+    blocks = evaluate.row_blocks(len(X), m) or [slice(0, 0)]
+    return np.concatenate([np.asarray(model.predict(_as_model_input(model, X[rows])), dtype=float).ravel()
+                           for rows in blocks])
 
 
 def _add_guard(document: dict[str, Any], model: Any, probe_X: NDArray[np.float64]) -> None:

@@ -62,8 +62,33 @@ def _terms(document: dict[str, Any], X: ArrayLike) -> tuple[NDArray[np.float64],
     return U * np.asarray(model["coef"]), model["intercept"]
 
 
+#: Kernel entries formed at once when evaluating many rows (rows are taken in blocks): 32 MiB.
+BLOCK_ENTRIES = 2**22
+
+
+def row_blocks(n_rows: int, n_columns: int) -> list[slice]:
+    """Slices of at most :data:`BLOCK_ENTRIES` // ``n_columns`` rows covering ``range(n_rows)``."""
+    step = max(1, BLOCK_ENTRIES // max(n_columns, 1))
+    return [slice(start, min(start + step, n_rows)) for start in range(0, n_rows, step)]
+
+
+def support_inputs(document: dict[str, Any]) -> NDArray[np.float64]:
+    """The support vectors of a kernel model in raw units (``u * scale + mean``)."""
+    U = np.asarray(document["model"]["support_vectors"], dtype=float)
+    scaling = document["scaling"]
+    return U if scaling is None else U * np.asarray(scaling["scale"]) + np.asarray(scaling["mean"])
+
+
 def predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
-    """Evaluate the model of ``document`` at raw inputs ``X`` of shape (n, d)."""
+    """Evaluate the model of ``document`` at raw inputs ``X`` of shape (n, d) (kernel models: by row blocks)."""
+    X = np.asarray(X, dtype=float)
+    m = len(document["model"].get("support_vectors", ()))
+    if registry.formula(document["kind"]) == registry.KERNEL and X.ndim == 2 and len(X) * m > BLOCK_ENTRIES:
+        return np.concatenate([_predict(document, X[rows]) for rows in row_blocks(len(X), m)])
+    return _predict(document, X)
+
+
+def _predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
     U = model_coordinates(document, X)
     model = document["model"]
     formula = registry.formula(document["kind"])
@@ -81,5 +106,9 @@ def term_magnitude(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64
     Summing the terms in another order (another BLAS, the C evaluator) changes ``f`` by a few
     units in the last place of this magnitude, not of ``f`` itself, which may be much smaller.
     """
+    X = np.asarray(X, dtype=float)
+    m = len(document["model"].get("support_vectors", ()))
+    if registry.formula(document["kind"]) == registry.KERNEL and X.ndim == 2 and len(X) * m > BLOCK_ENTRIES:
+        return np.concatenate([term_magnitude(document, X[rows]) for rows in row_blocks(len(X), m)])
     terms, constant = _terms(document, X)
     return np.abs(terms).sum(axis=1) + abs(constant)

@@ -15,7 +15,8 @@ def export_model(
     path: str | Path,
     format: str | None = None,
     *,
-    overwrite: bool = False,
+    force: bool = False,
+    overwrite: bool | None = None,
     **document: Any,
 ) -> list[Path]:
     """Export a fitted model (an estimator or a ``Pipeline(StandardScaler, estimator)``).
@@ -28,8 +29,10 @@ def export_model(
         Output file (``.json``, ``.csv``, ``.c``) or, for C, a directory.
     format
         ``"json"``, ``"csv"`` or ``"c"``; default: from the suffix of ``path``.
+    force
+        Replace existing files (default: refuse with ``FileExistsError``); see :mod:`svrqp.output`.
     overwrite
-        Replace existing files (default: refuse with ``FileExistsError``).
+        Deprecated spelling of ``force`` (a ``DeprecationWarning``).
     **document
         The keyword arguments of :func:`svrqp.export.document.build_document`, forwarded
         unchanged: ``X``, ``y`` (the training data: its hash and the scikit-learn cross-check),
@@ -41,7 +44,7 @@ def export_model(
         The files written.
     """
     from svrqp.export.document import build_document
-    from svrqp.export.writers import write
+    from svrqp.export.writers import resolve_force, write
 
-    return write(build_document(model, **document), path, format, overwrite=overwrite)
+    return write(build_document(model, **document), path, format, force=resolve_force(force, overwrite))
 

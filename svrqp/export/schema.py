@@ -1,7 +1,7 @@
 """The ``svrqp.model/1`` JSON Schema (package data ``model.schema.json``) and the checks on a document.
 
-:func:`validate_document` runs the JSON Schema (with the ``jsonschema`` library) and then the
-cross-field shape checks a schema cannot state (every vector has one entry per input, one
+:func:`validate_document` checks the counts of :mod:`svrqp.export.budget` first, then runs the JSON
+Schema (with the ``jsonschema`` library) and then the cross-field shape checks a schema cannot state (every vector has one entry per input, one
 coefficient per support vector, ...). Every failure raises :class:`~svrqp.exceptions.ProblemError`
 whose message starts with the offending field, e.g. ``model.dual_coef[3]: 'x' is not of type 'number'``.
 """
@@ -20,6 +20,7 @@ from jsonschema.exceptions import best_match
 
 from svrqp import registry
 from svrqp.exceptions import ProblemError
+from svrqp.export.budget import check_budget
 
 SCHEMA_ID = "svrqp.model/1"
 SCHEMA_RESOURCE = "model.schema.json"
@@ -106,6 +107,10 @@ def _check_shapes(document: dict[str, Any]) -> None:
                       "one per support vector")
         if not model["fit_intercept"] and model["intercept"] != 0.0:
             _fail("model.intercept", "must be 0 when fit_intercept is false")
+        if "support_prediction" not in document["probes"]:
+            _fail("probes", "a kernel model stores the prediction at every support vector ('support_prediction')")
+        _check_length("probes.support_prediction", document["probes"]["support_prediction"],
+                      len(model["support_vectors"]), "one per support vector")
     elif formula == registry.LEGENDRE:
         if d != 1:
             _fail("inputs", f"a polynomial model has exactly one input, got {d}")
@@ -115,6 +120,8 @@ def _check_shapes(document: dict[str, Any]) -> None:
             _fail("model.domain", f"must be increasing, got [{low}, {high}]")
     else:
         _check_length("model.coef", model["coef"], d, per_input)
+    if formula != registry.KERNEL and "support_prediction" in document["probes"]:
+        _fail("probes.support_prediction", "is only allowed for a model with support vectors")
     _check_guard_shapes(document, d)
     probes = document["probes"]
     for i, row in enumerate(probes["X"]):
@@ -134,6 +141,7 @@ def validate_document(document: Any) -> None:
         _fail("<document>", f"must be a JSON object, got {type(document).__name__}")
     if document.get("schema") != SCHEMA_ID:
         _fail("schema", f"must be {SCHEMA_ID!r}, got {document.get('schema')!r}")
+    check_budget(document)  # counts and degree first: the schema validator walks every number
     error = best_match(_validator().iter_errors(document))
     if error is not None:
         _fail(field_name(error.absolute_path), error.message)

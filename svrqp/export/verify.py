@@ -89,19 +89,33 @@ def _parse(path: Path) -> dict[str, Any]:
     return document
 
 
-def probe_deviation(document: dict[str, Any]) -> float:
-    """Largest |stored − re-evaluated| prediction over the probe points (``inf`` if not finite)."""
+def _checked_points(document: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(raw inputs, stored predictions): the probes, and for kernel models every support vector."""
     probes = document["probes"]
+    points = [(np.asarray(probes["X"], dtype=float), np.asarray(probes["prediction"], dtype=float))]
+    if "support_prediction" in probes:
+        points.append((evaluate.support_inputs(document), np.asarray(probes["support_prediction"], dtype=float)))
+    return points
+
+
+def probe_deviation(document: dict[str, Any]) -> float:
+    """Largest |stored − re-evaluated| prediction over the probe points and, for kernel models, the
+    support vectors (``inf`` if not finite)."""
+    largest = 0.0
     with np.errstate(all="ignore"):
-        recomputed = evaluate.predict(document, np.asarray(probes["X"], dtype=float))
-        deviation = np.abs(recomputed - np.asarray(probes["prediction"]))
-    return float(np.max(deviation)) if np.all(np.isfinite(deviation)) else float("inf")
+        for X, stored in _checked_points(document):
+            deviation = np.abs(evaluate.predict(document, X) - stored)
+            if not np.all(np.isfinite(deviation)):
+                return float("inf")
+            largest = max(largest, float(deviation.max(initial=0.0)))
+    return largest
 
 
 def tolerance_bound(document: dict[str, Any]) -> float:
     """The largest probe tolerance the file's own terms justify (``inf`` if they overflow)."""
     with np.errstate(all="ignore"):
-        magnitude = float(evaluate.term_magnitude(document, np.asarray(document["probes"]["X"], dtype=float)).max())
+        magnitude = max(float(evaluate.term_magnitude(document, X).max(initial=0.0))
+                        for X, _ in _checked_points(document))
     return PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude) * _BOUND_SLACK if np.isfinite(magnitude) else 0.0
 
 
@@ -117,7 +131,9 @@ def _check_probes(document: dict[str, Any], report: VerifyReport) -> Check:
     report.tolerance = tolerance = document["probes"]["tolerance"]
     report.max_deviation = probe_deviation(document)
     passed = report.max_deviation <= tolerance
-    detail = (f"{len(document['probes']['X'])} probe points, largest deviation "
+    support = len(document["probes"].get("support_prediction", ()))
+    detail = (f"{len(document['probes']['X'])} probe points{f' and {support} support vectors' if support else ''}, "
+              "largest deviation "
               f"{report.max_deviation:.3g} {'<=' if passed else '>'} tolerance {tolerance:.3g}")
     bound = tolerance_bound(document)
     if not tolerance <= bound:

@@ -7,7 +7,10 @@
 * ``c``    — ``svrqp_model.c`` and ``svrqp_model.h`` (:mod:`svrqp.export.c_source`); the path is
   the ``.c`` file (the ``.h`` goes beside it) or a directory that receives both.
 
-No writer overwrites an existing file unless asked to (``overwrite=True``, the CLI's ``--force``).
+Files are written by :mod:`svrqp.output`, the writer every command shares: an existing file is
+replaced only with ``force=True`` (the CLI's ``--force``), a symbolic link is never written through
+(with ``force`` the link itself is replaced), and a FIFO, folder or device is refused.
+``overwrite=`` is the former spelling of ``force=``, still accepted with a ``DeprecationWarning``.
 """
 
 from __future__ import annotations
@@ -15,10 +18,12 @@ from __future__ import annotations
 import csv
 import io
 import json
+import warnings
 from pathlib import Path
 from typing import Any
 
 from svrqp import registry
+from svrqp import output
 from svrqp.exceptions import ProblemError
 from svrqp.export.c_source import c_source, header_source
 from svrqp.export.safe_text import comment_text
@@ -108,9 +113,31 @@ def _targets(path: Path, fmt: str) -> list[Path]:
     return [source, source.with_suffix(".h")]
 
 
+def resolve_force(force: bool, overwrite: bool | None) -> bool:
+    """``force``, or the deprecated ``overwrite`` when a caller still passes it."""
+    if overwrite is None:
+        return bool(force)
+    warnings.warn("overwrite= is deprecated: use force= (the same option as the CLI's --force)",
+                  DeprecationWarning, stacklevel=3)
+    return bool(overwrite or force)
+
+
 def write(document: dict[str, Any], path: str | Path, format: str | None = None, *,
-          overwrite: bool = False) -> list[Path]:
-    """Write ``document`` to ``path`` in ``format`` (default: from the suffix).
+          force: bool = False, overwrite: bool | None = None) -> list[Path]:
+    """Write ``document`` to ``path`` in ``format`` (default: from the suffix), by :mod:`svrqp.output`.
+
+    Parameters
+    ----------
+    document : dict
+        A valid ``svrqp.model/1`` document.
+    path : str or Path
+        The file (for C: the ``.c`` file or a folder that receives both files).
+    format : str, optional
+        One of :data:`FORMATS`.
+    force : bool
+        Replace existing files, or symbolic links (the link itself, never its target).
+    overwrite : bool, optional
+        Deprecated spelling of ``force``.
 
     Returns
     -------
@@ -120,24 +147,19 @@ def write(document: dict[str, Any], path: str | Path, format: str | None = None,
     Raises
     ------
     FileExistsError
-        When a file to be written exists and ``overwrite`` is false.
+        When a file or symbolic link to be written exists and ``force`` is false.
     ProblemError
-        When a file to be written is a symbolic link (dangling or not): never written through.
+        When a path to be written is a FIFO, a folder or a device (never opened).
     """
+    force = resolve_force(force, overwrite)
     validate_document(document)
     path = Path(path)
     fmt = infer_format(path) if format is None else format
     if fmt not in FORMATS:
         raise ProblemError(f"format must be one of {FORMATS}, got {fmt!r}")
     targets = _targets(path, fmt)
-    links = [str(target) for target in targets if target.is_symlink()]
-    if links:
-        # exists() is false for a dangling link, and writing would follow it to wherever it points.
-        raise ProblemError(f"refusing to write through the symbolic link(s) {', '.join(links)}; "
-                           "give the path of a regular file")
-    existing = [str(target) for target in targets if target.exists()]
-    if existing and not overwrite:
-        raise FileExistsError(f"refusing to overwrite existing {', '.join(existing)} (use --force / overwrite=True)")
+    for target in targets:  # every refusal before any file is written
+        output.check_target(target, force=force)
     if fmt == "json":
         texts = [json_text(document)]
     elif fmt == "csv":
@@ -148,6 +170,5 @@ def write(document: dict[str, Any], path: str | Path, format: str | None = None,
         guard = guard if guard[0].isalpha() else f"H_{guard}"
         texts = [c_source(document, header.name), header_source(document, guard)]
     for target, text in zip(targets, texts, strict=True):
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(text, encoding="utf-8")
+        output.write_text(target, text, force=force)
     return targets

@@ -109,16 +109,27 @@ class NormalEquationsSolution:
 
 @dataclass(frozen=True)
 class LinearFit:
-    """A multiple linear regression :math:`y = a_0 + \\sum_j a_j x_j` (S0 eq. (5))."""
+    """A multiple linear regression :math:`y = a_0 + \\sum_j a_j x_j` (S0 eq. (5)).
+
+    ``x_centre`` and ``centre_value`` (:math:`\\bar x` and :math:`\\bar y`; ``None`` and 0
+    without an intercept) give the same line as :math:`f(x) = \\bar y + (x - \\bar x)^\\top a`, the form
+    :meth:`predict` evaluates: with inputs offset far from zero (epoch seconds, 1.7e9) the raw
+    form :math:`a_0 + x^\\top a` adds two numbers near :math:`10^{15}` and loses the answer.
+    """
 
     coef: np.ndarray
     intercept: float
     rank: int
     condition_number: float
+    x_centre: np.ndarray | None = None
+    centre_value: float = 0.0
 
     def predict(self, X: np.ndarray) -> np.ndarray:
-        """Evaluate :math:`a_0 + X a`."""
-        return np.asarray(X, dtype=float) @ self.coef + self.intercept
+        """Evaluate :math:`\\bar y + (X - \\bar x) a` (:math:`a_0 + X a` without a centre)."""
+        X = np.asarray(X, dtype=float)
+        if self.x_centre is None:
+            return X @ self.coef + self.intercept
+        return (X - self.x_centre) @ self.coef + self.centre_value
 
 
 @dataclass(frozen=True)
@@ -243,10 +254,12 @@ def solve_normal_equations(
                 f"the design matrix is rank deficient (rank {rank} < {p} parameters); "
                 f"linearly dependent column(s): {_dependent_columns(scaled, names)}"
             )
-        # Minimum norm of a itself, so on the unscaled columns.
-        a = np.linalg.lstsq(X, y, rcond=None)[0]
-        return NormalEquationsSolution(coef=a, rank=rank, condition_number=np.inf)
+        return _minimum_norm(X, y, rank)
     condition_number = float((singular_values[0] / singular_values[-1]) ** 2)
+    if rank_deficient == "lstsq" and condition_number * np.finfo(float).eps > 1e-2:
+        # Full rank by the singular values, but too close to collinear for the normal equations,
+        # whose condition number is the square of the design's: Cholesky would fail or keep no digit.
+        return _minimum_norm(X, y, rank, condition_number)
     if condition_number > CONDITION_WARNING:
         warnings.warn(
             f"the normal-equation matrix is ill conditioned (condition number "
@@ -262,6 +275,14 @@ def solve_normal_equations(
         ) from err
     z = scipy.linalg.cho_solve(factor, scaled.T @ y)
     return NormalEquationsSolution(coef=z * scale, rank=rank, condition_number=condition_number)
+
+
+def _minimum_norm(X: np.ndarray, y: np.ndarray, rank: int,
+                  condition_number: float = np.inf) -> NormalEquationsSolution:
+    """The minimum-norm least-squares answer by an SVD of ``X`` itself (``scipy.linalg.lstsq``), never
+    through the normal equations; minimum norm of ``a`` itself, so on the unscaled columns."""
+    a = scipy.linalg.lstsq(X, y)[0]
+    return NormalEquationsSolution(coef=a, rank=rank, condition_number=condition_number)
 
 
 def fit_linear(
@@ -313,11 +334,17 @@ def fit_linear(
             f"constant column(s) {constant}: a constant regressor is collinear with the "
             "intercept, so its coefficient is not identifiable"
         )
+    # x_mean is rounded to the grid of the offset (2.4e-7 at 1.7e9): the centred columns then keep
+    # a mean of that size, which their normal equations (no intercept column) would pass to the
+    # answer times the slope. Subtract it too, and evaluate about x_mean with the matching value.
+    drift = centred.mean(axis=0)
+    centred = centred - drift
     solution = solve_normal_equations(
         centred, y - y_mean, rank_deficient=rank_deficient, column_names=names
     )
-    intercept = y_mean - float(x_mean @ solution.coef)
-    return LinearFit(solution.coef, intercept, solution.rank, solution.condition_number)
+    intercept = y_mean - float(x_mean @ solution.coef) - float(drift @ solution.coef)
+    return LinearFit(solution.coef, intercept, solution.rank, solution.condition_number, x_mean,
+                     y_mean - float(drift @ solution.coef))
 
 
 def _to_unit_interval(x: np.ndarray, domain: tuple[float, float]) -> np.ndarray:

@@ -63,9 +63,24 @@ taken relative to another reference), the same model has :math:`\tilde a = T^{-\
 T^{-1}` and unchanged residuals (:func:`transform_regressors`); two models on differently
 referenced regressors are brought to one set before they are merged.
 
-Round-off: the covariance-form recursion loses about :math:`\kappa(P^{-1})\,\epsilon` relative
-accuracy; regressors with a large common offset (temperatures near 30 °C next to the constant
-1) raise :math:`\kappa`.
+Numerically stable form: the state carries the upper-triangular square root :math:`R_k` of the
+information matrix, :math:`R_k^\top R_k = P_k^{-1}`, instead of :math:`P_k`. One step is the QR
+factorisation
+
+.. math::
+
+    \begin{bmatrix} x_k^\top \\ \sqrt\lambda\, R_{k-1} \end{bmatrix} = Q_k \begin{bmatrix} R_k \\ 0 \end{bmatrix},
+    \qquad
+    \begin{bmatrix} z_k \\ \cdot \end{bmatrix} = Q_k^\top \begin{bmatrix} y_k \\ \sqrt\lambda\, R_{k-1} a_{k-1} \end{bmatrix},
+    \qquad a_k = R_k^{-1} z_k ,
+
+which gives the same :math:`a_k` as eqs. (13)–(17) (it is the exponentially weighted least-squares
+problem above, solved by orthogonal transformations) without dividing by :math:`\lambda`: the
+covariance form's :math:`P_k / \lambda` grows by :math:`1/\lambda` per step and lost every digit
+for :math:`\lambda = 10^{-8}`, and failed outright for :math:`10^{-30}` (issue #39). The accuracy is
+about :math:`\kappa(R)\,\epsilon` rather than :math:`\kappa(P^{-1})\,\epsilon`. A forgetting factor so
+small that the samples which keep a non-zero weight no longer determine every coefficient raises
+:class:`~svrqp.exceptions.SingularSystemError` naming the factor.
 """
 
 from __future__ import annotations
@@ -91,8 +106,10 @@ class RecursiveLSState:
     ----------
     a : ndarray of shape (p,)
         Current coefficients :math:`a_k` (eq. 7).
-    P : ndarray of shape (p, p)
-        :math:`P_k`, the inverse of the (discounted) information matrix (eq. 8).
+    R : ndarray of shape (p, p)
+        Upper-triangular square root of the information matrix, :math:`R_k^\top R_k = P_k^{-1}`
+        (the recursion's numerically stable form, see the module docstring); :attr:`P` is
+        :math:`R_k^{-1} R_k^{-\top}`.
     b : ndarray of shape (p,)
         :math:`b_k = \\sum \\lambda^{k-i} x_i y_i` (eq. 9).
     information : ndarray of shape (p, p)
@@ -108,13 +125,19 @@ class RecursiveLSState:
     """
 
     a: np.ndarray
-    P: np.ndarray
+    R: np.ndarray
     b: np.ndarray
     information: np.ndarray
     n_samples: int
     weight: float
     sse: float
     forgetting: float
+
+    @property
+    def P(self) -> np.ndarray:
+        """:math:`P_k = (R_k^\top R_k)^{-1}`, the inverse of the discounted information matrix (eq. 8)."""
+        R_inv = scipy.linalg.solve_triangular(self.R, np.eye(self.R.shape[0]))
+        return R_inv @ R_inv.T
 
     @property
     def sigma2(self) -> float:
@@ -145,11 +168,6 @@ def _spd_solve(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         raise SingularSystemError(f"information matrix is not positive definite: {err}") from err
     scale = d[:, None] if rhs.ndim == 2 else d
     return scale * scipy.linalg.cho_solve(factor, scale * rhs)
-
-
-def _symmetric_inverse(M: np.ndarray) -> np.ndarray:
-    inverse = _spd_solve(M, np.eye(M.shape[0]))
-    return 0.5 * (inverse + inverse.T)
 
 
 def initial_prefix(X: np.ndarray, max_condition: float = START_CONDITION) -> int | None:
@@ -203,15 +221,22 @@ def batch_state(
     X = check_finite_matrix(X, "X", 2)
     y = check_finite_matrix(y, "y", 1)
     m = X.shape[0]
+    if y.shape[0] != m:
+        raise ProblemError(f"X has {m} rows but y has {y.shape[0]} values")
+    if m < X.shape[1]:
+        raise ProblemError(f"fewer samples than parameters: {m} sample(s) for {X.shape[1]} parameters, the "
+                           "least-squares problem is underdetermined")
     weights = forgetting ** np.arange(m - 1, -1, -1, dtype=float)
     root = np.sqrt(weights)
-    solution = solve_normal_equations(X * root[:, None], y * root, column_names=column_names)
-    a = solution.coef
+    if forgetting == 1.0:  # the exact normal equations name the dependent columns of a singular design
+        solve_normal_equations(X, y, column_names=column_names)
+    R, z = _weighted_factor(X, y, root, forgetting, column_names)
+    a = scipy.linalg.solve_triangular(R, z)
     residual = y - X @ a
     information = (X * weights[:, None]).T @ X
     return RecursiveLSState(
         a=a,
-        P=_symmetric_inverse(information),
+        R=R,
         b=X.T @ (weights * y),
         information=information,
         n_samples=m,
@@ -219,6 +244,27 @@ def batch_state(
         sse=float(weights @ residual**2),
         forgetting=forgetting,
     )
+
+
+def _weighted_factor(X: np.ndarray, y: np.ndarray, root: np.ndarray, forgetting: float,
+                     column_names: list[str] | None) -> tuple[np.ndarray, np.ndarray]:
+    r"""Upper-triangular :math:`R` with :math:`R^\top R = \sum_i \lambda^{m-i} x_i x_i^\top` and
+    :math:`z = Q^\top y_w`, so that :math:`a = R^{-1} z`: a QR factorisation of the weighted rows,
+    newest (heaviest) first, with equilibrated columns. Raises :class:`SingularSystemError` when the
+    weighted rows are rank deficient (a forgetting factor so small that too few rows keep a weight)."""
+    weighted = (X * root[:, None])[::-1]
+    norms = np.linalg.norm(weighted, axis=0)
+    scale = 1.0 / np.where(norms > 0, norms, 1.0)
+    Q, R_scaled = np.linalg.qr(weighted * scale)
+    singular = np.linalg.svd(R_scaled, compute_uv=False)
+    p = X.shape[1]
+    if singular.size < p or not singular[-1] > max(X.shape) * np.finfo(float).eps * singular[0]:
+        names = column_names if column_names is not None else [f"x{j}" for j in range(p)]
+        raise SingularSystemError(
+            f"the regressors {names} weighted by the forgetting factor {forgetting:g} (sample i of {len(X)} "
+            f"weighted {forgetting:g}^(m-i)) are rank deficient: the samples that keep a weight do not "
+            "determine every coefficient; use a larger forgetting factor or more varied samples")
+    return R_scaled / scale[None, :], Q.T @ (y * root)[::-1]
 
 
 def update(state: RecursiveLSState, x: np.ndarray, y: float) -> RecursiveLSState:
@@ -230,14 +276,18 @@ def update(state: RecursiveLSState, x: np.ndarray, y: float) -> RecursiveLSState
     if x.size != state.a.size:
         raise ProblemError(f"x has {x.size} regressors, the model has {state.a.size}")
     lam = state.forgetting
-    Px = state.P @ x
-    denominator = lam + float(x @ Px)
-    K = Px / denominator  # eq. (14)
-    P = (state.P - np.outer(K, Px)) / lam  # eq. (13); P symmetric, so K xᵀP = K (Px)ᵀ
+    root = np.sqrt(lam)
+    w = scipy.linalg.solve_triangular(state.R, x, trans="T")  # R⁻ᵀx: xᵀ P x = ‖w‖²
+    denominator = lam + float(w @ w)
     prior_error = y - float(x @ state.a)
+    # Square-root form of eqs. (13)-(17): the QR factor of [xᵀ; √λ R] is the new R, and the same
+    # rotation applied to [y; √λ R a] gives z with a = R⁻¹ z. Nothing is divided by λ, so a tiny
+    # forgetting factor (1e-8, 1e-30) cannot blow P up the way the covariance form (eq. 13) does.
+    Q, R = np.linalg.qr(np.vstack([x[None, :], root * state.R]))
+    z = Q.T @ np.concatenate([[y], root * (state.R @ state.a)])
     return RecursiveLSState(
-        a=state.a + K * prior_error,  # eq. (17)
-        P=0.5 * (P + P.T),  # keep P symmetric against round-off drift
+        a=scipy.linalg.solve_triangular(R, z),  # eqs. (14), (17)
+        R=R,
         b=lam * state.b + x * y,  # eq. (11)
         information=lam * state.information + np.outer(x, x),  # eq. (10)
         n_samples=state.n_samples + 1,
@@ -281,7 +331,7 @@ def merge(first: RecursiveLSState, second: RecursiveLSState) -> RecursiveLSState
     )
     return RecursiveLSState(
         a=a,
-        P=_symmetric_inverse(M),
+        R=np.linalg.qr(np.vstack([first.R, second.R]), mode="r"),
         b=b,
         information=M,
         n_samples=first.n_samples + second.n_samples,
@@ -308,11 +358,10 @@ def transform_regressors(state: RecursiveLSState, T: np.ndarray) -> RecursiveLSS
         T_inv = np.linalg.inv(T)
     except np.linalg.LinAlgError as err:
         raise SingularSystemError(f"the regressor map T is singular: {err}") from err
-    P = T_inv.T @ state.P @ T_inv
     information = T @ state.information @ T.T
     return RecursiveLSState(
         a=T_inv.T @ state.a,
-        P=0.5 * (P + P.T),
+        R=np.linalg.qr(state.R @ T.T, mode="r"),
         b=T @ state.b,
         information=0.5 * (information + information.T),
         n_samples=state.n_samples,

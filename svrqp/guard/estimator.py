@@ -31,6 +31,30 @@ from svrqp.guard.domain import InputDomain, standardised
 from svrqp.parameters import HasMethods, Number, OneOf, check_parameters
 
 
+def _checked_groups(groups: ArrayLike, n_rows: int) -> NDArray:
+    """``groups`` as a flat array of one label per row, all of one comparable type.
+
+    Raises :class:`ProblemError` for a wrong length, missing labels, or labels that mix types
+    (``[0, "a", 1]``: they cannot be sorted into folds, and ``1`` and ``"1"`` would be two groups).
+    """
+    groups = np.asarray(groups).ravel()
+    if len(groups) != n_rows:
+        raise ProblemError(f"groups has {len(groups)} labels for {n_rows} rows")
+    if pd.isna(groups).any():
+        raise ProblemError("groups: some labels are missing (NaN); give every row a group")
+    if groups.dtype == object:
+        kinds = {"text" if isinstance(label, str | bytes) else "number" if isinstance(label, Real) else
+                 type(label).__name__ for label in groups}
+        if len(kinds) > 1:
+            raise ProblemError(f"groups: labels mix types ({', '.join(sorted(kinds))}); give every row a "
+                               "label of the same type (all numbers or all text)")
+        try:
+            np.unique(groups)
+        except TypeError as err:
+            raise ProblemError(f"groups: labels cannot be ordered ({err}); give numbers or text") from None
+    return groups
+
+
 class Guarded(RegressorMixin, BaseEstimator):
     """Wrap a regressor with conformal prediction intervals and a training-domain check.
 
@@ -89,6 +113,9 @@ class Guarded(RegressorMixin, BaseEstimator):
         coverage = self.coverage
         if isinstance(coverage, bool) or not isinstance(coverage, Real) or not 0.0 < coverage < 1.0:
             raise ProblemError(f"coverage must be a number strictly between 0 and 1, got {coverage!r}")
+        if not all(callable(getattr(self.estimator, method, None)) for method in ("fit", "predict")):
+            raise ProblemError(f"estimator must be a scikit-learn regressor with fit and predict, got "
+                               f"{self.estimator!r}")
         if not is_regressor(self.estimator):
             raise ProblemError(f"estimator must be a regressor, got {type(self.estimator).__name__} "
                                "(scikit-learn's is_regressor is false for it)")
@@ -134,11 +161,7 @@ class Guarded(RegressorMixin, BaseEstimator):
         self._check_parameters()
         X_raw, y = self._inputs(X, y, fitting=True)
         if groups is not None:
-            groups = np.asarray(groups).ravel()
-            if len(groups) != len(y):
-                raise ProblemError(f"groups has {len(groups)} labels for {len(y)} rows")
-            if pd.isna(groups).any():
-                raise ProblemError("groups: some labels are missing (NaN); give every row a group")
+            groups = _checked_groups(groups, len(y))
         names = [str(name) for name in getattr(self, "feature_names_in_", [f"x{j}" for j in range(X_raw.shape[1])])]
         self.domain_ = InputDomain.fit(X_raw, names, self.domain_quantile)
         Z = standardised(X_raw, self.domain_.mean, self.domain_.scale)

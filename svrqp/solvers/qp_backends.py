@@ -47,6 +47,15 @@ from svrqp.solution import (
 PD_REGULARISATION = 1e-8
 
 
+#: Wall-clock budget of one backend call (seconds), passed to every backend that takes one
+#: (clarabel, osqp, highs, scs); the others get an iteration limit (piqp, proxqp, daqp, cvxopt,
+#: qpalm). A call that hits either ends in SolverError naming the backend ("time_limit" or
+#: "max_iter"), never in a hang: HiGHS ran for minutes on a dual whose box is 1e13 wide.
+TIME_LIMIT_S = 60.0
+#: Iteration budget of the backends without a time limit.
+ITERATION_LIMIT = 100_000
+
+
 @dataclass(frozen=True)
 class Backend:
     """How svrqp talks to one backend."""
@@ -72,7 +81,8 @@ BACKENDS: dict[str, Backend] = {
     for backend in (
         Backend(
             "clarabel", "clarabel", None, True,
-            lambda tol: {"tol_gap_abs": tol, "tol_gap_rel": tol, "tol_feas": tol, "tol_ktratio": 1e-2 * tol},
+            lambda tol: {"tol_gap_abs": tol, "tol_gap_rel": tol, "tol_feas": tol, "tol_ktratio": 1e-2 * tol,
+                         "time_limit": TIME_LIMIT_S},
             frozenset({"max_iter", "time_limit", "tol_gap_abs", "tol_gap_rel", "tol_feas", "tol_ktratio",
                        "equilibrate_enable", "presolve_enable", "direct_solve_method",
                        "static_regularization_enable", "iterative_refinement_enable"}),
@@ -80,20 +90,21 @@ BACKENDS: dict[str, Backend] = {
         Backend(
             "osqp", "osqp", None, True,
             # ADMM reaches 1e-8 only with polishing and many iterations (measured on the primal).
-            lambda tol: {"eps_abs": tol, "eps_rel": tol, "polishing": True, "max_iter": 100_000},
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "polishing": True, "max_iter": ITERATION_LIMIT,
+                         "time_limit": TIME_LIMIT_S},
             frozenset({"max_iter", "eps_abs", "eps_rel", "polishing", "rho", "sigma", "alpha",
                        "adaptive_rho", "scaling", "time_limit", "check_termination", "warm_starting",
                        "eps_prim_inf", "eps_dual_inf", "polish_refine_iter"}),
         ),
         Backend(
             "piqp", "piqp", "solvers", False,
-            lambda tol: {"eps_abs": tol, "eps_rel": tol},
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iter": ITERATION_LIMIT},
             frozenset({"eps_abs", "eps_rel", "max_iter", "check_duality_gap", "eps_duality_gap_abs",
                        "eps_duality_gap_rel", "preconditioner_iter", "backend"}),
         ),
         Backend(
             "proxqp", "proxsuite", "solvers", False,
-            lambda tol: {"eps_abs": tol, "eps_rel": 0.0},
+            lambda tol: {"eps_abs": tol, "eps_rel": 0.0, "max_iter": ITERATION_LIMIT},
             frozenset({"eps_abs", "eps_rel", "max_iter", "rho", "mu_eq", "mu_in", "check_duality_gap",
                        "eps_duality_gap_abs", "eps_duality_gap_rel", "backend"}),
         ),
@@ -102,7 +113,7 @@ BACKENDS: dict[str, Backend] = {
             # HiGHS adds qp_regularization_value (1e-7 by default) to the Hessian, which moves the
             # SVR duals' zero blocks by ~1e-5 relative: tie it to the requested accuracy.
             lambda tol: {"primal_feasibility_tolerance": tol, "dual_feasibility_tolerance": tol,
-                         "qp_regularization_value": 1e-2 * tol},
+                         "qp_regularization_value": 1e-2 * tol, "time_limit": TIME_LIMIT_S},
             frozenset({"primal_feasibility_tolerance", "dual_feasibility_tolerance", "time_limit",
                        "qp_iteration_limit", "qp_regularization_value"}),
         ),
@@ -110,7 +121,7 @@ BACKENDS: dict[str, Backend] = {
             "daqp", "daqp", "solvers", False,
             # eps_prox > 0 turns on DAQP's proximal-point outer loop, which solves semidefinite
             # QPs exactly (the SVR duals' P is singular by construction).
-            lambda tol: {"primal_tol": tol, "dual_tol": tol, "eps_prox": 1e-6},
+            lambda tol: {"primal_tol": tol, "dual_tol": tol, "eps_prox": 1e-6, "iter_limit": ITERATION_LIMIT},
             frozenset({"primal_tol", "dual_tol", "zero_tol", "iter_limit", "eps_prox", "eta_prox",
                        "prox_iter_limit", "progress_tol", "cycle_tol", "pivot_tol", "rho_soft"}),
         ),
@@ -122,7 +133,7 @@ BACKENDS: dict[str, Backend] = {
         ),
         Backend(
             "scs", "scs", "solvers", True,
-            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iters": 1_000_000},
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iters": 1_000_000, "time_limit_secs": TIME_LIMIT_S},
             frozenset({"eps_abs", "eps_rel", "eps_infeas", "max_iters", "time_limit_secs",
                        "acceleration_lookback", "normalize", "scale", "adaptive_scale"}),
         ),
@@ -133,7 +144,7 @@ BACKENDS: dict[str, Backend] = {
         ),
         Backend(
             "qpalm", "qpalm", "solvers", True,
-            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iter": 100_000},
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iter": ITERATION_LIMIT},
             frozenset({"eps_abs", "eps_rel", "eps_abs_in", "eps_rel_in", "max_iter", "rho", "sigma_max",
                        "scaling", "proximal", "gamma_init", "gamma_max"}),
         ),

@@ -82,6 +82,10 @@ CROSSOVER_VIOLATORS = 64
 
 #: libsvm's kernel cache in MB (scikit-learn's default is 200).
 CACHE_SIZE_MB = 1000.0
+#: Most libsvm SMO iterations of a warm start per training point (at least SMO_MIN_ITERATIONS):
+#: SMO is a warm start only (the exact crossover follows), and with a nearly hard margin (the
+#: linear kernel on inputs of 1e5 and more, or C = 1e6) it would otherwise run for minutes.
+SMO_ITERATIONS_PER_POINT, SMO_MIN_ITERATIONS = 1_000, 100_000
 
 
 @dataclass
@@ -102,12 +106,16 @@ class DecompositionFit:
 
 def decomposition_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
                       kernel_parameters: Mapping[str, Any], tol: float,
-                      rows: NDArray[np.intp] | None = None, max_iter: int = -1) -> DecompositionFit:
+                      rows: NDArray[np.intp] | None = None, max_iter: int | None = None) -> DecompositionFit:
     """libsvm's SMO (second-order working-set selection) on ``rows`` (all when ``None``), β of every point.
 
     A precomputed kernel restricts the Gram matrix ``X`` to ``rows`` on both sides; ``max_iter``
-    (-1: none) stops the run early, silently: the caller compares ``iterations`` with it.
+    (default: :data:`SMO_ITERATIONS_PER_POINT` per point, at least :data:`SMO_MIN_ITERATIONS`; -1:
+    none) stops the run early, silently: the caller compares ``iterations`` with it.
     """
+    if max_iter is None:
+        n_rows = y.size if rows is None else len(rows)
+        max_iter = max(SMO_MIN_ITERATIONS, SMO_ITERATIONS_PER_POINT * n_rows)
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.svm import SVR  # libsvm: the decomposition method
 

@@ -169,7 +169,9 @@ def test_writers_never_overwrite_without_being_asked(tmp_path):
     write(document, tmp_path / "model.json")
     with pytest.raises(FileExistsError, match="model.json"):
         write(document, tmp_path / "model.json")
-    assert write(document, tmp_path / "model.json", overwrite=True) == [tmp_path / "model.json"]
+    assert write(document, tmp_path / "model.json", force=True) == [tmp_path / "model.json"]
+    with pytest.warns(DeprecationWarning, match="force="):
+        assert write(document, tmp_path / "model.json", overwrite=True) == [tmp_path / "model.json"]
 
 
 def test_csv_table_is_the_papers_layout(tmp_path):

@@ -155,14 +155,16 @@ def test_created_utc_must_be_a_real_date(document, tmp_path):
 
 
 def test_export_does_not_follow_a_dangling_symlink(document, tmp_path):
-    """Reproducer: ``export -o`` wrote through a dangling symbolic link."""
+    """Reproducer: ``export -o`` wrote through a dangling symbolic link. Without force it is refused;
+    with force the link itself is replaced (svrqp.output) and its target is never created."""
     elsewhere = tmp_path / "elsewhere.json"
     link = tmp_path / "model.json"
     link.symlink_to(elsewhere)
-    for overwrite in (False, True):
-        with pytest.raises(ProblemError, match="symbolic link"):
-            write(document, link, overwrite=overwrite)
-    assert not elsewhere.exists()
+    with pytest.raises(FileExistsError, match="symbolic link"):
+        write(document, link)
+    assert link.is_symlink() and not elsewhere.exists()
+    write(document, link, force=True)
+    assert not link.is_symlink() and link.is_file() and not elsewhere.exists()
 
 
 def test_verify_command_reports_hostile_text_with_exit_1(tmp_path, capsys):
