@@ -2,7 +2,8 @@
 
 :class:`GapReport` is the data of :class:`svrqp.gap.results.document.GapResult` with its
 renderings. Nothing is written that fails the schema (the JSON is validated first), and no
-file is overwritten unless ``force=True``; every file goes through :func:`_write`.
+file is overwritten unless ``force=True``; every file goes through :mod:`svrqp.output`, the writer of
+every command (no symlink followed, no FIFO opened, nothing half-written).
 """
 
 from __future__ import annotations
@@ -10,12 +11,11 @@ from __future__ import annotations
 import base64
 import html
 import math
-import os
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
+from svrqp import output
 from svrqp.gap.results.document import GapResult
 from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.records import Verdict
@@ -37,7 +37,7 @@ class GapReport(GapResult):
 
     def write_json(self, path: str | Path, force: bool = False) -> Path:
         """Write :meth:`to_json` to ``path`` (validated first; refuses to overwrite unless ``force``)."""
-        return _write(path, self.to_json().encode("utf-8"), force)
+        return output.write_bytes(path, self.to_json().encode("utf-8"), force=force)
 
     def to_markdown(self, path: str | Path | None = None, force: bool = False) -> str:
         """The report as Markdown; with ``path``, also write it and its PNG figures beside it."""
@@ -52,13 +52,13 @@ class GapReport(GapResult):
             if taken and not force:
                 raise FileExistsError(f"{taken} exist; pass force=True (--force) to overwrite them")
             for key, png in figures.items():
-                _write(path.with_name(names[key]), png, force=True)
-            _write(path, text.encode("utf-8"), force=True)
+                output.write_bytes(path.with_name(names[key]), png, force=True)
+            output.write_bytes(path, text.encode("utf-8"), force=True)
         return text
 
     def to_html(self, path: str | Path, force: bool = False) -> Path:
         """Write a self-contained HTML report (figures embedded) to ``path``."""
-        return _write(path, self._html().encode("utf-8"), force)
+        return output.write_bytes(path, self._html().encode("utf-8"), force=force)
 
     # -- rendering ---------------------------------------------------------------------
 
@@ -220,28 +220,3 @@ def _html_table(header: list[str], rows: list[list[str]]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
-
-
-def _write(path: str | Path, content: bytes, force: bool) -> Path:
-    """Write atomically; refuse to replace an existing file unless ``force``."""
-    path = Path(path)
-    if path.exists() and not force:
-        raise FileExistsError(f"{path} exists; pass force=True (--force) to overwrite it")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(content)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; a written report reads like any file
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def _umask() -> int:
-    """The process's file-creation mask (reading it means setting it; it is put straight back)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
