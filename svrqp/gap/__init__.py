@@ -5,7 +5,8 @@ Ask a :class:`GapQuestion` and pass it to :func:`diagnose` (the ``svrqp gap`` co
 it); the result is a :class:`GapReport` with ``to_json()`` (schema ``svrqp.gap/2``, shipped as
 ``gap.schema.json``), ``to_html(path)`` and ``to_markdown(path)``; :func:`read_document` reads a
 written document back (also one of the previous version, ``svrqp.gap/1``). The method is laid out in
-:mod:`svrqp.gap.diagnose`; each step has its own module or sub-package (CONTRIBUTING.md draws the tree).
+:mod:`svrqp.gap.diagnose`; each step has its own
+module or sub-package (CONTRIBUTING.md draws the tree).
 """
 
 from svrqp.gap.diagnose import diagnose

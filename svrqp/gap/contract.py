@@ -30,7 +30,8 @@ MAX_BLOCKS = 10
 """Most contiguous blocks (longer blocks are safer against interpolation)."""
 
 THIN_UNITS = 4
-"""With fewer held-out units than this, the transfer evidence is thin (said in the reason and summary)."""
+"""With fewer held-out units than this, the transfer
+evidence is thin (said in the reason and summary)."""
 
 N_BOOTSTRAP = 1000
 """Bootstrap resamples of the units (or blocks) for the intervals."""
@@ -48,4 +49,5 @@ EXTRAPOLATING_SHARE = 0.5
 """A model input outside its train range on at least this share of the real rows is extrapolated."""
 
 LINEAR = "linear"
-"""Name of the linear family (least squares on shared normal equations, :mod:`svrqp.gap.transfer.linear`)."""
+"""Name of the linear family (least squares on shared
+normal equations, :mod:`svrqp.gap.transfer.linear`)."""

@@ -50,7 +50,8 @@ Whiteness
     not decide anything; the decision on causes rests on the surrogate tests of
     :mod:`svrqp.gap.within.surrogate_tests`, which keep the residual's autocorrelation.
 
-**Where** (:func:`localise`). Where along the order axis (or a candidate column) the real-row error concentrates.
+**Where** (:func:`localise`). Where along the order axis
+(or a candidate column) the real-row error concentrates.
 
 For a column :math:`u` (the ``--order`` axis first, then each candidate) an *error tree* — a
 regression tree of the squared residual :math:`e^2` on :math:`u` alone, with at most
@@ -61,7 +62,8 @@ it have a mean squared error above the held-out overall mean,
 
 .. math::
 
-    \kappa_I = \frac{\overline{e^2}\big|_{I,\ \mathrm{held\ out}}}{\overline{e^2}\big|_{\mathrm{held\ out}}} > 1 .
+    \kappa_I = \frac{\overline{e^2}\big|_{I,\ \mathrm{held\
+    out}}}{\overline{e^2}\big|_{\mathrm{held\ out}}} > 1 .
 
 The halves: with enough groups to hold whole ones out, the even cross-validation folds (whole
 groups) fit and the odd ones score — a region must recur in other runs. With fewer groups the
@@ -123,13 +125,15 @@ def effective_size(residual: np.ndarray, groups: np.ndarray) -> float:
     return max(2.0, len(residual) * (1 - rho) / (1 + rho))
 
 
-def excess_error_pvalue(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_groups: np.ndarray) -> float:
+def excess_error_pvalue(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray,
+                        train_groups: np.ndarray) -> float:
     """One-sided p-value that the real-row mean square exceeds the train reference's."""
     ms_real, ms_train = float(np.mean(real**2)), float(np.mean(train**2))
     if ms_train <= 0:
         return 0.0 if ms_real > 0 else 1.0
     ratio = ms_real / ms_train
-    return float(stats.f.sf(ratio, effective_size(real, real_groups), effective_size(train, train_groups)))
+    return float(stats.f.sf(ratio, effective_size(real, real_groups),
+                            effective_size(train, train_groups)))
 
 
 def successive_difference_variance(residual: np.ndarray, groups: np.ndarray) -> float:
@@ -172,7 +176,8 @@ def ljung_box_pvalue(residual: np.ndarray, groups: np.ndarray, lags: int = LJUNG
     return float(stats.chi2.sf(Q, H))
 
 
-def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_groups: np.ndarray) -> GateResult:
+def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray,
+         train_groups: np.ndarray) -> GateResult:
     """Run the excess-error and whiteness tests on a real-row residual.
 
     Parameters
@@ -195,7 +200,9 @@ def gate(real: np.ndarray, real_groups: np.ndarray, train: np.ndarray, train_gro
     return GateResult(
         train_rmse=train_rmse,
         real_rmse=real_rmse,
-        ratio=real_rmse / train_rmse if train_rmse > 0 else (float("inf") if real_rmse > 0 else float("nan")),
+        ratio=real_rmse / train_rmse
+        if train_rmse > 0
+        else (float("inf") if real_rmse > 0 else float("nan")),
         p_excess=excess_error_pvalue(real, real_groups, train, train_groups),
         noise_rmse=float(np.sqrt(successive_difference_variance(real, real_groups))),
         p_noise=noise_pvalue(real, real_groups),
@@ -221,7 +228,8 @@ CANDIDATE_MIN_ENRICHMENT = 1.5
 """Least held-out enrichment for a region of a candidate column to be reported."""
 
 RUN_MIN_ENRICHMENT = 2.0
-"""Least held-out enrichment, against its run's own mean, for a region within one run to be reported."""
+"""Least held-out enrichment, against its run's own
+mean, for a region within one run to be reported."""
 
 MAX_CANDIDATE_REGIONS = 5
 """Most candidate-column regions reported (highest share first)."""
@@ -244,7 +252,8 @@ def _smallest_leaf(n_fit: int) -> int:
 
 def _intervals(u: np.ndarray, e2: np.ndarray) -> np.ndarray:
     """Cut points of an error tree of ``e2`` on ``u`` (sorted split thresholds)."""
-    tree = DecisionTreeRegressor(max_leaf_nodes=MAX_LEAVES, min_samples_leaf=_smallest_leaf(len(u)), random_state=0)
+    tree = DecisionTreeRegressor(max_leaf_nodes=MAX_LEAVES, min_samples_leaf=_smallest_leaf(len(u)),
+                                 random_state=0)
     tree.fit(u[:, None], e2)
     is_split = tree.tree_.children_left >= 0
     return np.sort(tree.tree_.threshold[is_split])
@@ -283,7 +292,8 @@ def regions_on(column: str, u: np.ndarray, e: np.ndarray, fit_rows: np.ndarray) 
     # An interval with no held-out row (short, inside one fitting block) joins an enriched
     # neighbour when its own fitting rows are above their mean too: it cannot be scored alone.
     fit_mean = e2[fit_rows].mean()
-    high_on_fit = [unscored[c] and e2[fit_rows & (cell == c)].mean() > fit_mean for c in range(cuts.size + 1)]
+    high_on_fit = [unscored[c] and e2[fit_rows & (cell == c)].mean() > fit_mean
+                   for c in range(cuts.size + 1)]
     for c in np.flatnonzero(high_on_fit):
         enriched[c] = (c > 0 and enriched[c - 1]) or (c < cuts.size and enriched[c + 1])
     regions = []
@@ -301,7 +311,8 @@ def regions_on(column: str, u: np.ndarray, e: np.ndarray, fit_rows: np.ndarray) 
     return regions
 
 
-def _region(column: str, u: np.ndarray, e2: np.ndarray, inside: np.ndarray, held: np.ndarray, overall: float) -> Region:
+def _region(column: str, u: np.ndarray, e2: np.ndarray, inside: np.ndarray, held: np.ndarray,
+            overall: float) -> Region:
     total = e2.sum()
     held_inside = inside & held
     return Region(
@@ -311,15 +322,18 @@ def _region(column: str, u: np.ndarray, e2: np.ndarray, inside: np.ndarray, held
         rmse=float(np.sqrt(e2[inside].mean())),
         share=float(e2[inside].sum() / total) if total > 0 else 0.0,
         n=int(inside.sum()),
-        enrichment=float(e2[held_inside].mean() / overall) if held_inside.any() and overall > 0 else float("nan"),
+        enrichment=float(e2[held_inside].mean() / overall) if held_inside.any() and overall > 0
+        else float("nan"),
     )
 
 
 def region_of(t: np.ndarray, e: np.ndarray, region: dict) -> Region:
-    """The ``where`` entry of a local verdict's stretch ``region`` (``{"column", "low", "high"}``) of the
-    order axis or a ``local_along`` column, on the real rows (that column's values ``t``, residual ``e``).
+    """The ``where`` entry of a local verdict's stretch ``region`` (``{"column", "low", "high"}``)
+    of the order axis or a ``local_along`` column, on the real
+    rows (that column's values ``t``, residual ``e``).
 
-    Its enrichment is in sample (the stretch was chosen by the transfer refits, not by an error tree).
+    Its enrichment is in sample (the stretch was chosen
+    by the transfer refits, not by an error tree).
     """
     inside = (t >= region["low"]) & (t <= region["high"])
     e2 = e**2
@@ -348,8 +362,8 @@ def within_run_fit_half(n: int) -> np.ndarray:
     return (np.arange(n) // block) % 2 == 0
 
 
-def run_regions(order_name: str, order: np.ndarray, e: np.ndarray, groups: np.ndarray, labels: list[str],
-                pooled: list[Region]) -> list[Region]:
+def run_regions(order_name: str, order: np.ndarray, e: np.ndarray, groups: np.ndarray,
+                labels: list[str], pooled: list[Region]) -> list[Region]:
     """Regions of concentrated error within single runs that the pooled regions leave out.
 
     Parameters
@@ -389,7 +403,8 @@ def run_regions(order_name: str, order: np.ndarray, e: np.ndarray, groups: np.nd
             if region.enrichment < RUN_MIN_ENRICHMENT or covered[inside].mean() > 0.5:
                 continue
             share = float(np.sum(e_run[inside] ** 2) / total) if total > 0 else 0.0
-            found.append(replace(region, share=share, group=labels[code], share_of_run=region.share))
+            found.append(replace(region, share=share, group=labels[code],
+                                 share_of_run=region.share))
     found.sort(key=lambda r: -r.share)
     return found[:MAX_RUN_REGIONS]
 

@@ -14,8 +14,8 @@
    (:mod:`svrqp.gap.transfer.linear`); the refit without any effect says what more data alone buys.
    Causes are ranked by that transfer gain and tested against surrogates that respect what
    varies where, with the false-discovery rate controlled and confounded pairs checked by
-   conditional tests (:mod:`svrqp.gap.transfer.ranking`); this screen refits the linear family. For an
-   ``svr`` or ``lssvr`` model the reported numbers of the same-input refit, the best-ranked
+   conditional tests (:mod:`svrqp.gap.transfer.ranking`); this screen refits the linear family. For
+   an ``svr`` or ``lssvr`` model the reported numbers of the same-input refit, the best-ranked
    causes and the verdict candidate come from refits of that kernel family itself, its C, ε
    and γ fixed (:mod:`svrqp.gap.transfer.kernel`). The verdict is the best-transferring
    significant cause whose shrink is positive and whose shrink beyond the refit has an
@@ -48,7 +48,11 @@ from svrqp.gap.detect import gap_detected, gate, localise, region_of
 from svrqp.gap.model import Baseline, base_design, base_fit, fit_baseline, input_use, offset_columns
 from svrqp.gap.question import GapQuestion
 from svrqp.gap.results.records import Cause, GateResult, Ranking, Series, Units, Verdict
-from svrqp.gap.transfer.candidates import constant_on_real_rows, region_axis, untestable_between_runs
+from svrqp.gap.transfer.candidates import (
+    constant_on_real_rows,
+    region_axis,
+    untestable_between_runs,
+)
 from svrqp.gap.transfer.kernel import FamilyErrors, same_family_errors
 from svrqp.gap.transfer.linear import (
     LinearTransfer,
@@ -58,9 +62,20 @@ from svrqp.gap.transfer.linear import (
     transfer_units,
 )
 from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
-from svrqp.gap.within.attribute import MAX_SURROGATES, AttributionProblem, check_surrogates, evidence_within
+from svrqp.gap.within.attribute import (
+    MAX_SURROGATES,
+    AttributionProblem,
+    check_surrogates,
+    evidence_within,
+)
 from svrqp.gap.words.report import GapReport
-from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, refit_closes, summary
+from svrqp.gap.words.verdict import (
+    VerdictContext,
+    decide,
+    extrapolation_text,
+    refit_closes,
+    summary,
+)
 from svrqp.metrics import rms
 
 Progress = Callable[[str, float], None]
@@ -78,8 +93,9 @@ class _Findings:
     remaining: list[str]
 
 
-def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogates: str = "rotation",
-             n_jobs: int = 1, within_evidence: bool = False, progress: Progress | None = None) -> GapReport:
+def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
+             surrogates: str = "rotation", n_jobs: int = 1, within_evidence: bool = False,
+             progress: Progress | None = None) -> GapReport:
     """Diagnose the gap between a model (or a simulation) and real measurements.
 
     Parameters
@@ -93,10 +109,11 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     seed : int
         Seed of the surrogates and the bootstrap (results are reproducible).
     surrogates : {"rotation", "continuous"}
-        How the within-real-rows significance tests draw surrogates (:mod:`svrqp.gap.within.surrogate_tests`): plain
-        rotations within each group (the default), or rotations made continuous at the seam —
-        safer when the true cause may be missing from the candidates and some of them drift
-        within a run, at some loss of power on slow, trend-like effects.
+        How the within-real-rows significance tests draw surrogates
+        (:mod:`svrqp.gap.within.surrogate_tests`): plain rotations within each group (the default),
+        or rotations made continuous at the seam — safer when the true cause may be missing from the
+        candidates and some of them drift within a run,
+        at some loss of power on slow, trend-like effects.
     n_jobs : int
         Threads on which the within-real-rows significance tests run (``-1``: one per core);
         the transfer refits and their tests run on one. The result does not depend on it.
@@ -116,8 +133,8 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     """
     check_surrogates(surrogates)  # before the work, not after it
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, (int, np.integer)) or n_jobs == 0:
-        raise ProblemError(f"n_jobs (--jobs): give a number of threads (a positive integer, or -1 for one per core), "
-                           f"not {n_jobs!r}")
+        raise ProblemError("n_jobs (--jobs): give a number of threads (a positive integer, or -1 "
+                           f"for one per core), not {n_jobs!r}")
     started = time.perf_counter()
     report_progress = progress or (lambda stage, done: None)
     report_progress("checking input", 0.0)
@@ -126,10 +143,12 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     baseline = fit_baseline(data, question.model)
     real = data.is_real
     r, groups = baseline.residual[real], data.groups[real]
-    B, folds, taus = base_design(data, baseline), blocked_folds(groups), tau_grid(data.t, data.groups)
+    B, folds, taus = base_design(data,
+                                 baseline), blocked_folds(groups), tau_grid(data.t, data.groups)
     gap = gate(r, groups, baseline.train_reference, data.groups[data.is_train])
     report_progress("localising", 0.15)
-    where = localise(r, data.order_name, data.t[real], {c: data.C[real, j] for j, c in enumerate(data.candidates)},
+    where = localise(r, data.order_name, data.t[real],
+                     {c: data.C[real, j] for j, c in enumerate(data.candidates)},
                      folds, groups, data.group_labels)
     exact = _reproduced_exactly(r, data.y)
     units = transfer_units(data.groups, real, baseline.residual)
@@ -137,21 +156,27 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
         data, baseline, gap, gap_detected(gap), base_fit(data, r, B, folds, exact), units,
         [] if exact else input_use(data, r, offset_columns(groups), folds),
         {"rmse_before": float(rms(r)), "rmse_refit": None, "shrink_refit": None,
-         "refit_closes_gap": None, "units": units.n_units, "unit_kind": units.kind, "thin": units.thin})
+         "refit_closes_gap": None, "units": units.n_units, "unit_kind": units.kind,
+         "thin": units.thin})
     if exact:
-        findings = _Findings(context, [], Verdict(column=None, reason="The model reproduces the real rows exactly (the residual "
-                                         "is zero to rounding); there is no gap and no cause is named."), {}, None, [])
+        findings = _Findings(context, [], Verdict(column=None, reason="The model reproduces the "
+                                         "real rows exactly (the residual is zero to rounding); "
+                                         "there is no gap and no cause is named."), {}, None, [])
     else:
-        problem = AttributionProblem(r, B, folds, groups, gap.train_rmse, np.random.default_rng(seed), surrogates,
+        problem = AttributionProblem(r, B, folds, groups, gap.train_rmse,
+                                     np.random.default_rng(seed), surrogates,
                                      n_jobs)
-        findings = _search_causes(problem, taus, context, seed, report_progress, question.local, within_evidence)
+        findings = _search_causes(problem, taus, context, seed, report_progress, question.local,
+                                  within_evidence)
     report_progress("reporting", 0.98)
     if findings.verdict.region is not None:  # a local verdict: where it acts comes first
-        where = [region_of(region_axis(data, findings.verdict.region)[real], r, findings.verdict.region), *where]
+        where = [region_of(region_axis(data, findings.verdict.region)[real], r,
+                           findings.verdict.region), *where]
     settings = {"alpha": ALPHA, "min_gain": MIN_GAIN, "min_amplitude": MIN_AMPLITUDE,
                 "max_surrogates": MAX_SURROGATES, "surrogates": surrogates, "n_folds": len(folds),
                 "taus": taus.tolist(), "seed": seed, "transfer_surrogates": MAX_TRANSFER_SURROGATES,
-                "local": question.local, "local_along": list(data.along), "within_evidence": within_evidence}
+                "local": question.local, "local_along": list(data.along),
+                "within_evidence": within_evidence}
     text = summary(findings.context, findings.verdict, exact)
     report = _report(question, where, findings, text, settings)
     report.runtime_s = time.perf_counter() - started
@@ -159,12 +184,14 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0, surrogat
     return report
 
 
-def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: VerdictContext, seed: int,
+def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: VerdictContext,
+                   seed: int,
                    report_progress: Progress, local: bool, within: bool) -> _Findings:
-    """Rank and test by transfer (``local``: with the local form too), tabulate the causes and decide the
-    verdict; with ``within``, test within the real rows too.
+    """Rank and test by transfer (``local``: with the local form too), tabulate the causes and
+    decide the verdict; with ``within``, test within the real rows too.
 
-    The findings carry ``context`` with its ``transfer`` entry complete (the same-input refit's numbers).
+    The findings carry ``context`` with its ``transfer``
+    entry complete (the same-input refit's numbers).
     """
     data, units = context.data, context.units
     real, r, groups = data.is_real, problem.r, problem.groups
@@ -174,7 +201,8 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
         numbers = evidence_within(problem, data, taus, context.base,
                                   lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
     report_progress("refitting on held-out runs", 0.6)
-    ranker = TransferRanker(data, family_of(data, context.baseline, units), taus, np.random.default_rng([seed, 19]),
+    ranker = TransferRanker(data, family_of(data, context.baseline, units), taus,
+                            np.random.default_rng([seed, 19]),
                             local=local)
     ranked = ranker.rank()
     ranker.test(ranked)
@@ -197,11 +225,13 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     return _Findings(context, causes, verdict, errors_after, residual_gate, remaining)
 
 
-def _report(question: GapQuestion, where: list, findings: _Findings, text: str, settings: dict) -> GapReport:
+def _report(question: GapQuestion, where: list, findings: _Findings, text: str,
+            settings: dict) -> GapReport:
     """The :class:`GapReport` of a diagnosis (``runtime_s`` set by the caller)."""
     context = findings.context
     data, baseline, units = context.data, context.baseline, context.units
-    series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels, data.is_train,
+    series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels,
+                    data.is_train,
                     data.y, baseline.y_hat, findings.errors_after.get(findings.verdict.column))
     return GapReport(
         target=data.target,
@@ -260,14 +290,17 @@ def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer
 
 
 
-def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units, real_units: np.ndarray,
-            within: dict, notes: dict, rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
-    """The causes table, best transfer first (by the linear screen): one row per column with its transfer numbers.
+def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
+            real_units: np.ndarray,
+            within: dict, notes: dict,
+            rng: np.random.Generator) -> tuple[list[Cause], dict[str, np.ndarray]]:
+    """The causes table, best transfer first (by the linear
+    screen): one row per column with its transfer numbers.
 
     ``family`` holds the same-family refits (:mod:`svrqp.gap.transfer.kernel`); a cause it did not
     refit keeps the linear screen's numbers, said by its ``family``. ``real_units`` is the held-out
-    unit of each real row; ``within`` the numbers of :func:`svrqp.gap.within.attribute.evidence_within` (empty
-    unless asked for); ``notes`` the
+    unit of each real row; ``within`` the numbers of
+    :func:`svrqp.gap.within.attribute.evidence_within` (empty unless asked for); ``notes`` the
     attribution's notes on columns.
     """
     index = bootstrap_index(units.n_units, rng)
@@ -286,8 +319,10 @@ def _causes(ranking: Ranking, r: np.ndarray, family: FamilyErrors, units: Units,
             rmse_before=numbers.rmse_before, rmse_after=numbers.rmse_after, shrink=numbers.shrink,
             shrink_ci=numbers.shrink_ci, note=note, ambiguous=row.ambiguous,
             shrink_beyond_base=w_beyond, rmse_refit=numbers.rmse_refit,
-            shrink_beyond_refit=numbers.shrink_beyond_refit, shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
-            tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci, family=name,
+            shrink_beyond_refit=numbers.shrink_beyond_refit,
+            shrink_beyond_refit_ci=numbers.shrink_beyond_refit_ci,
+            tested=row.tested, p_within=w_q, within_shrink=w_shrink, within_shrink_ci=w_ci,
+            family=name,
             region=row.region, shrink_beyond_window=None if row.beyond_window is None
             else shrink_of_gain(row.beyond_window),
         ))

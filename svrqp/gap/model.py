@@ -1,6 +1,7 @@
 r"""The model whose gap is diagnosed: the baseline, its refits, and its per-run recalibrations.
 
-**The baseline** (:func:`fit_baseline`). The baseline whose gap is diagnosed: a model fitted on the train rows, or a given prediction.
+**The baseline** (:func:`fit_baseline`). The baseline whose gap is
+diagnosed: a model fitted on the train rows, or a given prediction.
 
 Model kinds (``--model``), fitted on the train rows only:
 
@@ -35,14 +36,16 @@ the real rows (in prediction mode: a linear correction of target − prediction 
 columns, fitted on the train rows). An effect that does not vary on the train rows cannot be
 learned there — a low refit shrink next to a high transfer shrink says so.
 
-**Recalibrations fitted on the real rows** (:func:`base_fit`, :func:`input_use`). Per-run recalibrations fitted on the real rows: the discrepancy base, and each model input alone.
+**Recalibrations fitted on the real rows** (:func:`base_fit`, :func:`input_use`). Per-run
+recalibrations fitted on the real rows: the discrepancy base, and each model input alone.
 
 The base :math:`B` holds offsets (:func:`offset_columns`) and, in features mode, the model's own
-inputs (:func:`recalibration_inputs`). The within-real-rows evidence (:mod:`svrqp.gap.within.attribute`)
-tests each candidate beyond it; alone, out of sample, it says what a per-run recalibration would
-remove (:func:`base_fit`), which no new run gets.
+inputs (:func:`recalibration_inputs`). The within-real-rows evidence
+(:mod:`svrqp.gap.within.attribute`) tests each candidate beyond it; alone, out of sample, it says
+what a per-run recalibration would remove (:func:`base_fit`), which no new run gets.
 
-**Every model input against its train range** (:func:`input_use`). Is the model used outside what it was fitted on? Its own inputs on the real rows.
+**Every model input against its train range** (:func:`input_use`). Is the
+model used outside what it was fitted on? Its own inputs on the real rows.
 
 A model fails on new rows for two reasons that look alike in its residual: something it does
 not know about acts there (an unmodelled effect, which :mod:`svrqp.gap.within.attribute` looks for
@@ -84,10 +87,15 @@ from svrqp import registry
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
 from svrqp.estimators.linear import LinearLS
 from svrqp.exceptions import ProblemError
-from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, holds_out_groups, smooth, standardised
+from svrqp.gap.data import (
+    CrossValidatedDiscrepancy,
+    GapData,
+    holds_out_groups,
+    smooth,
+    standardised,
+)
 from svrqp.gap.results.records import BaseFit, InputUse
 from svrqp.metrics import rms
-
 
 # -- the baseline ----------------------------------------------------------------------------------
 
@@ -123,7 +131,8 @@ def make_model(kind: str, gamma: float | str = "scale") -> RegressorMixin:
         core = LSSVR(C=LSSVR_C, gamma=gamma)
     else:
         raise ProblemError(f"model: unknown kind {kind!r}; choose one of {registry.baselines()}")
-    return make_pipeline(StandardScaler(), TransformedTargetRegressor(regressor=core, transformer=StandardScaler()))
+    return make_pipeline(StandardScaler(),
+                         TransformedTargetRegressor(regressor=core, transformer=StandardScaler()))
 
 
 @dataclass(frozen=True)
@@ -188,10 +197,10 @@ def fit_predict(kind: str, X_train: np.ndarray, y_train: np.ndarray, X: np.ndarr
 
 
 def train_folds(groups: np.ndarray) -> list[np.ndarray]:
-    """Held-out sets of the train reference: on the footing of the real rows, which the model predicts
-    for runs it never saw — one whole group at a time when the train rows hold two or more, else
-    :data:`TRAIN_BLOCKS` contiguous blocks of the one group (never interleaved short blocks, which
-    would interpolate an autocorrelated record)."""
+    """Held-out sets of the train reference: on the footing of the real rows, which the model
+    predicts for runs it never saw — one whole group at a time when the train rows hold two or more,
+    else :data:`TRAIN_BLOCKS` contiguous blocks of the one group (never interleaved short blocks,
+    which would interpolate an autocorrelated record)."""
     codes = np.unique(groups)
     if codes.size >= 2:
         return [np.flatnonzero(groups == g) for g in codes]
@@ -226,7 +235,8 @@ def refit_shrink(data: GapData, baseline: Baseline, effect: np.ndarray) -> float
     -------
     float or None
         ``1 - rmse_refit / rmse_before`` on the real rows; None when the effect is not known on
-        every row (a candidate recorded on the real rows only cannot enter a refit on the train rows).
+        every row (a candidate recorded on the real rows
+        only cannot enter a refit on the train rows).
     """
     if not np.isfinite(effect).all():
         return None
@@ -273,8 +283,8 @@ def recalibration_inputs(data: GapData, baseline: Baseline) -> np.ndarray:
 
 
 def one_offset(groups: np.ndarray) -> bool:
-    """Whether the discrepancy base holds one offset for all real rows (groups ``groups``), not one per
-    group: when cross-validation holds out whole groups, and when there is one group only."""
+    """Whether the discrepancy base holds one offset for all real rows (groups ``groups``), not one
+    per group: when cross-validation holds out whole groups, and when there is one group only."""
     return holds_out_groups(groups) or np.unique(groups).size == 1
 
 
@@ -296,7 +306,8 @@ def base_design(data: GapData, baseline: Baseline) -> np.ndarray:
     three groups an offset between them cannot be told apart from any candidate's group means,
     and circular-shift surrogates (which keep each group's level) could never show otherwise.
     """
-    return np.column_stack([offset_columns(data.groups[data.is_real]), recalibration_inputs(data, baseline)])
+    return np.column_stack([offset_columns(data.groups[data.is_real]),
+                            recalibration_inputs(data, baseline)])
 
 
 def offsets_text(data: GapData) -> str:
@@ -306,10 +317,16 @@ def offsets_text(data: GapData) -> str:
     return f"one offset per {data.group_name}"
 
 
-def base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray], exact: bool) -> BaseFit:
-    """The base discrepancy model alone, out of sample: what a per-run recalibration would remove."""
+def base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
+             exact: bool) -> BaseFit:
+    """The base discrepancy model alone, out of sample:
+    what a per-run recalibration would remove."""
     offsets = offsets_text(data)
-    description = offsets if data.prediction is not None else f"{offsets} and a recalibration of the model's inputs"
+    description = (
+        offsets
+        if data.prediction is not None
+        else f"{offsets} and a recalibration of the model's inputs"
+    )
     rmse_before = float(rms(r))
     if exact:
         return BaseFit(description, 0.0, 0.0)
@@ -318,7 +335,8 @@ def base_fit(data: GapData, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray
     return BaseFit(description, rmse_after, 1.0 - rmse_after / rmse_before)
 
 
-def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.ndarray]) -> list[InputUse]:
+def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray,
+              folds: list[np.ndarray]) -> list[InputUse]:
     """Range and recalibration check of every model feature and every candidate.
 
     Parameters
@@ -343,18 +361,24 @@ def input_use(data: GapData, r: np.ndarray, offsets: np.ndarray, folds: list[np.
     offsets_only = float(rms(CrossValidatedDiscrepancy(r, offsets, folds).errors_base))
     uses = []
     columns = [(c, data.X[:, j], "input") for j, c in enumerate(data.features)]
-    columns += [(c, data.C[:, j], "candidate") for j, c in enumerate(data.candidates) if c not in data.features]
+    columns += [(c, data.C[:, j], "candidate")
+                for j, c in enumerate(data.candidates) if c not in data.features]
     for column, x, role in columns:
         seen = x[train][np.isfinite(x[train])]
-        low, high = (float(seen.min()), float(seen.max())) if seen.size else (float("nan"), float("nan"))
+        low, high = (float(seen.min()),
+                     float(seen.max())) if seen.size else (float("nan"), float("nan"))
         # A candidate may be unrecorded on the train rows: it is smoothed on the real rows alone.
-        smoothed = smooth(x, data.groups)[real] if role == "input" else smooth(x[real], data.groups[real])
+        smoothed = (
+            smooth(x, data.groups)[real] if role == "input" else smooth(x[real], data.groups[real])
+        )
         own, varying = standardised(np.column_stack([x[real], smoothed]))
         own = own[:, varying]
-        after = float(rms(CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base))
+        after = float(
+            rms(CrossValidatedDiscrepancy(r, np.column_stack([offsets, own]), folds).errors_base)
+        )
         shrink = 1.0 - after / before if before > 0 else 0.0
         beyond = 1.0 - after / offsets_only if offsets_only > 0 else None
         outside = float(np.mean((x[real] < low) | (x[real] > high))) if seen.size else 1.0
-        uses.append(InputUse(column, low, high, float(x[real].min()), float(x[real].max()), outside, shrink, beyond,
-                             role))
+        uses.append(InputUse(column, low, high, float(x[real].min()), float(x[real].max()), outside,
+                             shrink, beyond, role))
     return uses

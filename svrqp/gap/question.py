@@ -36,8 +36,8 @@ class GapQuestion:
         Baseline model family (features mode; :mod:`svrqp.gap.model`).
     local : bool
         Also refit every candidate in the ``local`` form, acting in one window of the
-        ``order`` axis only (:mod:`svrqp.gap.transfer.windows`), and name that window with a verdict.
-        Off by default: offered to every diagnosis it changes some borderline verdicts of
+        ``order`` axis only (:mod:`svrqp.gap.transfer.windows`), and name that window with a
+        verdict. Off by default: offered to every diagnosis it changes some borderline verdicts of
         global effects (docs/gap.md, "Localised effects").
     local_along : str or list of str, optional
         With ``local``, columns along which the ``local`` form also tries windows: the rows where

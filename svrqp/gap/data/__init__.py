@@ -1,4 +1,6 @@
-"""Step 1 of the diagnosis, the rows: the question checked into arrays (:mod:`.prepare`), the candidate transforms along the order axis (:mod:`.transforms`), runs, folds and rotations (:mod:`.runs`) and the cross-validated discrepancy model (:mod:`.discrepancy`)."""
+"""Step 1 of the diagnosis, the rows: the question checked into arrays (:mod:`.prepare`), the
+candidate transforms along the order axis (:mod:`.transforms`), runs, folds and rotations
+(:mod:`.runs`) and the cross-validated discrepancy model (:mod:`.discrepancy`)."""
 
 from svrqp.gap.data.discrepancy import CrossValidatedDiscrepancy, nested_errors
 from svrqp.gap.data.prepare import GapData, prepare
@@ -30,8 +32,11 @@ from svrqp.gap.data.transforms import (
 )
 
 __all__ = [
-    "CrossValidatedDiscrepancy", "DYNAMIC", "GapData", "TRANSFORMS", "WITHIN_RUN", "block_bootstrap",
-    "block_length", "blocked_folds", "filter_coefficients", "group_slices", "holds_out_groups", "lag",
-    "lag1_autocorrelation", "lift_steps", "lowpass_columns", "negligible", "nested_errors", "prepare",
-    "rate", "rise", "rotated_rows", "shift_offsets", "smooth", "standardised", "tau_grid", "wrapped_part",
+    "CrossValidatedDiscrepancy", "DYNAMIC", "GapData", "TRANSFORMS", "WITHIN_RUN",
+    "block_bootstrap",
+    "block_length", "blocked_folds", "filter_coefficients", "group_slices", "holds_out_groups",
+    "lag", "lag1_autocorrelation", "lift_steps", "lowpass_columns", "negligible", "nested_errors",
+    "prepare",
+    "rate", "rise", "rotated_rows", "shift_offsets", "smooth", "standardised", "tau_grid",
+    "wrapped_part",
 ]

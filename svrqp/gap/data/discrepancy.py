@@ -32,9 +32,10 @@ columns :math:`a, b`
 
 .. math::
 
-    \tilde a_S^\top \tilde b_S = a_S^\top b_S - C_{a,S}^\top W_b - W_a^\top C_{b,S} + W_a^\top M_S W_b,
-    \qquad
-    \tilde a_S^\top \tilde r_S = a_S^\top r_S - C_{a,S}^\top\beta_0 - W_a^\top(B_S^\top r_S - M_S\beta_0),
+    \tilde a_S^\top \tilde b_S = a_S^\top b_S - C_{a,S}^\top W_b - W_a^\top C_{b,S} + W_a^\top M_S
+    W_b, \qquad
+    \tilde a_S^\top \tilde r_S = a_S^\top r_S -
+    C_{a,S}^\top\beta_0 - W_a^\top(B_S^\top r_S - M_S\beta_0),
 
 so thousands of candidate columns (transforms × time constants × surrogates) cost one
 matrix product :math:`[B, r]^\top Z` and one column-wise reduction per pass, plus
@@ -120,12 +121,14 @@ class CrossValidatedDiscrepancy:
             M_test, b_test = B_test.T @ B_test, B_test.T @ r_test
             M_train, b_train = M_total - M_test, b_total - b_test
             n_train = self.n - len(test_rows)
-            A_inv = cho_solve(cho_factor(M_train + RIDGE * n_train * np.eye(self.p)), np.eye(self.p))
+            A_inv = cho_solve(cho_factor(M_train + RIDGE * n_train * np.eye(self.p)),
+                              np.eye(self.p))
             beta0 = A_inv @ b_train
             e_test = r_test - B_test @ beta0
             self.errors_base[test_rows] = e_test
             self._folds.append(_Fold(test, n_train, A_inv, beta0, M_train, M_test,
-                                     b_train - M_train @ beta0, b_test - M_test @ beta0, float(e_test @ e_test)))
+                                     b_train - M_train @ beta0, b_test - M_test @ beta0,
+                                     float(e_test @ e_test)))
         self.sse_base = float(self.errors_base @ self.errors_base)
         self._Br_test_T = [np.ascontiguousarray(self._Br[f.test].T) for f in self._folds]
 
@@ -188,7 +191,8 @@ class CrossValidatedDiscrepancy:
         return sse
 
     def gain(self, Z: np.ndarray, partner: np.ndarray | None = None) -> np.ndarray:
-        """Relative out-of-sample gain :math:`1 - \\mathrm{SSE}(B+Z)/\\mathrm{SSE}(B)`, shape (q, v)."""
+        """Relative out-of-sample gain
+        :math:`1 - \\mathrm{SSE}(B+Z)/\\mathrm{SSE}(B)`, shape (q, v)."""
         return 1.0 - self.sse(Z, partner) / self.sse_base
 
 
@@ -196,13 +200,16 @@ def _total(parts: list[_Sums]) -> _Sums:
     return _Sums(sum(p.C for p in parts), sum(p.s for p in parts), sum(p.S for p in parts))
 
 
-def _partialled(sums: _Sums, W: np.ndarray, fold: _Fold, train: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:math:`\\tilde z^\\top\\tilde z` and :math:`\\tilde z^\\top\\tilde r` of every column on one set."""
+def _partialled(sums: _Sums, W: np.ndarray, fold: _Fold,
+                train: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:math:`\\tilde z^\\top\\tilde z` and
+    :math:`\\tilde z^\\top\\tilde r` of every column on one set."""
     M, qvec = (fold.M_train, fold.q_train) if train else (fold.M_test, fold.q_test)
     p = W.shape[0]
     C2, W2 = sums.C.reshape(p, -1), W.reshape(p, -1)
     shape = sums.S.shape
-    zz = sums.S - (2 * np.einsum("pm,pm->m", C2, W2) - np.einsum("pm,pm->m", W2, M @ W2)).reshape(shape)
+    zz = sums.S - (2 * np.einsum("pm,pm->m", C2,
+                                 W2) - np.einsum("pm,pm->m", W2, M @ W2)).reshape(shape)
     zr = sums.s - (fold.beta0 @ C2 + qvec @ W2).reshape(shape)
     return zz, zr
 

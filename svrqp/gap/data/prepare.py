@@ -78,7 +78,8 @@ class GapData:
     n_dropped : int
         Rows dropped for missing or non-finite values.
     n_dropped_short_groups : int
-        Rows dropped because their group (or its real part) had fewer than :data:`MIN_GROUP_ROWS` rows.
+        Rows dropped because their group (or its real
+        part) had fewer than :data:`MIN_GROUP_ROWS` rows.
     order_sorted : list of str
         Groups whose rows did not come in increasing order and were sorted along it.
     """
@@ -102,7 +103,8 @@ class GapData:
     n_dropped_short_groups: int
     order_sorted: list[str] = field(default_factory=list)
     along: dict[str, np.ndarray] = field(default_factory=dict)
-    """Values of the ``local_along`` columns (:class:`svrqp.gap.question.GapQuestion`) on the rows."""
+    """Values of the ``local_along`` columns
+    (:class:`svrqp.gap.question.GapQuestion`) on the rows."""
 
     @property
     def is_real(self) -> np.ndarray:
@@ -117,7 +119,8 @@ def _train_mask(df: pd.DataFrame, train: str | np.ndarray | pd.Series) -> np.nda
         return select_rows(df.reset_index(drop=True), train).to_numpy()
     mask = np.asarray(train)
     if mask.dtype != bool or mask.shape != (len(df),):
-        raise ProblemError("train: give a pandas query string or a boolean mask with one entry per row")
+        raise ProblemError("train: give a pandas query string or a boolean mask with one entry per "
+                           "row")
     return mask
 
 
@@ -152,7 +155,8 @@ def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
     _check_columns(df, question, features, candidates)
     _check_along(df, question, along)
     # Needed on every row; candidates only on the real rows (module docstring).
-    every_row = [question.target, *features, *along] + ([question.prediction] if question.prediction else [])
+    every_row = [question.target, *features,
+                 *along] + ([question.prediction] if question.prediction else [])
     if question.order is not None:
         every_row.append(question.order)
     is_train = _train_mask(df, question.train)
@@ -195,24 +199,32 @@ def prepare(df: pd.DataFrame, question: GapQuestion) -> GapData:
 
 
 def _check_along(df: pd.DataFrame, question: GapQuestion, along: list[str]) -> None:
-    """Raise :class:`ProblemError` for ``local_along`` without ``local``, or a missing or non-numeric column."""
+    """Raise :class:`ProblemError` for ``local_along``
+    without ``local``, or a missing or non-numeric column."""
     if not along:
         return
     if not question.local:
-        raise ProblemError("local_along: windows along a column are a part of the local form; ask local=True too")
+        raise ProblemError("local_along: windows along a column are a part of the local form; ask "
+                           "local=True too")
     if question.order is not None and question.order in along:
-        raise ProblemError(f"local_along: {question.order!r} is the order axis, whose windows the local form tries")
+        raise ProblemError(f"local_along: {question.order!r} is the order axis, whose windows the "
+                           f"local form tries")
     if len(set(along)) != len(along):
         raise ProblemError("local_along: a column is listed twice")
     check_present(df, along, "local_along")
     check_numeric(df, along, "local_along")
 
 
-def _check_columns(df: pd.DataFrame, question: GapQuestion, features: list[str], candidates: list[str]) -> None:
-    """Raise :class:`ProblemError` for a missing, misplaced or non-numeric column of the question."""
-    target, prediction, order, group = question.target, question.prediction, question.order, question.group
+def _check_columns(df: pd.DataFrame, question: GapQuestion, features: list[str],
+                   candidates: list[str]) -> None:
+    """Raise :class:`ProblemError` for a missing,
+    misplaced or non-numeric column of the question."""
+    target, prediction, order, group = (
+        question.target, question.prediction, question.order, question.group,
+    )
     if features and prediction is not None:
-        raise ProblemError("give either features (a model is fitted) or prediction (a column), not both")
+        raise ProblemError("give either features (a model is fitted) or prediction (a column), not "
+                           "both")
     if not features and prediction is None:
         raise ProblemError("give the model's features (at least one column) or a prediction column")
     if not candidates:
@@ -240,18 +252,22 @@ def _check_columns(df: pd.DataFrame, question: GapQuestion, features: list[str],
             check_numeric(df, [name], role)
 
 
-def _complete_rows(df: pd.DataFrame, every_row: list[str], candidates: list[str], is_train: np.ndarray) -> np.ndarray:
-    """Rows finite in every column they need (candidates on the real rows only); an empty column raises."""
+def _complete_rows(df: pd.DataFrame, every_row: list[str], candidates: list[str],
+                   is_train: np.ndarray) -> np.ndarray:
+    """Rows finite in every column they need (candidates
+    on the real rows only); an empty column raises."""
     finite = np.isfinite(df[every_row].astype(float).to_numpy())
     candidate_finite = np.isfinite(df[candidates].astype(float).to_numpy())
-    empty = [name for name, any_finite in zip(every_row, finite.any(axis=0), strict=True) if not any_finite]
+    empty = [name for name, any_finite in zip(every_row, finite.any(axis=0), strict=True)
+             if not any_finite]
     if empty:
         raise ProblemError(f"column(s) {empty} hold no finite value (every row would be dropped)")
-    empty = [name for name, any_finite in zip(candidates, candidate_finite[~is_train].any(axis=0), strict=True)
+    empty = [name for name, any_finite
+             in zip(candidates, candidate_finite[~is_train].any(axis=0), strict=True)
              if not any_finite]
     if empty and not is_train.all():  # with no real row at all, _check_counts says so
-        raise ProblemError(f"candidates: {empty} hold no finite value on the real rows (every real row would be "
-                           "dropped); a candidate is read on the real rows")
+        raise ProblemError(f"candidates: {empty} hold no finite value on the real rows (every real "
+                           "row would be dropped); a candidate is read on the real rows")
     return finite.all(axis=1) & (is_train | candidate_finite.all(axis=1))
 
 
@@ -266,14 +282,17 @@ def _group_codes(table: pd.DataFrame, group: str | None,
     counts = np.bincount(codes, minlength=len(uniques))
     real_counts = np.bincount(codes[~is_train], minlength=len(uniques))
     # Transforms run on each group's real rows alone, so its real part needs the rows as well.
-    long_enough = (counts[codes] >= MIN_GROUP_ROWS) & (is_train | (real_counts[codes] >= MIN_GROUP_ROWS))
+    long_enough = (counts[codes] >= MIN_GROUP_ROWS) & (
+        is_train | (real_counts[codes] >= MIN_GROUP_ROWS)
+    )
     kept_groups = np.unique(codes[long_enough])
     remap = np.full(len(uniques), -1)
     remap[kept_groups] = np.arange(kept_groups.size)
     return remap[codes], [str(uniques[g]) for g in kept_groups], long_enough
 
 
-def _order_values(table: pd.DataFrame, order: str | None, codes: np.ndarray, n_groups: int) -> np.ndarray:
+def _order_values(table: pd.DataFrame, order: str | None, codes: np.ndarray,
+                  n_groups: int) -> np.ndarray:
     """The order axis of each row: the ``order`` column, or the row position within its group."""
     if order is not None:
         return table[order].astype(float).to_numpy()
@@ -292,7 +311,8 @@ def _unsorted_groups(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[st
     return [group_labels[g] for g in np.unique(c[1:][falls])]
 
 
-def _check_order(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[str], question: GapQuestion) -> None:
+def _check_order(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[str],
+                 question: GapQuestion) -> None:
     """Raise :class:`ProblemError` for a repeated order value within a group (sorted rows)."""
     repeated = (codes[1:] == codes[:-1]) & (np.diff(t_raw) <= 0)
     if repeated.any():
@@ -300,18 +320,22 @@ def _check_order(codes: np.ndarray, t_raw: np.ndarray, group_labels: list[str], 
         value = t_raw[1:][repeated][0]
         hint = ("; if each run restarts the order axis, name the run column with group (--group)"
                 if question.group is None else "; each row of a group needs its own order value")
-        raise ProblemError(f"order: repeated value {value:g} of {question.order!r} within group {label!r}{hint}")
+        raise ProblemError(f"order: repeated value {value:g} of {question.order!r} within group "
+                           f"{label!r}{hint}")
 
 
 def _check_counts(is_train: np.ndarray, question: GapQuestion, features: list[str]) -> None:
     """Raise :class:`ProblemError` unless both train and enough real rows are left."""
     n_train = int(is_train.sum())
     if n_train == 0:
-        raise ProblemError(f"train: the query {question.train!r} selects no row (after dropping incomplete rows)")
+        raise ProblemError(f"train: the query {question.train!r} selects no row (after dropping "
+                           f"incomplete rows)")
     if n_train == is_train.size:
-        raise ProblemError(f"train: the query {question.train!r} selects every row; no real rows are left to assess")
+        raise ProblemError(f"train: the query {question.train!r} selects every row; no real rows "
+                           f"are left to assess")
     n_real = is_train.size - n_train
     if n_real < MIN_REAL_ROWS:
-        raise ProblemError(f"train: only {n_real} real (non-train) rows; at least {MIN_REAL_ROWS} are needed")
+        raise ProblemError(f"train: only {n_real} real (non-train) rows; at least {MIN_REAL_ROWS} "
+                           f"are needed")
     if features and n_train < len(features) + 2:
         raise ProblemError(f"train: {n_train} train rows are too few for {len(features)} features")

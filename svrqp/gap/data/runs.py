@@ -40,7 +40,8 @@ MAX_SELF_CORRELATION = 0.5
 
 
 def holds_out_groups(groups: np.ndarray) -> bool:
-    """Whether :func:`blocked_folds` holds out whole groups (enough of them) or blocks within groups."""
+    """Whether :func:`blocked_folds` holds out whole
+    groups (enough of them) or blocks within groups."""
     return len(group_slices(groups)) >= MIN_GROUPS_FOR_GROUP_FOLDS
 
 
@@ -83,7 +84,8 @@ def blocked_folds(groups: np.ndarray, n_folds: int = N_FOLDS) -> list[np.ndarray
 
 
 def shift_offsets(
-    groups: np.ndarray, n_surrogates: int, rng: np.random.Generator, signature: np.ndarray | None = None
+    groups: np.ndarray, n_surrogates: int, rng: np.random.Generator,
+    signature: np.ndarray | None = None
 ) -> np.ndarray:
     """Random offsets that rotate every group independently, for surrogate row orders.
 
@@ -92,9 +94,9 @@ def shift_offsets(
     at which the rotated signature would correlate with itself by :data:`MAX_SELF_CORRELATION`
     or more in absolute value are left out as well: a periodic candidate (a chiller cycling
     every 40 min) rotated by whole periods is a copy of itself, not a surrogate, and rotated by
-    half periods a negated copy — which a regression uses just as well. The choice depends on the candidate
-    alone, never on the residual, so under "no relation" every surrogate statistic still has
-    the distribution of the observed one. When fewer than a fifth of the offsets would remain,
+    half periods a negated copy — which a regression uses just as well. The choice depends on the
+    candidate alone, never on the residual, so under "no relation" every surrogate statistic still
+    has the distribution of the observed one. When fewer than a fifth of the offsets would remain,
     the self-correlation rule is dropped for that group.
 
     Drawing the offsets is cheap and consumes the random stream; turning them into rows
@@ -124,7 +126,10 @@ def shift_offsets(
         low = max(1, int(np.ceil(MIN_SHIFT_FRACTION * m)))
         allowed = np.arange(low, max(low + 1, m - low + 1))
         if signature is not None:
-            kept = allowed[np.abs(circular_autocorrelation(signature[rows])[allowed % m]) < MAX_SELF_CORRELATION]
+            kept = allowed[
+                np.abs(circular_autocorrelation(signature[rows])[allowed % m])
+                < MAX_SELF_CORRELATION
+            ]
             if kept.size >= allowed.size / 5:
                 allowed = kept
         offsets[:, g] = rng.choice(allowed, size=n_surrogates)
@@ -197,7 +202,8 @@ def lag1_autocorrelation(residual: np.ndarray, groups: np.ndarray) -> float:
     return float(np.clip(num / den, 0.0, 0.99))
 
 
-def block_bootstrap(groups: np.ndarray, n_boot: int, length: int, rng: np.random.Generator) -> np.ndarray:
+def block_bootstrap(groups: np.ndarray, n_boot: int, length: int,
+                    rng: np.random.Generator) -> np.ndarray:
     """Moving-block bootstrap row indices, drawn within each group.
 
     Parameters

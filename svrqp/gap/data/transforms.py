@@ -108,7 +108,7 @@ def group_slices(group_codes: np.ndarray) -> list[slice]:
     stops = np.r_[starts[1:], codes.size]
     if np.unique(codes).size != starts.size:
         raise ProblemError("group_codes: rows of a group must be contiguous (sort by group first)")
-    return [slice(int(a), int(b)) for a, b in zip(starts, stops)]
+    return [slice(int(a), int(b)) for a, b in zip(starts, stops, strict=False)]
 
 
 def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
@@ -136,8 +136,8 @@ def rate(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
 
 
 def rise(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
-    """The rise since each group's first row, :math:`x(t) - x(t_0)` (shape of ``x``; rows sorted by group;
-    ``t`` is not needed: the order only decides which row is first)."""
+    """The rise since each group's first row, :math:`x(t) - x(t_0)` (shape of ``x``; rows sorted by
+    group; ``t`` is not needed: the order only decides which row is first)."""
     x = np.asarray(x, dtype=float)
     out = np.empty_like(x)
     for rows in group_slices(group_codes):
@@ -146,20 +146,21 @@ def rise(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray) -> np.ndarray:
 
 
 DYNAMIC = {"rate": rate, "rise": rise}
-"""The one-column transforms of a candidate's dynamics within a run, by name: each computed along the
-order axis and restarted at each group, as ``f(x, t, group_codes)`` → one value per row. A new
+"""The one-column transforms of a candidate's dynamics within a run, by name: each computed along
+the order axis and restarted at each group, as ``f(x, t, group_codes)`` → one value per row. A new
 transform of this kind is its function in this module and its entry here; the transfer ranking,
 the verdict's refit and the within-real-rows banks read it from this table."""
 
 WITHIN_RUN = (*DYNAMIC, "lag")
-"""The transforms that vary within a run whatever the candidate's run levels do (rotated within runs)."""
+"""The transforms that vary within a run whatever the
+candidate's run levels do (rotated within runs)."""
 
 TRANSFORMS = ("level", *DYNAMIC, "lag")
 """Names of the transforms, in the order they are refitted and reported."""
 
 RISE = "rise"
-"""The rise since the run's start (:func:`rise`): not offered for a model feature, beside which it adds
-only the feature's starting level per run."""
+"""The rise since the run's start (:func:`rise`): not offered for a model feature, beside which it
+adds only the feature's starting level per run."""
 
 
 def filter_coefficients(t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:
@@ -172,7 +173,8 @@ def filter_coefficients(t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray
         raise ProblemError("taus: time constants must be positive")
     dt = np.diff(t, prepend=t[:1])
     starts = [rows.start for rows in group_slices(group_codes)]
-    dt[starts] = 0.0  # the step into a group is no interval (the order restarts there: it may be negative)
+    # the step into a group is no interval (the order restarts there: it may be negative)
+    dt[starts] = 0.0
     alpha = -np.expm1(-dt[:, None] / taus[None, :])
     alpha[starts] = 1.0
     return alpha
@@ -226,7 +228,7 @@ def _even_stretches(alpha: np.ndarray) -> list[tuple[int, int]]:
         return []
     changes = np.any(np.abs(np.diff(alpha, axis=0)) > SAMPLING_TOLERANCE * alpha[1:], axis=1)
     starts = np.r_[0, np.flatnonzero(changes) + 1]
-    return list(zip(starts.tolist(), np.r_[starts[1:], n].tolist()))
+    return list(zip(starts.tolist(), np.r_[starts[1:], n].tolist(), strict=False))
 
 
 def lowpass(x: np.ndarray, t: np.ndarray, group_codes: np.ndarray, taus: np.ndarray) -> np.ndarray:

@@ -44,7 +44,8 @@ def load_schema(version: str = SCHEMA_ID) -> dict:
         The schema.
     """
     if version not in SCHEMA_FILES:
-        raise SvrqpError(f"unknown gap report schema {version!r}: this package reads {sorted(SCHEMA_FILES)}")
+        raise SvrqpError(f"unknown gap report schema {version!r}: this package reads "
+                         f"{sorted(SCHEMA_FILES)}")
     text = resources.files("svrqp.gap").joinpath(SCHEMA_FILES[version]).read_text(encoding="utf-8")
     return json.loads(text)
 
@@ -71,7 +72,8 @@ def validate_document(document: dict[str, Any]) -> dict[str, Any]:
     try:
         jsonschema.validate(document, load_schema(version if isinstance(version, str) else ""))
     except jsonschema.ValidationError as err:
-        raise SvrqpError(f"gap report fails its schema {version} at {list(err.absolute_path)}: {err.message}") from err
+        raise SvrqpError(f"gap report fails its schema {version} at {list(err.absolute_path)}: "
+                         f"{err.message}") from err
     return document
 
 

@@ -33,8 +33,8 @@ class Effect:
         The candidate holds one level per run: surrogates permute its run levels.
     block : bool
         Its ``level`` enters as the block :math:`[\Psi, \bar c, \bar c\Psi]` of
-        :mod:`svrqp.gap.transfer.between` (a level scaling a profile along each run) rather than as the
-        plain column (a run-level candidate is refitted both ways).
+        :mod:`svrqp.gap.transfer.between` (a level scaling a profile along each run) rather than as
+        the plain column (a run-level candidate is refitted both ways).
     """
 
     column: str
@@ -71,12 +71,13 @@ class Ranked:
     tau : float or None
         The time constant chosen most often over the fits (``lag``).
     region : dict or None
-        ``{"column": AXIS, "low": …, "high": …}``: the window (of the order axis or a ``local_along``
-        column) chosen most often over the fits (``local``).
+        ``{"column": AXIS, "low": …, "high": …}``: the window (of the order axis or a
+        ``local_along`` column) chosen most often over the fits (``local``).
     note : str or None
     beyond_window : float or None
         Transfer gain of a ``local`` effect over its window's indicator alone (the nested null of
-        :mod:`svrqp.gap.transfer.windows`, the window chosen inside each fit there too); None for a global one.
+        :mod:`svrqp.gap.transfer.windows`, the window chosen
+        inside each fit there too); None for a global one.
     """
 
     effect: Effect
@@ -91,13 +92,15 @@ class Ranked:
     region: dict | None = None
     beyond_window: float | None = None
     tested_by: Ranked | None = None
-    """The column's best transform rotated within runs, whose test stands for a level too few runs leave
-    untestable by permutation (module docstring)."""
+    """The column's best transform rotated within runs, whose test stands for a level too few runs
+    leave untestable by permutation (module docstring)."""
 
     @property
     def above_floor(self) -> bool:
-        """Its transfer gain reaches the effect floor (a ``local`` effect's also beyond its window alone)."""
-        return self.gain >= MIN_GAIN and (self.beyond_window is None or self.beyond_window >= MIN_GAIN)
+        """Its transfer gain reaches the effect floor (a
+        ``local`` effect's also beyond its window alone)."""
+        return self.gain >= MIN_GAIN and (self.beyond_window is None
+                                          or self.beyond_window >= MIN_GAIN)
 
     @property
     def significant(self) -> bool:
@@ -113,9 +116,11 @@ class Ranking:
     ambiguous_with: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     withheld: str | None = None
-    """Why no verdict is named although a cause is significant (a stronger untestable cause explains it)."""
+    """Why no verdict is named although a cause is
+    significant (a stronger untestable cause explains it)."""
     too_thin: str | None = None
-    """The sentence on a best-transferring run-level cause that too few runs can never make significant."""
+    """The sentence on a best-transferring run-level
+    cause that too few runs can never make significant."""
     untestable: str | None = None
     """That cause's column (:attr:`too_thin`)."""
 
@@ -126,15 +131,15 @@ class Cause:
 
     ``rmse_before``, ``rmse_refit``, ``rmse_after``, ``shrink``, ``shrink_ci``,
     ``shrink_beyond_refit`` and its interval are the transfer numbers of
-    :mod:`svrqp.gap.transfer.linear`; ``gain``, ``p_raw`` and ``p_value`` those of the transfer test.
-    The ``within_*`` keys, ``p_within`` and ``shrink_beyond_base`` come from the discrepancy
+    :mod:`svrqp.gap.transfer.linear`; ``gain``, ``p_raw`` and ``p_value`` those of the transfer
+    test. The ``within_*`` keys, ``p_within`` and ``shrink_beyond_base`` come from the discrepancy
     model fitted on the real rows themselves (:mod:`svrqp.gap.within.attribute`): what a per-run
     recalibration would remove, never a transfer number. ``family`` names the model family the
     transfer numbers were refitted with (:mod:`svrqp.gap.transfer.kernel`): the baseline's own, or
     ``"linear"`` for the causes only the linear screen refitted. ``shrink_beyond_window`` (a
     ``local`` cause only) is ``1 - rmse_after / rmse_window`` by the linear screen, ``rmse_window``
-    the refit with the window's indicator alone (:mod:`svrqp.gap.transfer.windows`): what the column adds
-    beyond the window's own offset.
+    the refit with the window's indicator alone (:mod:`svrqp.gap.transfer.windows`): what the column
+    adds beyond the window's own offset.
     """
 
     column: str
@@ -189,13 +194,15 @@ class Verdict:
     """A run-level column that transfers best but that too few runs can never make significant
     (:attr:`svrqp.gap.results.records.Ranking.too_thin`)."""
     region: dict[str, Any] | None = None
-    """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis (or of a ``local_along``
-    column) a ``local`` effect acts in (:mod:`svrqp.gap.transfer.windows`); None for a global effect."""
+    """``{"column": ORDER, "low": …, "high": …}``: the stretch of the order axis (or of a
+    ``local_along`` column) a ``local`` effect acts in
+    (:mod:`svrqp.gap.transfer.windows`); None for a global effect."""
 
 
 @dataclass(frozen=True)
 class BaseFit:
-    """What the discrepancy base alone, fitted on the real rows themselves, removes: a per-run recalibration.
+    """What the discrepancy base alone, fitted on the real
+    rows themselves, removes: a per-run recalibration.
 
     The base (per-group offsets and, in features mode, a recalibration of the model's own inputs)
     is what the within-real-rows numbers of a cause (``within_shrink``, ``shrink_beyond_base``)
@@ -417,5 +424,5 @@ class Units:
     def as_dict(self) -> dict:
         """The ``blocks`` entry of the JSON."""
         return {"kind": self.kind, "n": self.n_units, "rows_per_block": self.block_rows,
-                "decorrelation_rows": self.decorrelation_rows, "shorter_than_decorrelation": self.short,
-                "thin": self.thin}
+                "decorrelation_rows": self.decorrelation_rows,
+                "shorter_than_decorrelation": self.short, "thin": self.thin}

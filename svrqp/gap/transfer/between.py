@@ -87,8 +87,8 @@ PARAMETRIC_MIN_RUNS = 5
 """Runs (train and real, the runs a permutation test exchanges) from which a run-level candidate is
 tested by :func:`between_run_test` over its real runs in the transfer ranking, when no ordering of
 its run levels can reach Benjamini–Hochberg's first threshold (:func:`permutation_floor`): five runs
-give 120 orderings, 60 with one repeated level. The t-test's size at five to eight runs is measured by
-``benchmarks/gap_run_level_size.py``. With fewer runs the exact permutation stays the test."""
+give 120 orderings, 60 with one repeated level. The t-test's size at five to eight runs is measured
+by ``benchmarks/gap_run_level_size.py``. With fewer runs the exact permutation stays the test."""
 
 
 def permutation_floor(levels: np.ndarray) -> float:
@@ -119,10 +119,12 @@ def is_run_level(x: np.ndarray, groups: np.ndarray) -> bool:
 
 
 def varies_within(x: np.ndarray, groups: np.ndarray) -> bool:
-    """Whether ``x`` (NaN where unknown) moves within any run beyond rounding (:func:`negligible`)."""
+    """Whether ``x`` (NaN where unknown) moves within
+    any run beyond rounding (:func:`negligible`)."""
     known = np.isfinite(x)
     x, groups = x[known], groups[known]
-    return any(not negligible(np.ptp(x[rows]), x[rows]) for rows in group_slices(groups) if rows.stop > rows.start)
+    return any(not negligible(np.ptp(x[rows]),
+                              x[rows]) for rows in group_slices(groups) if rows.stop > rows.start)
 
 
 def run_phase(t: np.ndarray, groups: np.ndarray) -> np.ndarray:
@@ -138,7 +140,8 @@ def run_phase(t: np.ndarray, groups: np.ndarray) -> np.ndarray:
 def profile_columns(t: np.ndarray, groups: np.ndarray, degree: int = PROFILE_DEGREE) -> np.ndarray:
     """Legendre polynomials :math:`P_1 \\dots P_D` of the run phase, shape (n, degree)."""
     u = run_phase(t, groups)
-    return np.column_stack([legendre.legval(u, np.eye(degree + 1)[j]) for j in range(1, degree + 1)])
+    return np.column_stack([legendre.legval(u, np.eye(degree + 1)[j])
+                            for j in range(1, degree + 1)])
 
 
 def run_means(x: np.ndarray, groups: np.ndarray) -> np.ndarray:
@@ -150,7 +153,8 @@ def run_means(x: np.ndarray, groups: np.ndarray) -> np.ndarray:
 
 
 def run_level_columns(x: np.ndarray, t: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    """The block :math:`[\\Psi, \\bar c, \\bar c\\Psi]` of a candidate on the rows given (unstandardised)."""
+    """The block :math:`[\\Psi, \\bar c, \\bar c\\Psi]`
+    of a candidate on the rows given (unstandardised)."""
     profile = profile_columns(t, groups)
     level = run_means(x, groups)
     return np.column_stack([profile, level, level[:, None] * profile])
@@ -209,7 +213,8 @@ def run_level_bank(column: str, x: np.ndarray, t: np.ndarray, groups: np.ndarray
 
 
 def _run_values(columns: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    """Run values of the columns that are constant within every run and vary between runs, (k, q)."""
+    """Run values of the columns that are constant
+    within every run and vary between runs, (k, q)."""
     slices = group_slices(groups)
     columns = columns.reshape(len(columns), -1)
     first = np.array([columns[rows.start] for rows in slices])
@@ -220,18 +225,23 @@ def _run_values(columns: np.ndarray, groups: np.ndarray) -> np.ndarray:
     return first[:, constant & varying]
 
 
-def run_scores(r: np.ndarray, base: np.ndarray, groups: np.ndarray, profile: np.ndarray) -> np.ndarray | None:
+def run_scores(r: np.ndarray, base: np.ndarray, groups: np.ndarray,
+               profile: np.ndarray) -> np.ndarray | None:
     """Steps 1–3 of the test: each run's score on the profile that varies most between runs.
 
     Returns None when the runs do not differ at all.
     """
     cleared = np.column_stack([base, profile])
     r_tilde = r - cleared @ np.linalg.lstsq(cleared, r, rcond=None)[0]
-    summaries = np.array([
-        np.linalg.lstsq(np.column_stack([np.ones(rows.stop - rows.start), profile[rows]]), r_tilde[rows],
-                        rcond=None)[0]
-        for rows in group_slices(groups)
-    ])
+    summaries = np.array(
+        [
+            np.linalg.lstsq(
+                np.column_stack([np.ones(rows.stop - rows.start), profile[rows]]), r_tilde[rows],
+                rcond=None,
+            )[0]
+            for rows in group_slices(groups)
+        ]
+    )
     centred = summaries - summaries.mean(axis=0)
     _, singular, directions = np.linalg.svd(centred, full_matrices=False)
     if negligible(singular[0], summaries, axis=None):
@@ -277,7 +287,8 @@ class BetweenRunResult:
     robust: bool
 
 
-def between_run_test(r: np.ndarray, base: np.ndarray, groups: np.ndarray, bank: RunLevelBank) -> BetweenRunResult:
+def between_run_test(r: np.ndarray, base: np.ndarray, groups: np.ndarray,
+                     bank: RunLevelBank) -> BetweenRunResult:
     """The between-run test of ``bank`` given ``base`` (module docstring).
 
     Parameters

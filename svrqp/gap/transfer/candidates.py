@@ -1,4 +1,5 @@
-r"""The columns of an effect, a candidate × transform, on every row; and the candidates that cannot be tested.
+r"""The columns of an effect, a candidate × transform,
+on every row; and the candidates that cannot be tested.
 
 For a candidate :math:`x` the transforms (:mod:`svrqp.gap.data.transforms`) give the columns
 
@@ -48,8 +49,8 @@ def transform_columns(
 
 
 def region_axis(data: GapData, region: dict) -> np.ndarray:
-    """Values, on every row, of the column a ``local`` effect's ``region`` lies along (the order axis or a
-    ``local_along`` column)."""
+    """Values, on every row, of the column a ``local`` effect's ``region`` lies along (the order
+    axis or a ``local_along`` column)."""
     return data.t if region["column"] == data.order_name else data.along[region["column"]]
 
 
@@ -59,14 +60,17 @@ def effect_columns(data: GapData, column: str, transform: str, tau: float | None
 
     A transform's own column (and partner, for ``lag``), for a ``local`` effect its window's
     :math:`[\mathbb{1}_W, x\mathbb{1}_W]` (``region``, :mod:`svrqp.gap.transfer.windows`), or for a
-    run-level candidate the block :math:`[\Psi, \bar c, \bar c\Psi]` of :mod:`svrqp.gap.transfer.between`.
+    run-level candidate the block :math:`[\Psi, \bar c, \bar c\Psi]`
+    of :mod:`svrqp.gap.transfer.between`.
     """
     if region is not None:
         x = data.C[:, data.candidates.index(column)]
-        return local_columns(x, region_axis(data, region), np.array([[region["low"], region["high"]]]))[0]
+        return local_columns(x, region_axis(data, region),
+                             np.array([[region["low"], region["high"]]]))[0]
     if evidence == EVIDENCE_BETWEEN:
         return run_level_columns(data.C[:, data.candidates.index(column)], data.t, data.groups)
-    own, partner = transform_columns(data, column, transform, None if tau is None else np.array([tau]))
+    own, partner = transform_columns(data, column, transform,
+                                     None if tau is None else np.array([tau]))
     return own if partner is None else np.column_stack([partner, own])
 
 
@@ -77,8 +81,8 @@ def untestable_between_runs(data: GapData) -> dict[str, str]:
     n_runs = len(group_slices(groups))
     if n_runs >= MIN_RUNS:
         return {}
-    return {column: (f"varies between runs but hardly within them: testing it between runs needs at least "
-                     f"{MIN_RUNS} real runs ({n_runs} here)")
+    return {column: ("varies between runs but hardly within them: testing it between runs needs "
+                     f"at least {MIN_RUNS} real runs ({n_runs} here)")
             for j, column in enumerate(data.candidates)
             if column not in data.features and is_run_level(data.C[real, j], groups)}
 

@@ -1,8 +1,9 @@
-r"""The transfer numbers of a kernel baseline (``--model svr|lssvr``), from refits of that same family.
+r"""The transfer numbers of a kernel baseline
+(``--model svr|lssvr``), from refits of that same family.
 
 The contract (``docs/gap.md``, "What shrink means") defines :math:`\mathrm{RMSE}_\mathrm{refit}`
-and :math:`\mathrm{RMSE}_\mathrm{after}` as refits of *the same model family*. For an ε-SVR or LS-SVR baseline, leave-one-unit-out over
-all rows (the units of :mod:`svrqp.gap.transfer.linear`),
+and :math:`\mathrm{RMSE}_\mathrm{after}` as refits of *the same model family*. For an ε-SVR or
+LS-SVR baseline, leave-one-unit-out over all rows (the units of :mod:`svrqp.gap.transfer.linear`),
 
 .. math::
 
@@ -32,7 +33,8 @@ A failed refit
     A kernel refit whose solver cannot certify its answer (:class:`svrqp.exceptions.SolverError`,
     after the default path's own fallback) never aborts the diagnosis: the same-input refit's
     failure makes every number the linear family's, a cause's makes that cause's, and the JSON
-    (``transfer.family_note`` or the cause's ``note``) and the reason say which refit failed and why.
+    (``transfer.family_note`` or the cause's ``note``)
+    and the reason say which refit failed and why.
 
 Too few rows
     A fit on fewer than :data:`MIN_KERNEL_ROWS` rows is not made (an RBF model on a handful of
@@ -54,14 +56,16 @@ from svrqp.gap.results.records import Ranking, TransferFit, Units
 from svrqp.gap.transfer.ranking import TransferRanker
 
 KERNEL_CAUSES = 3
-"""Best-ranked causes whose transfer numbers are refitted with the kernel family (and the verdict's)."""
+"""Best-ranked causes whose transfer numbers are
+refitted with the kernel family (and the verdict's)."""
 
 MIN_KERNEL_ROWS = 20
 """Fewest rows a kernel refit is made on."""
 
 
 class KernelTransfer:
-    """Leave-one-unit-out refits of the baseline's kernel family, hyper-parameters fixed (module docstring).
+    """Leave-one-unit-out refits of the baseline's kernel
+    family, hyper-parameters fixed (module docstring).
 
     Parameters
     ----------
@@ -79,7 +83,8 @@ class KernelTransfer:
         Rows scored.
     """
 
-    def __init__(self, kind: str, gamma: float, X: np.ndarray, y: np.ndarray, units: Units, is_real: np.ndarray):
+    def __init__(self, kind: str, gamma: float, X: np.ndarray, y: np.ndarray, units: Units,
+                 is_real: np.ndarray):
         self.kind, self.gamma, self.X, self.y, self.units = kind, gamma, X, y, units
         self._real_of = [rows[is_real[rows]] for rows in units.rows()]
         self._real_position = np.cumsum(is_real) - 1  # row → position among the real rows
@@ -88,7 +93,8 @@ class KernelTransfer:
     def refit(self) -> TransferFit | None:
         """The family with its own inputs only; None when a fit would have too few rows."""
         no_effect = np.zeros((self.y.size, 0))
-        return self.errors(no_effect, [np.zeros(0, dtype=int)], np.zeros(self.units.n_units, dtype=int))
+        return self.errors(no_effect, [np.zeros(0, dtype=int)],
+                           np.zeros(self.units.n_units, dtype=int))
 
     def errors(self, E: np.ndarray, variants: list[np.ndarray], chosen: np.ndarray,
                known: np.ndarray | None = None) -> TransferFit | None:
@@ -117,7 +123,8 @@ class KernelTransfer:
         out = np.empty(self._n_real)
         for u, (fit_rows, real) in enumerate(zip(fits, self._real_of, strict=True)):
             design = np.column_stack([self.X, E[:, variants[chosen[u]]]])
-            predicted = fit_predict(self.kind, design[fit_rows], self.y[fit_rows], design[real], self.gamma)
+            predicted = fit_predict(self.kind, design[fit_rows], self.y[fit_rows], design[real],
+                                    self.gamma)
             out[self._real_position[real]] = self.y[real] - predicted
         return TransferFit(out, np.asarray(chosen))
 
@@ -150,7 +157,8 @@ class FamilyErrors:
     kept_linear: dict[str, str] = field(default_factory=dict)
 
     def of(self, column: str) -> tuple[str, np.ndarray, np.ndarray | None]:
-        """The family, the refit errors and the errors with the effect of one cause (None: the linear screen's)."""
+        """The family, the refit errors and the errors with
+        the effect of one cause (None: the linear screen's)."""
         if column in self.after:
             return self.family, self.refit, self.after[column]
         return LINEAR, self.linear_refit, None
@@ -170,12 +178,12 @@ def same_family_errors(data: GapData, baseline: Baseline, units: Units, ranker: 
         refit = kernel.refit()
     except SolverError as err:
         why = (str(err) or type(err).__name__).splitlines()[0][:160]
-        note = (f"a leave-one-unit-out refit of the {baseline.kind} failed ({why}), so every transfer number comes "
-                "from the linear family")
+        note = (f"a leave-one-unit-out refit of the {baseline.kind} failed ({why}), so every "
+                "transfer number comes from the linear family")
         return FamilyErrors(LINEAR, linear, linear, note=note)
     if refit is None:
-        note = (f"a leave-one-unit-out refit of the {baseline.kind} would rest on fewer than {MIN_KERNEL_ROWS} rows, "
-                "so every transfer number comes from the linear family")
+        note = (f"a leave-one-unit-out refit of the {baseline.kind} would rest on fewer than "
+                f"{MIN_KERNEL_ROWS} rows, so every transfer number comes from the linear family")
         return FamilyErrors(LINEAR, linear, linear, note=note)
     rows = ranking.ranked[:KERNEL_CAUSES]
     if ranking.top is not None and all(ranking.top is not row for row in rows):
@@ -187,11 +195,14 @@ def same_family_errors(data: GapData, baseline: Baseline, units: Units, ranker: 
             fit = kernel.errors(E, variants, row.fit.variant, known)
         except SolverError as err:
             why = (str(err) or type(err).__name__).splitlines()[0][:160]
-            kept_linear[row.effect.column] = f"its {baseline.kind} refit failed ({why}): linear-family numbers"
+            kept_linear[row.effect.column] = (
+                f"its {baseline.kind} refit failed ({why}): linear-family numbers"
+            )
             continue
         if fit is None:
-            kept_linear[row.effect.column] = (f"recorded on too few rows for a {baseline.kind} refit without a "
-                                              f"held-out unit (fewer than {MIN_KERNEL_ROWS}): linear-family numbers")
+            kept_linear[row.effect.column] = (f"recorded on too few rows for a {baseline.kind} "
+                                              "refit without a held-out unit (fewer than "
+                                              f"{MIN_KERNEL_ROWS}): linear-family numbers")
         else:
             after[row.effect.column] = fit.errors
     return FamilyErrors(baseline.kind, refit.errors, linear, after, None, kept_linear)

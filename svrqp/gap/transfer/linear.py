@@ -13,8 +13,8 @@ Numbers (features mode, ``mlr``; :math:`A = [1, X]` the model's design on every 
 
 .. math::
 
-    \mathrm{RMSE}_\mathrm{before} &= \sqrt{\overline{r^2}}\ \text{(the given model on the real rows)},\\
-    \mathrm{RMSE}_\mathrm{refit} &= \sqrt{\overline{(y_u - A_u\hat\beta_{-u})^2}},\quad
+    \mathrm{RMSE}_\mathrm{before} &= \sqrt{\overline{r^2}}\ \text{(the given model on the real
+    rows)},\\ \mathrm{RMSE}_\mathrm{refit} &= \sqrt{\overline{(y_u - A_u\hat\beta_{-u})^2}},\quad
         \hat\beta_{-u} = \arg\min \lVert y_{-u} - A_{-u}\beta\rVert^2,\\
     \mathrm{RMSE}_\mathrm{after} &= \sqrt{\overline{(y_u - [A, E_\tau]_u\hat\theta_{-u})^2}},\quad
         \hat\tau_{-u} = \arg\min_\tau \min_\theta \lVert y_{-u} - [A, E_\tau]_{-u}\theta\rVert^2,
@@ -111,15 +111,17 @@ def transfer_units(groups: np.ndarray, is_real: np.ndarray, residual: np.ndarray
 
 
 def shrink_of_gain(gain: float) -> float:
-    r"""The RMSE shrink :math:`1 - \sqrt{1 - g}` that a transfer gain :math:`g = 1 - \mathrm{SSE}_1 / \mathrm{SSE}_0`
-    (a relative drop of squared error, :mod:`svrqp.gap.transfer.ranking`) amounts to; a gain above 1 cannot happen
-    but for rounding and counts as 1."""
+    r"""The RMSE shrink :math:`1 - \sqrt{1 - g}` that a transfer gain
+    :math:`g = 1 - \mathrm{SSE}_1 / \mathrm{SSE}_0` (a relative drop of squared error,
+    :mod:`svrqp.gap.transfer.ranking`) amounts to; a gain
+    above 1 cannot happen but for rounding and counts as 1."""
     return 1 - float(np.sqrt(max(1 - gain, 0.0)))
 
 
 
 class LinearTransfer:
-    """Leave-one-unit-out least squares of ``y`` on ``[A, E]``, normal equations shared (module docstring).
+    """Leave-one-unit-out least squares of ``y`` on
+    ``[A, E]``, normal equations shared (module docstring).
 
     Parameters
     ----------
@@ -148,7 +150,8 @@ class LinearTransfer:
         """The family with its own inputs only: :math:`\\mathrm{RMSE}_\\mathrm{refit}`."""
         return self.errors(np.zeros((self.y.size, 0)), [np.zeros(0, dtype=int)])
 
-    def errors(self, E: np.ndarray, variants: list[np.ndarray], known: np.ndarray | None = None) -> TransferFit:
+    def errors(self, E: np.ndarray, variants: list[np.ndarray],
+               known: np.ndarray | None = None) -> TransferFit:
         """Leave-one-unit-out errors with the effect columns ``E`` added.
 
         Parameters
@@ -174,7 +177,8 @@ class LinearTransfer:
         out = np.empty(int(self.is_real.sum()))
         chosen = np.zeros(self.units.n_units, dtype=int)
         # Every variant adds as many columns: their bordered systems are solved as one batch.
-        columns = np.array([np.concatenate([np.arange(self.p), self.p + np.asarray(v, dtype=int)]) for v in variants])
+        columns = np.array([np.concatenate([np.arange(self.p), self.p + np.asarray(v, dtype=int)])
+                            for v in variants])
         y_col = V.shape[1] - 1
         for u, rows in enumerate(self._unit_rows):
             G = G_total - V[rows].T @ V[rows]
@@ -200,7 +204,8 @@ class _Scaling:
 
     @classmethod
     def of(cls, M: np.ndarray, keep_constant: bool = False) -> _Scaling:
-        """Centre and scale of each column; an all-constant column (an intercept) is left as it is."""
+        """Centre and scale of each column; an all-constant
+        column (an intercept) is left as it is."""
         if M.shape[0] == 0:
             return cls(np.zeros(M.shape[1]), np.ones(M.shape[1]))
         centre, scale = M.mean(axis=0), M.std(axis=0)
@@ -219,7 +224,7 @@ def _solve_batch(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     try:
         L = np.linalg.cholesky(G)
     except np.linalg.LinAlgError:
-        return np.array([_solve(Gi, bi) for Gi, bi in zip(G, b)])
+        return np.array([_solve(Gi, bi) for Gi, bi in zip(G, b, strict=False)])
     pivots = np.diagonal(L, axis1=1, axis2=2) ** 2
     well = pivots.min(axis=1) > _RCOND * np.diagonal(G, axis1=1, axis2=2).max(axis=1)
     out = np.empty(b.shape)
@@ -231,7 +236,8 @@ def _solve_batch(G: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve the normal equations ``G θ = b``; the minimum-norm solution when ``G`` is rank deficient."""
+    """Solve the normal equations ``G θ = b``; the
+    minimum-norm solution when ``G`` is rank deficient."""
     if G.shape[0] == 0:
         return np.zeros(0)
     try:
@@ -273,11 +279,13 @@ def unit_sums(errors: np.ndarray, real_units: np.ndarray, n_units: int) -> np.nd
 
 
 def bootstrap_index(n_units: int, rng: np.random.Generator) -> np.ndarray:
-    """Units drawn with replacement, :data:`N_BOOTSTRAP` resamples (shape (N_BOOTSTRAP, n_units))."""
+    """Units drawn with replacement, :data:`N_BOOTSTRAP`
+    resamples (shape (N_BOOTSTRAP, n_units))."""
     return rng.integers(0, n_units, size=(N_BOOTSTRAP, n_units))
 
 
-def ratio_interval(ss_after: np.ndarray, ss_before: np.ndarray, index: np.ndarray) -> tuple[float, float]:
+def ratio_interval(ss_after: np.ndarray, ss_before: np.ndarray,
+                   index: np.ndarray) -> tuple[float, float]:
     """95 % bootstrap interval of ``1 - sqrt(Σ after / Σ before)`` over resampled units."""
     a, b = ss_after[index].sum(axis=1), ss_before[index].sum(axis=1)
     shrinks = 1 - np.sqrt(a / np.where(b > 0, b, np.nan))
@@ -287,8 +295,8 @@ def ratio_interval(ss_after: np.ndarray, ss_before: np.ndarray, index: np.ndarra
     return float(low), float(high)
 
 
-def transfer_shrink(before: np.ndarray, refit: np.ndarray, after: np.ndarray, real_units: np.ndarray,
-                    n_units: int, index: np.ndarray) -> TransferShrink:
+def transfer_shrink(before: np.ndarray, refit: np.ndarray, after: np.ndarray,
+                    real_units: np.ndarray, n_units: int, index: np.ndarray) -> TransferShrink:
     """The transfer numbers from the real-row errors before, of the refit and with the effect.
 
     Parameters
@@ -310,5 +318,5 @@ def transfer_shrink(before: np.ndarray, refit: np.ndarray, after: np.ndarray, re
     ss = [unit_sums(e, real_units, n_units) for e in (before, refit, after)]
     shrink = 1 - rmse[2] / rmse[0] if rmse[0] > 0 else 0.0
     beyond = 1 - rmse[2] / rmse[1] if rmse[1] > 0 else 0.0
-    return TransferShrink(rmse[0], rmse[1], rmse[2], shrink, beyond, ratio_interval(ss[2], ss[0], index),
-                          ratio_interval(ss[2], ss[1], index))
+    return TransferShrink(rmse[0], rmse[1], rmse[2], shrink, beyond,
+                          ratio_interval(ss[2], ss[0], index), ratio_interval(ss[2], ss[1], index))

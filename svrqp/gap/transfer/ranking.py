@@ -14,15 +14,15 @@ Significance by surrogates that respect what varies where
     Under "this candidate carries nothing", where its values fall does not matter. A
     candidate that varies within runs is rotated circularly within every group
     (:func:`svrqp.gap.data.runs.shift_offsets`, which keeps its autocorrelation); one that holds
-    a level per run (:func:`svrqp.gap.transfer.between.is_run_level`) has its run levels permuted across
-    the runs. Such a candidate's ``level`` is refitted two ways: as the block of
-    :mod:`svrqp.gap.transfer.between` (a profile along the run that it scales, :attr:`Effect.block`) and as
-    the plain column (an offset in proportion to it, one parameter: with two or three held-out
-    runs the block's seven columns extrapolate where the plain level transfers); the column's row
-    is the better of the two (the plain one on a near tie). Its ``rate`` and ``lag`` are refitted
-    too unless it is constant within every run (a reading that holds the season's level through a
-    run may still follow an effect's dynamics within it), and rotated within runs like any other
-    candidate's.
+    a level per run (:func:`svrqp.gap.transfer.between.is_run_level`) has its run levels permuted
+    across the runs. Such a candidate's ``level`` is refitted two ways: as the block of
+    :mod:`svrqp.gap.transfer.between` (a profile along the run that it scales, :attr:`Effect.block`)
+    and as the plain column (an offset in proportion to it, one parameter: with two or three
+    held-out runs the block's seven columns extrapolate where the plain level transfers); the
+    column's row is the better of the two (the plain one on a near tie). Its ``rate`` and ``lag``
+    are refitted too unless it is constant within every run (a reading that holds the season's level
+    through a run may still follow an effect's dynamics within it), and rotated within runs like any
+    other candidate's.
 
     The surrogates themselves (:mod:`svrqp.gap.transfer.surrogates`) rotate only the part of a
     candidate that the family's other inputs do not explain: a plain rotation would also break its
@@ -34,8 +34,8 @@ Significance by surrogates that respect what varies where
     Each surrogate is transformed again (a lag filtered again) and refitted exactly as the
     observed one, :math:`\tau` chosen inside each fit. (Its gain is not its best over the
     column's transforms, although the observed one was chosen among them: on FL_THERMAL that
-    cost verdicts the independent checker confirms, top-3 hit 0.95 → 0.85.) The Monte-Carlo p-value is
-    sequential (Besag & Clifford 1991; at most :data:`MAX_SURROGATES` draws in
+    cost verdicts the independent checker confirms, top-3 hit 0.95 → 0.85.) The Monte-Carlo p-value
+    is sequential (Besag & Clifford 1991; at most :data:`MAX_SURROGATES` draws in
     :data:`SURROGATE_STAGES`, stopping after :data:`STOP_EXCEEDANCES` exceedances or once
     rejected). The :data:`MAX_TESTED` best causes above the effect floor are tested;
     Benjamini–Hochberg runs over every column (an untested one counts with :math:`p = 1`),
@@ -51,15 +51,16 @@ Exact permutation tests for few runs
     Benjamini–Hochberg q-value at or above :math:`\alpha` — with three runs in all
     :math:`p_{\min} = 1/6` — no data could have made it significant: if it is the
     best-transferring cause, the verdict's reason and the summary say that the evidence is too
-    thin (:attr:`Ranking.too_thin`) instead of only "not beyond chance". The ``local`` form of such a
-    candidate is never tested or ranked (:mod:`svrqp.gap.transfer.windows`), but it is refitted: when it
-    transfers better than every ranked cause, beyond its window alone and beyond the column's global
-    forms, it is the best-transferring cause of that sentence, which names its window.
+    thin (:attr:`Ranking.too_thin`) instead of only "not beyond chance". The ``local`` form of such
+    a candidate is never tested or ranked (:mod:`svrqp.gap.transfer.windows`), but it is refitted:
+    when it transfers better than every ranked cause, beyond its window alone and beyond the
+    column's global forms, it is the best-transferring
+    cause of that sentence, which names its window.
 
-    When :func:`svrqp.gap.transfer.windows.permutations_can_reject` says that no ordering of the runs can
-    reach Benjamini–Hochberg's first threshold, and the column's best transform rotated within
-    runs (``rate`` or ``lag``) clears the effect floor, that transform's rotation test stands for
-    the column (:attr:`Ranked.tested_by`): under "the column carries nothing" it is as valid a
+    When :func:`svrqp.gap.transfer.windows.permutations_can_reject` says that no ordering of the
+    runs can reach Benjamini–Hochberg's first threshold, and the column's best transform rotated
+    within runs (``rate`` or ``lag``) clears the effect floor, that transform's rotation test stands
+    for the column (:attr:`Ranked.tested_by`): under "the column carries nothing" it is as valid a
     test as the permutation, and it can decide. The column's row keeps its best-transferring
     transform and its numbers.
 
@@ -121,7 +122,7 @@ from svrqp.gap.transfer.between import (
     varies_within,
 )
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
-from svrqp.gap.transfer.surrogates import TransferSurrogates
+from svrqp.gap.transfer.surrogates import TransferSurrogates, besag_clifford_p
 from svrqp.gap.transfer.windows import (
     LOCAL_MARGIN,
     WindowAlone,
@@ -135,8 +136,8 @@ from svrqp.gap.transfer.windows import (
 from svrqp.units import probability_relation
 
 TRANSFORMS = (*CANDIDATE_TRANSFORMS, "local")
-"""Transforms refitted for every candidate (a model feature: no ``level`` and no ``rise``; a run-level
-candidate: ``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.transfer.windows`)."""
+"""Transforms refitted for every candidate (a model feature: no ``level`` and no ``rise``; a
+run-level candidate: ``level`` and ``local`` only; ``local``: :mod:`svrqp.gap.transfer.windows`)."""
 
 SAME_FIT = 0.005
 """Two transforms of one column whose shrinks differ by less than this count as the same fit."""
@@ -160,8 +161,8 @@ RIVAL_FRACTION = 0.5
 LAG_BATCH = 20
 """Surrogates whose lags are filtered as one batch."""
 
-PARAMETRIC_NOTE = ("tested between its {runs} run levels by a t-test (svrqp.gap.transfer.between): no ordering "
-                   "of them could reach significance")
+PARAMETRIC_NOTE = ("tested between its {runs} run levels by a t-test (svrqp.gap.transfer.between): "
+                   "no ordering of them could reach significance")
 """The note of a run-level cause whose p-value is the t-test's rather than a permutation's."""
 
 CONDITIONAL_SURROGATES = 99
@@ -183,25 +184,29 @@ class TransferRanker:
         Source of the surrogates (the ``local`` form's from a stream spawned from it, which
         leaves this one's draws to the other transforms).
     local : bool
-        Whether the ``local`` form is refitted (:mod:`svrqp.gap.transfer.windows`): in windows of the
-        order axis, and of every ``data.along`` column.
+        Whether the ``local`` form is refitted (:mod:`svrqp.gap.transfer.windows`): in windows of
+        the order axis, and of every ``data.along`` column.
     """
 
-    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray, rng: np.random.Generator,
-                 local: bool = False):
+    def __init__(self, data: GapData, family: LinearTransfer, taus: np.ndarray,
+                 rng: np.random.Generator, local: bool = False):
         self.data, self.family, self.taus, self.rng = data, family, taus, rng
         self.local_rng = rng.spawn(1)[0]
         self.refit = family.refit()
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
         self.axes = window_axes(data, family.units.code) if local else {}
         self.window_alone = WindowAlone(family, self.axes)
-        # One record cut into blocks: its readings drift over the record, rotated plainly they jump at the seam.
-        self.surrogates = TransferSurrogates(data, family.A, rng, self.local_rng, lift=family.units.kind == "blocks")
-        # Whether some ordering of the run levels can reach Benjamini–Hochberg's first threshold at all.
-        self.permutable = permutations_can_reject(len(group_slices(data.groups)), len(data.candidates), ALPHA)
+        # One record cut into blocks: its readings drift over
+        # the record, rotated plainly they jump at the seam.
+        self.surrogates = TransferSurrogates(data, family.A, rng, self.local_rng,
+                                             lift=family.units.kind == "blocks")
+        # Whether some ordering of the run levels can reach
+        # Benjamini–Hochberg's first threshold at all.
+        self.permutable = permutations_can_reject(len(group_slices(data.groups)),
+                                                  len(data.candidates), ALPHA)
         self.unpermutable: list[Ranked] = []
-        """The refitted :meth:`untestable_form` rows of the candidates (not model features), best first (set by
-        :meth:`rank`)."""
+        """The refitted :meth:`untestable_form` rows of the candidates (not model features), best
+        first (set by :meth:`rank`)."""
 
     # -- effects ------------------------------------------------------------------------
 
@@ -210,26 +215,31 @@ class TransferRanker:
         data, real = self.data, self.data.is_real
         out = []
         for j, column in enumerate(data.candidates):
-            run_level = len(group_slices(data.groups[real])) >= 2 and is_run_level(data.C[real, j], data.groups[real])
+            run_level = (len(group_slices(data.groups[real])) >= 2
+                         and is_run_level(data.C[real, j], data.groups[real]))
             moves = varies_within(data.C[:, j], data.groups)
             for transform in TRANSFORMS:
                 if transform in ("level", RISE) and column in data.features:
                     continue
                 if run_level and transform in WITHIN_RUN and not moves:
                     continue  # its rate, rise and lag are zero
-                if transform == "local":  # untestable when run-level and not permutable (:meth:`untestable_form`)
+                # untestable when run-level and not permutable (:meth:`untestable_form`)
+                if transform == "local":
                     out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
                             for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
-                if run_level and transform == "level":  # a level scaling a profile along each run, or an offset
+                # a level scaling a profile along each run, or an offset
+                if run_level and transform == "level":
                     out.append(Effect(column, transform, None, run_level, block=True))
                 within = transform in WITHIN_RUN  # rotated within runs whatever its run levels do
-                out.append(Effect(column, transform, self.taus if transform == "lag" else None, run_level and not within))
+                out.append(Effect(column, transform, self.taus if transform == "lag" else None,
+                                  run_level and not within))
         return out
 
     def untestable_form(self, effect: Effect) -> bool:
-        """The ``local`` form of a run-level candidate whose run levels are too few to permute to significance:
-        refitted, never tested or ranked; it only says why a diagnosis names nothing (:meth:`thin_evidence`)."""
+        """The ``local`` form of a run-level candidate whose run levels are too few to permute to
+        significance: refitted, never tested or ranked; it only says why a
+        diagnosis names nothing (:meth:`thin_evidence`)."""
         return effect.windows is not None and effect.run_level and not self.permutable
 
     def columns(self, effect: Effect, x: np.ndarray | None = None,
@@ -257,13 +267,15 @@ class TransferRanker:
             if effect.column in data.features:
                 own, variants = ell, [np.array([j]) for j in range(ell.shape[1])]
             else:
-                own, variants = np.column_stack([xk, ell]), [np.array([0, 1 + j]) for j in range(ell.shape[1])]
+                own, variants = (np.column_stack([xk, ell]),
+                                 [np.array([0, 1 + j]) for j in range(ell.shape[1])])
         E = np.full((x.size, own.shape[1]), np.nan)
         E[known] = own
         return E, variants, known
 
     def lags(self, effect: Effect, xs: list[np.ndarray]) -> list[np.ndarray | None]:
-        """The lag columns of each series in ``xs`` on its known rows, filtered as one batch (None unless ``lag``)."""
+        """The lag columns of each series in ``xs`` on its known
+        rows, filtered as one batch (None unless ``lag``)."""
         if effect.transform != "lag" or not xs:
             return [None] * len(xs)
         known = np.isfinite(xs[0])
@@ -297,9 +309,11 @@ class TransferRanker:
         untestable: list[Ranked] = []
         for effect in self.effects():
             fit = self.fit(effect)
-            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit), region=self._region(effect, fit))
+            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit),
+                         region=self._region(effect, fit))
             if effect.windows is not None:  # what the candidate buys beyond its window's own offset
-                row.beyond_window = self.gain(fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
+                row.beyond_window = self.gain(
+                    fit, self.window_alone.sse(effect.axis, self.columns(effect)[2]))
             if self.untestable_form(effect):
                 if effect.column not in self.data.features:
                     untestable.append(row)
@@ -317,7 +331,8 @@ class TransferRanker:
                 if row.effect.run_level and alt is not None and alt.gain >= MIN_GAIN:
                     row.tested_by = alt
         for row in best.values():
-            if row.region is not None:  # the window it chose most: collinear with the design, or no better alone
+            # the window it chose most: collinear with the design, or no better alone
+            if row.region is not None:
                 E, _, known = self.columns(_fixed(row))
                 row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
         self.unpermutable = sorted(untestable, key=lambda r: -r.gain)
@@ -329,7 +344,8 @@ class TransferRanker:
         return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
 
     def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
-        return None if effect.windows is None else chosen_region(effect.windows, effect.axis, fit.variant)
+        return None if effect.windows is None else chosen_region(effect.windows, effect.axis,
+                                                                 fit.variant)
 
     # -- surrogates ---------------------------------------------------------------------
 
@@ -341,30 +357,33 @@ class TransferRanker:
         surrogates = self.surrogates.surrogate(effect, count)
         for start in range(0, count, LAG_BATCH):
             batch = surrogates[start:start + LAG_BATCH]
-            for xs, ell in zip(batch, self.lags(effect, batch)):
-                hits.append(self.gain(self.fit(effect, xs, given, ell), reference) >= observed - 1e-12)
+            for xs, ell in zip(batch, self.lags(effect, batch), strict=False):
+                hits.append(self.gain(self.fit(effect, xs, given, ell),
+                                      reference) >= observed - 1e-12)
                 if sum(hits) >= STOP_EXCEEDANCES:
                     return hits
         return hits
 
-    def exact_p(self, effect: Effect, observed: float, orders: list[np.ndarray], given: np.ndarray | None = None,
-                reference: float | None = None) -> float:
-        """Exact permutation p-value over every ordering of the run levels (the observed one included)."""
+    def exact_p(self, effect: Effect, observed: float, orders: list[np.ndarray],
+                given: np.ndarray | None = None, reference: float | None = None) -> float:
+        """Exact permutation p-value over every ordering
+        of the run levels (the observed one included)."""
         surrogates = self.surrogates.surrogate(effect, len(orders), orders)
-        hits = sum(self.gain(self.fit(effect, xs, given), reference) >= observed - 1e-12 for xs in surrogates)
+        hits = sum(self.gain(self.fit(effect, xs, given),
+                             reference) >= observed - 1e-12 for xs in surrogates)
         return hits / len(orders)
 
     def p_value(self, effect: Effect, observed: float, most: int, given: np.ndarray | None = None,
                 reference: float | None = None) -> float:
-        """Sequential Monte-Carlo p-value of one transfer gain, at most ``most`` surrogates (exact for a
-        run-level candidate over few runs, :meth:`exact_p`)."""
+        """Sequential Monte-Carlo p-value of one transfer gain, at most ``most`` surrogates (exact
+        for a run-level candidate over few runs, :meth:`exact_p`)."""
         orders = self.surrogates.orderings(effect)
         if orders is not None:
             return self.exact_p(effect, observed, orders, given, reference)
         hits = self.draw(effect, observed, min(SURROGATE_STAGES[0], most), given, reference)
         if sum(hits) < STOP_EXCEEDANCES // 2:  # not clearly null after the first stage
             hits += self.draw(effect, observed, most - len(hits), given, reference)
-        return _besag_clifford(hits)
+        return besag_clifford_p(hits, STOP_EXCEEDANCES)
 
     def test(self, ranked: list[Ranked]) -> None:
         """Surrogate p-values of the best causes above the floor, then Benjamini–Hochberg over all.
@@ -389,13 +408,14 @@ class TransferRanker:
         tested = sampled
         hits: dict[int, list[bool]] = {id(r): [] for r in tested}
         for stage in SURROGATE_STAGES:
-            open_rows = [r for r in tested if sum(hits[id(r)]) < STOP_EXCEEDANCES and not r.significant]
+            open_rows = [r for r in tested if sum(hits[id(r)]) < STOP_EXCEEDANCES
+                         and not r.significant]
             if not open_rows:
                 break
             for row in open_rows:
                 test = row.tested_by or row
                 hits[id(row)] += self.draw(test.effect, test.gain, stage)
-                row.p_raw, row.tested = _besag_clifford(hits[id(row)]), True
+                row.p_raw, row.tested = besag_clifford_p(hits[id(row)], STOP_EXCEEDANCES), True
             self._adjust(ranked)
 
     @property
@@ -405,18 +425,20 @@ class TransferRanker:
 
     def parametric(self, effect: Effect, n_columns: int) -> bool:
         """Whether a run-level effect is tested by the t-test between runs: at least
-        :data:`~svrqp.gap.transfer.between.PARAMETRIC_MIN_RUNS` runs whose levels are permuted (train and real),
-        :data:`svrqp.gap.contract.MIN_RUNS` of them real (the t-test's observations), and orderings that cannot
-        reach Benjamini–Hochberg's first threshold over ``n_columns`` (ties between run levels included)."""
+        :data:`~svrqp.gap.transfer.between.PARAMETRIC_MIN_RUNS` runs whose levels are permuted
+        (train and real), :data:`svrqp.gap.contract.MIN_RUNS` of them real (the t-test's
+        observations), and orderings that cannot reach Benjamini–Hochberg's first threshold over
+        ``n_columns`` (ties between run levels included)."""
         if not effect.run_level or effect.windows is not None or self.n_real_runs < MIN_RUNS:
             return False
         levels = self.surrogates.run_levels(effect)
         return levels.size >= PARAMETRIC_MIN_RUNS and permutation_floor(levels) > ALPHA / n_columns
 
     def between_p(self, effect: Effect) -> float:
-        """The p-value of :func:`~svrqp.gap.transfer.between.between_run_test` for a run-level effect: the run
-        summaries of the family's residual on the real rows against the candidate's run levels, given the family's
-        inputs; 1 when the relation rests on one run (not ``robust``)."""
+        """The p-value of :func:`~svrqp.gap.transfer.between.between_run_test` for a run-level
+        effect: the run summaries of the family's residual on the real rows against the candidate's
+        run levels, given the family's inputs; 1 when the
+        relation rests on one run (not ``robust``)."""
         data, family, real = self.data, self.family, self.data.is_real
         residual = family.y - family.A @ np.linalg.lstsq(family.A, family.y, rcond=None)[0]
         x = data.C[:, data.candidates.index(effect.column)]
@@ -428,7 +450,7 @@ class TransferRanker:
         """Benjamini–Hochberg over every column (an untested one counts with p = 1)."""
         if ranked:
             q = false_discovery_control([r.p_raw for r in ranked], method="bh")
-            for row, qi in zip(ranked, q):
+            for row, qi in zip(ranked, q, strict=False):
                 row.q_value = float(qi)
 
     def adds(self, a: Ranked, b: Ranked) -> bool:
@@ -473,38 +495,43 @@ class TransferRanker:
         if stronger is not None:
             top.note = f"adds nothing beyond {stronger.effect.column} on held-out runs"
             n_real = len(group_slices(self.data.groups[self.data.is_real]))
-            untested = (f"is not significant between {n_real} real runs (q {probability_relation(stronger.q_value)})" if stronger.tested
+            untested = (f"is not significant between {n_real} real runs (q "
+                        f"{probability_relation(stronger.q_value)})" if stronger.tested
                         else f"cannot be tested between {MIN_RUNS - 1} or fewer real runs")
             result.withheld = (
-                f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but the "
-                f"{stronger.effect.transform} of {stronger.effect.column} transfers better and it adds nothing "
-                f"beyond it on held-out runs, while {stronger.effect.column}, one level per run, {untested}: "
-                "no cause is named.")
+                f"The {top.effect.transform} of {top.effect.column} passes the transfer test, but "
+                f"the {stronger.effect.transform} of {stronger.effect.column} transfers better and "
+                f"it adds nothing beyond it on held-out runs, while {stronger.effect.column}, one "
+                f"level per run, {untested}: no cause is named.")
             return result
         result.top = top
         return result
 
     def thin_evidence(self, ranked: list[Ranked], result: Ranking) -> None:
-        """Say so when the best-transferring cause is run-level and too few runs can ever make it significant.
+        """Say so when the best-transferring cause is run-level
+        and too few runs can ever make it significant.
 
-        The cause is the best of the ranked causes, or the ``local`` form of a run-level column that no ordering
-        of the runs can make significant (:meth:`untestable_form`) when it transfers better than every ranked
-        cause, beyond its window alone and beyond its column's global forms. Its smallest reachable p-value
-        (:meth:`smallest_p`) in place of its column's must leave its Benjamini–Hochberg q-value at or above
+        The cause is the best of the ranked causes, or the ``local`` form of a run-level column that
+        no ordering of the runs can make significant (:meth:`untestable_form`) when it transfers
+        better than every ranked cause, beyond its window alone and beyond its column's global
+        forms. Its smallest reachable p-value (:meth:`smallest_p`) in place of its column's must
+        leave its Benjamini–Hochberg q-value at or above
         :data:`svrqp.gap.contract.ALPHA` (module docstring).
         """
         if not ranked or ranked[0].significant:
             return
         best = self.untestable_local(ranked) or (ranked[0] if ranked[0].above_floor else None)
         if best is None or self.parametric(best.effect, len(ranked)):
-            return  # tested between runs by the t-test: its evidence is not bounded by the orderings
+            # tested between runs by the t-test: its evidence is not bounded by the orderings
+            return
         orders = self.surrogates.orderings(best.effect)
         if orders is None:
             return
         column = best.effect.column
         p_min = self.surrogates.smallest_p(best.effect, orders)
         p = [p_min if r.effect.column == column else r.p_raw for r in ranked]
-        q_min = float(min(q for q, r in zip(false_discovery_control(p, method="bh"), ranked) if r.effect.column == column))
+        q_min = float(min(q for q, r in zip(false_discovery_control(p, method="bh"), ranked,
+                                            strict=False) if r.effect.column == column))
         if q_min < ALPHA:
             return
         result.untestable = column
@@ -515,14 +542,16 @@ class TransferRanker:
         else:
             what = f"The level of {column}"
         result.too_thin = (
-            f" {what}, one level per run, transfers best ({shrink}), but its {len(orders[0])} run levels have only "
-            f"{len(orders)} orderings: no permutation test can give it a p-value below {p_min:.2g}, which over "
-            f"{len(ranked)} candidate columns leaves q ≥ {q_min:.2g} (above {ALPHA:g}). The transfer evidence is too "
-            "thin to name it; more runs are needed.")
+            f" {what}, one level per run, transfers best ({shrink}), but its {len(orders[0])} run "
+            f"levels have only {len(orders)} orderings: no permutation test can give it a p-value "
+            f"below {p_min:.2g}, which over {len(ranked)} candidate columns leaves q ≥ {q_min:.2g} "
+            f"(above {ALPHA:g}). The transfer evidence is too thin to name it; more runs are "
+            "needed.")
 
     def untestable_local(self, ranked: list[Ranked]) -> Ranked | None:
-        """The best :meth:`untestable_form` row above the floor that transfers better than every ranked cause and
-        than its own column's row (by :data:`svrqp.gap.transfer.windows.LOCAL_MARGIN`), or None."""
+        """The best :meth:`untestable_form` row above the floor that transfers better than every
+        ranked cause and than its own column's row (by
+        :data:`svrqp.gap.transfer.windows.LOCAL_MARGIN`), or None."""
         rows = {r.effect.column: r for r in ranked}
         for row in self.unpermutable:
             if row.gain <= ranked[0].gain:
@@ -550,26 +579,22 @@ class TransferRanker:
         return None
 
 
-def _besag_clifford(hits: list[bool]) -> float:
-    """``h/S_h`` once :data:`STOP_EXCEEDANCES` surrogates reached the statistic, else ``(1 + hits)/(1 + drawn)``."""
-    if sum(hits) >= STOP_EXCEEDANCES:
-        return STOP_EXCEEDANCES / (int(np.flatnonzero(hits)[STOP_EXCEEDANCES - 1]) + 1)
-    return (1 + sum(hits)) / (1 + len(hits))
-
-
 def _fixed(row: Ranked) -> Effect:
     """The row's effect with its time constant (or window) fixed at the one its fits chose most."""
     if row.region is not None:
-        return dataclasses.replace(row.effect, windows=np.array([[row.region["low"], row.region["high"]]]))
+        return dataclasses.replace(row.effect,
+                                   windows=np.array([[row.region["low"], row.region["high"]]]))
     if row.tau is None:
         return row.effect
     return dataclasses.replace(row.effect, taus=np.array([row.tau]))
 
 
 def _better(row: Ranked, held: Ranked) -> bool:
-    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie; the ``local``
-    transform against a global one must be ahead by :data:`svrqp.gap.transfer.windows.LOCAL_MARGIN`)."""
+    """Whether ``row`` transfers better than ``held`` (fewer parameters win a near tie; the
+    ``local`` transform against a global one must be ahead by
+    :data:`svrqp.gap.transfer.windows.LOCAL_MARGIN`)."""
     local = (row.effect.transform == "local") != (held.effect.transform == "local")
-    if abs(shrink_of_gain(row.gain) - shrink_of_gain(held.gain)) < (LOCAL_MARGIN if local else SAME_FIT):
+    if (abs(shrink_of_gain(row.gain) - shrink_of_gain(held.gain))
+            < (LOCAL_MARGIN if local else SAME_FIT)):
         return row.effect.parameters < held.effect.parameters
     return row.gain > held.gain

@@ -1,17 +1,18 @@
-r"""Surrogates of a candidate under "it carries nothing", for the transfer tests of :mod:`svrqp.gap.transfer.ranking`.
+r"""Surrogates of a candidate under "it carries nothing",
+for the transfer tests of :mod:`svrqp.gap.transfer.ranking`.
 
 Where a candidate's values fall does not matter under that null, so a surrogate moves them while
 keeping what the null leaves free:
 
-- A candidate that holds a level per run (:func:`svrqp.gap.transfer.between.is_run_level`) has its run
-  levels permuted across the runs. Over :math:`k` runs there are only :math:`k!` orderings; when
+- A candidate that holds a level per run (:func:`svrqp.gap.transfer.between.is_run_level`) has its
+  run levels permuted across the runs. Over :math:`k` runs there are only :math:`k!` orderings; when
   :math:`k! \le` :data:`EXACT_ORDERINGS` all of them are used (an exact test,
   :meth:`TransferSurrogates.orderings`), whose smallest reachable p-value is
   :math:`p_{\min} = s / k!`, with :math:`s` the orderings that leave the levels as they are
   (:meth:`TransferSurrogates.smallest_p`).
 - Any other candidate is rotated circularly within every group
-  (:func:`svrqp.gap.data.runs.shift_offsets`, which keeps its autocorrelation). What rotates is the part
-  that the family's other inputs do not explain: least squares of the candidate on the family's
+  (:func:`svrqp.gap.data.runs.shift_offsets`, which keeps its autocorrelation). What rotates is the
+  part that the family's other inputs do not explain: least squares of the candidate on the family's
   design (without the candidate itself, when it is a model feature) leaves :math:`x = A c + u`, and
   a surrogate is :math:`A c + \mathrm{rot}(u)`; in prediction mode the design is the intercept and
   this is the plain rotation. One record cut into blocks is rotated as a whole, lifted at the seam
@@ -29,12 +30,20 @@ from typing import Protocol
 
 import numpy as np
 
-from svrqp.gap.data import GapData, group_slices, lift_steps, rotated_rows, shift_offsets, wrapped_part
+from svrqp.gap.data import (
+    GapData,
+    group_slices,
+    lift_steps,
+    rotated_rows,
+    shift_offsets,
+    wrapped_part,
+)
 from svrqp.gap.data.transforms import RISE
 
 
 class Effect(Protocol):
-    """What a surrogate needs of a candidate × transform (:class:`svrqp.gap.results.records.Effect`)."""
+    """What a surrogate needs of a candidate × transform
+    (:class:`svrqp.gap.results.records.Effect`)."""
 
     column: str
     transform: str
@@ -43,8 +52,9 @@ class Effect(Protocol):
 
 
 EXACT_ORDERINGS = 120
-"""Most orderings of a run-level candidate's levels (five runs) that a test enumerates exactly; with more
-runs it draws them (the Monte-Carlo resolution then matches the smallest p-value, 1/720 or less)."""
+"""Most orderings of a run-level candidate's levels (five runs) that a test enumerates exactly; with
+more runs it draws them (the Monte-Carlo resolution
+then matches the smallest p-value, 1/720 or less)."""
 
 
 class TransferSurrogates:
@@ -55,7 +65,8 @@ class TransferSurrogates:
     data : GapData
         Prepared rows.
     design : ndarray
-        The family's design on every row (``[1, X]`` in features mode, the intercept in prediction mode).
+        The family's design on every row (``[1, X]`` in
+        features mode, the intercept in prediction mode).
     rng, local_rng : numpy.random.Generator
         Sources of the draws (the ``local`` form's its own stream).
     lift : bool
@@ -64,7 +75,9 @@ class TransferSurrogates:
 
     def __init__(self, data: GapData, design: np.ndarray, rng: np.random.Generator,
                  local_rng: np.random.Generator, lift: bool):
-        self.data, self.design, self.rng, self.local_rng, self.lift = data, design, rng, local_rng, lift
+        self.data, self.design, self.rng, self.local_rng, self.lift = (
+            data, design, rng, local_rng, lift,
+        )
 
     def run_levels(self, effect: Effect) -> np.ndarray:
         """The candidate's mean over each run where it is known, in run order."""
@@ -73,7 +86,8 @@ class TransferSurrogates:
         return np.array([x[known[s]].mean() for s in group_slices(self.data.groups[known])])
 
     def orderings(self, effect: Effect) -> list[np.ndarray] | None:
-        """Every ordering of a run-level candidate's levels when there are at most :data:`EXACT_ORDERINGS`, else None."""
+        """Every ordering of a run-level candidate's levels when
+        there are at most :data:`EXACT_ORDERINGS`, else None."""
         if not effect.run_level:
             return None
         k = self.run_levels(effect).size
@@ -81,9 +95,10 @@ class TransferSurrogates:
             return None
         return [np.array(order) for order in itertools.permutations(range(k))]
 
-    def surrogate(self, effect: Effect, count: int, orders: list[np.ndarray] | None = None) -> list[np.ndarray]:
-        """``count`` surrogates of the candidate (rotated within groups, or run levels permuted: drawn at
-        random, or the ``orders`` given)."""
+    def surrogate(self, effect: Effect, count: int,
+                  orders: list[np.ndarray] | None = None) -> list[np.ndarray]:
+        """``count`` surrogates of the candidate (rotated within groups, or run levels permuted:
+        drawn at random, or the ``orders`` given)."""
         data = self.data
         x = data.C[:, data.candidates.index(effect.column)]
         known = np.flatnonzero(np.isfinite(x))
@@ -92,12 +107,14 @@ class TransferSurrogates:
         k = len(group_slices(groups))
         out = []
         if effect.run_level:
-            for order in orders if orders is not None else [rng.permutation(k) for _ in range(count)]:
+            for order in orders if orders is not None else [rng.permutation(k)
+                                                            for _ in range(count)]:
                 xs = x.copy()
                 xs[known] = exchange_run_levels(x[known], groups, order)
                 out.append(xs)
             return out
-        # The part of the candidate that the family's other inputs explain stays where it is; the rest rotates.
+        # The part of the candidate that the family's other
+        # inputs explain stays where it is; the rest rotates.
         A = self._other_inputs(effect.column)[known]
         explained = A @ np.linalg.lstsq(A, x[known], rcond=None)[0]
         own = x[known] - explained
@@ -116,32 +133,50 @@ class TransferSurrogates:
         return out
 
     def _other_inputs(self, column: str) -> np.ndarray:
-        """The family's design without the candidate itself (a model feature whose rate or lag is tested)."""
+        """The family's design without the candidate itself
+        (a model feature whose rate or lag is tested)."""
         A, features = self.design, self.data.features
         if column in features and A.shape[1] == 1 + len(features):  # [1, X] of the features mode
             return np.delete(A, 1 + features.index(column), axis=1)
         return A
 
     def smallest_p(self, effect: Effect, orders: list[np.ndarray]) -> float:
-        """The smallest p-value an exact test (:meth:`svrqp.gap.transfer.ranking.TransferRanker.exact_p`) can give: the
-        orderings that leave the run levels unchanged."""
+        """The smallest p-value an exact test
+        (:meth:`svrqp.gap.transfer.ranking.TransferRanker.exact_p`)
+        can give: the orderings that leave the run levels unchanged."""
         levels = self.run_levels(effect)
-        same = sum(bool(np.allclose(levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())))
-                   for order in orders)
+        same = sum(
+            bool(
+                np.allclose(
+                    levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())
+                )
+            )
+            for order in orders
+        )
         return same / len(orders)
 
 
 def exchange_run_levels(x: np.ndarray, groups: np.ndarray, order: np.ndarray) -> np.ndarray:
     r"""``x`` with the run means exchanged by the permutation :math:`\pi` = ``order`` of the runs.
 
-    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: the surrogate of a
-    run-level candidate, and applied to a series already rotated within runs (with a random
+    :math:`x_s(t) = x(t) - \bar x_g + \bar x_{\pi(g)}` on the rows of run :math:`g`: the surrogate
+    of a run-level candidate, and applied to a series already rotated within runs (with a random
     ``order``), a surrogate of the ``local`` form's test (module docstring).
     """
     slices = group_slices(groups)
     means = np.array([x[s].mean() for s in slices])
     shift = means[order] - means
     out = x.copy()
-    for s, d in zip(slices, shift):
+    for s, d in zip(slices, shift, strict=False):
         out[s] += d
     return out
+
+
+def besag_clifford_p(hits: list[bool], stop: int) -> float:
+    """Sequential Monte-Carlo p-value (Besag & Clifford 1991) of surrogates drawn in order.
+
+    ``h/S_h`` once ``stop`` surrogates reached the statistic, else ``(1 + hits)/(1 + drawn)``.
+    """
+    if sum(hits) >= stop:
+        return stop / (int(np.flatnonzero(hits)[stop - 1]) + 1)
+    return (1 + sum(hits)) / (1 + len(hits))

@@ -32,9 +32,9 @@ Surrogates that respect what varies where
     sits at one level per run gains as much rotated as observed; a disturbance whose size per
     run happens to line up with a reading's levels passes). A surrogate of the ``local`` form is
     rotated within runs *and* has its run means exchanged by a random permutation of the runs
-    (:func:`svrqp.gap.transfer.surrogates.exchange_run_levels`): under "this candidate carries nothing" its within-run phase
-    and which run holds which level are both arbitrary. A candidate that holds one level per run
-    is permuted across runs only, as for every transform.
+    (:func:`svrqp.gap.transfer.surrogates.exchange_run_levels`): under "this candidate carries
+    nothing" its within-run phase and which run holds which level are both arbitrary. A candidate
+    that holds one level per run is permuted across runs only, as for every transform.
 
 What the form costs the other transforms
     The ``local`` form of a candidate that holds one level per run is offered only when a
@@ -45,8 +45,8 @@ What the form costs the other transforms
     :math:`\alpha = 0.05`, six runs for up to 36). An untestable form could only shadow a
     testable cause. It is still refitted, never tested or ranked: when it transfers best, the
     verdict says that the evidence is too thin and names its window
-    (:meth:`svrqp.gap.transfer.ranking.TransferRanker.thin_evidence`). Its surrogates come from a stream
-    of their own, so offering it leaves the
+    (:meth:`svrqp.gap.transfer.ranking.TransferRanker.thin_evidence`). Its surrogates come from a
+    stream of their own, so offering it leaves the
     Monte-Carlo p-values of the other transforms as they were.
 
 Windows along another column
@@ -139,7 +139,8 @@ THRESHOLD_QUANTILES = np.linspace(0.1, 0.9, 9)
 
 
 def threshold_dictionary(v: np.ndarray, units: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    r"""The windows tried along a ``local_along`` column ``v``, as rows ``[low, high]`` of its values (inclusive).
+    r"""The windows tried along a ``local_along`` column
+    ``v``, as rows ``[low, high]`` of its values (inclusive).
 
     An effect confined along a column other than the order axis (a sensor that matters only
     above a spindle speed) acts where the column is above, or below, a level: the rows with
@@ -177,7 +178,8 @@ def threshold_dictionary(v: np.ndarray, units: np.ndarray, groups: np.ndarray) -
 
 
 def permutations_can_reject(n_runs: int, n_columns: int, alpha: float) -> bool:
-    r"""Whether permuting ``n_runs`` run levels can give a p-value Benjamini–Hochberg rejects among ``n_columns``.
+    r"""Whether permuting ``n_runs`` run levels can give a
+    p-value Benjamini–Hochberg rejects among ``n_columns``.
 
     The smallest p-value of a permutation test over :math:`n` runs is :math:`1/n!` (the observed
     arrangement among the :math:`n!`); the first threshold of Benjamini–Hochberg over :math:`m`
@@ -187,11 +189,13 @@ def permutations_can_reject(n_runs: int, n_columns: int, alpha: float) -> bool:
 
 
 COLLINEAR_RCOND = 1e-10
-"""Smallest singular value, relative to the largest, below which a window's columns count as collinear."""
+"""Smallest singular value, relative to the largest,
+below which a window's columns count as collinear."""
 
 
 def collinear(A: np.ndarray, E: np.ndarray) -> bool:
-    r"""Whether a window's columns ``E`` are collinear with the model's own design ``A`` (or each other).
+    r"""Whether a window's columns ``E`` are collinear
+    with the model's own design ``A`` (or each other).
 
     Happens when the candidate holds one value wherever the window has rows (then
     :math:`x\mathbb{1}_W \propto \mathbb{1}_W`) or the window holds every row (then
@@ -211,17 +215,21 @@ def indicator(t: np.ndarray, low: float, high: float) -> np.ndarray:
 
 
 def indicator_columns(t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-    r"""The indicators :math:`\mathbb{1}_{W_k}` of every window alone, and the variants that use them (one each).
+    r"""The indicators :math:`\mathbb{1}_{W_k}` of every
+    window alone, and the variants that use them (one each).
 
     The nested null of the ``local`` form: what the window's own offset buys, which the candidate's
     slope :math:`x\,\mathbb{1}_W` must beat (module docstring).
     """
-    W = np.column_stack([indicator(t, low, high) for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
+    W = np.column_stack([indicator(t, low, high)
+                         for low, high in windows]) if len(windows) else np.zeros((t.size, 0))
     return W, [np.array([k]) for k in range(W.shape[1])]
 
 
-def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-    r"""The columns :math:`[\mathbb{1}_{W_k}, x\,\mathbb{1}_{W_k}]` of every window and the variants that use them.
+def local_columns(x: np.ndarray, t: np.ndarray,
+                  windows: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    r"""The columns :math:`[\mathbb{1}_{W_k}, x\,\mathbb{1}_{W_k}]`
+    of every window and the variants that use them.
 
     Parameters
     ----------
@@ -244,19 +252,22 @@ def local_columns(x: np.ndarray, t: np.ndarray, windows: np.ndarray) -> tuple[np
 
 
 def window_axes(data: GapData, code: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Each axis the ``local`` form's windows lie along, with its values on every row and its windows: the
-    order axis (:func:`window_dictionary`) and every ``local_along`` column (:func:`threshold_dictionary`).
+    """Each axis the ``local`` form's windows lie along, with its values on every row and its
+    windows: the order axis (:func:`window_dictionary`) and every
+    ``local_along`` column (:func:`threshold_dictionary`).
 
     ``code`` is the held-out unit of every row.
     """
     axes = {data.order_name: (data.t, window_dictionary(data.t, code, data.groups))}
-    axes.update({name: (v, threshold_dictionary(v, code, data.groups)) for name, v in data.along.items()})
+    axes.update({name: (v, threshold_dictionary(v, code, data.groups))
+                 for name, v in data.along.items()})
     return axes
 
 
 class WindowAlone:
-    """The ``local`` form's nested null: SSE of the leave-one-unit-out refit with a window's indicator alone
-    (:func:`indicator_columns`, the window chosen inside each fit), per axis and rows known, computed once.
+    """The ``local`` form's nested null: SSE of the leave-one-unit-out refit with a window's
+    indicator alone (:func:`indicator_columns`, the window chosen inside
+    each fit), per axis and rows known, computed once.
 
     Parameters
     ----------
@@ -271,7 +282,8 @@ class WindowAlone:
         self._sse: dict[tuple[str, bytes], float] = {}
 
     def sse(self, axis: str, known: np.ndarray) -> float:
-        """SSE on the real rows with the windows along ``axis`` alone, fitted on the rows ``known``."""
+        """SSE on the real rows with the windows along
+        ``axis`` alone, fitted on the rows ``known``."""
         key = (axis, np.packbits(known).tobytes())
         if key not in self._sse:
             W, variants = indicator_columns(*self.axes[axis])
@@ -281,8 +293,8 @@ class WindowAlone:
 
 
 def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
-    """``{"column": axis, "low": …, "high": …}``: the window the leave-one-unit-out fits chose most (``variant``:
-    each fit's window)."""
+    """``{"column": axis, "low": …, "high": …}``: the window the leave-one-unit-out fits chose most
+    (``variant``: each fit's window)."""
     low, high = windows[np.bincount(variant, minlength=len(windows)).argmax()]
     return {"column": axis, "low": float(low), "high": float(high)}
 
@@ -294,15 +306,16 @@ def region_text(region: dict) -> str:
 
 
 def local_note(A: np.ndarray, E: np.ndarray, beyond_window: float, floor: float) -> str | None:
-    """The causes table's note on a ``local`` cause, from its chosen window's columns ``E`` on the rows fitted.
+    """The causes table's note on a ``local`` cause, from
+    its chosen window's columns ``E`` on the rows fitted.
 
     Either they are collinear with the family's design ``A`` (:func:`collinear`: the refits keep the
-    minimum-norm solution), or the cause's gain beyond its window alone is below the effect ``floor``
-    (the window's own offset transfers about as well); else None.
+    minimum-norm solution), or the cause's gain beyond its window alone is below the effect
+    ``floor`` (the window's own offset transfers about as well); else None.
     """
     if collinear(A, E):
-        return ("its window's columns are collinear with the model's own inputs on the rows fitted: "
-                "the refits keep the minimum-norm solution")
+        return ("its window's columns are collinear with the model's own inputs on the rows "
+                "fitted: the refits keep the minimum-norm solution")
     if beyond_window < floor:
         return (f"the window's own offset transfers about as well: the column adds "
                 f"{shrink_of_gain(beyond_window):.0%} beyond it "

@@ -119,15 +119,19 @@ class AttributionProblem:
         """Cross-validated scorer of the residual against the base plus the blocks ``given``."""
         return CrossValidatedDiscrepancy(self.r, np.column_stack([self.B, *given]), self.folds)
 
-    def make_test(self, bank: Bank, given: list[np.ndarray] = (),
-                  scorer: CrossValidatedDiscrepancy | None = None) -> SurrogateTest | BetweenRunTest:
+    def make_test(
+        self, bank: Bank, given: list[np.ndarray] = (),
+        scorer: CrossValidatedDiscrepancy | None = None,
+    ) -> SurrogateTest | BetweenRunTest:
         """The test of ``bank`` given the blocks ``given``: surrogates within runs, or between runs.
 
         ``scorer`` (of the same ``given``) may be passed to share it between the tests of a round.
         """
         if isinstance(bank, RunLevelBank):
-            return BetweenRunTest(self.r, np.column_stack([self.B, *given]), self.folds, self.groups, bank)
-        return SurrogateTest(scorer or self.scorer(given), bank, self.groups, self.rng, self.surrogates)
+            return BetweenRunTest(self.r, np.column_stack([self.B, *given]), self.folds,
+                                  self.groups, bank)
+        return SurrogateTest(scorer or self.scorer(given), bank, self.groups, self.rng,
+                             self.surrogates)
 
 
 @dataclass(frozen=True)
@@ -147,12 +151,13 @@ def _test_round(
     if not banks:
         return []
     cv = problem.scorer(given)
-    tests = run_tests([problem.make_test(bank, given, cv) for bank in banks], MAX_SURROGATES, _benjamini_hochberg,
-                      problem.n_jobs)
+    tests = run_tests([problem.make_test(bank, given, cv) for bank in banks], MAX_SURROGATES,
+                      _benjamini_hochberg, problem.n_jobs)
     q = false_discovery_control([t.p_value for t in tests], method="bh")
     return [
-        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, problem.noise_rmse)), round_number)
-        for t, qi in zip(tests, q)
+        Evidence(t, float(qi), bool(qi < ALPHA and _above_floor(t, problem.noise_rmse)),
+                 round_number)
+        for t, qi in zip(tests, q, strict=False)
     ]
 
 
@@ -179,7 +184,8 @@ class OutOfSampleLosses:
 
 @dataclass
 class Attribution:
-    """Outcome of the attribution step: the within-real-rows evidence of every candidate × transform.
+    """Outcome of the attribution step: the within-real-rows
+    evidence of every candidate × transform.
 
     Attributes
     ----------
@@ -194,7 +200,8 @@ class Attribution:
 
     def best(self, column: str) -> Evidence:
         """A column's strongest test (passing ones first)."""
-        return max((e for e in self.evidence if e.test.column == column), key=lambda e: (e.passes, e.test.gain))
+        return max((e for e in self.evidence if e.test.column == column),
+                   key=lambda e: (e.passes, e.test.gain))
 
 
 def attribute(problem: AttributionProblem, banks: list[Bank],
@@ -242,7 +249,8 @@ class ShrinkEstimate:
     errors: np.ndarray
 
 
-def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
+def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray,
+                    rng: np.random.Generator) -> tuple[float, float]:
     """95 % moving-block bootstrap interval of ``1 - rmse(after)/rmse(before)``."""
     index = block_bootstrap(groups, N_BOOTSTRAP, block_length(before, groups), rng)
     ss_before = (before**2)[index].sum(axis=1)
@@ -252,7 +260,8 @@ def shrink_interval(before: np.ndarray, after: np.ndarray, groups: np.ndarray, r
     return float(low), float(high)
 
 
-def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> ShrinkEstimate:
+def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray,
+                    rng: np.random.Generator) -> ShrinkEstimate:
     """Out-of-sample shrink of the real-row error with an effect added, and its interval.
 
     Parameters
@@ -279,9 +288,12 @@ def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray, rng: n
     return ShrinkEstimate(before_rmse, after_rmse, shrink, low, high, after)
 
 
-def within_numbers(attribution: Attribution, r: np.ndarray, groups: np.ndarray, base: BaseFit,
-                   rng: np.random.Generator) -> dict[str, tuple[float, tuple[float, float], float, float | None]]:
-    """Per column: the within-real-rows shrink, its interval, its p-value (BH) and its shrink beyond the base.
+def within_numbers(
+    attribution: Attribution,
+    r: np.ndarray, groups: np.ndarray, base: BaseFit, rng: np.random.Generator,
+) -> dict[str, tuple[float, tuple[float, float], float, float | None]]:
+    """Per column: the within-real-rows shrink, its interval,
+    its p-value (BH) and its shrink beyond the base.
 
     These numbers come from discrepancy models fitted on the real rows themselves: they say
     what a per-run recalibration with the effect would remove, not what the effect buys on a
@@ -300,10 +312,11 @@ def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray
                     progress: Callable[[str, float], None] = lambda stage, done: None) -> dict:
     """The within-real-rows evidence of every candidate column, as the causes table carries it.
 
-    Runs :func:`attribute` over every candidate transform (:func:`svrqp.gap.within.surrogate_tests.build_banks`)
-    and returns :func:`within_numbers`: per column ``(within_shrink, its interval, p_within,
-    shrink_beyond_base)``. Only asked for (``diagnose(..., within_evidence=True)``,
-    ``--within-evidence``): it never enters a transfer shrink, the verdict or the summary.
+    Runs :func:`attribute` over every candidate transform
+    (:func:`svrqp.gap.within.surrogate_tests.build_banks`) and returns :func:`within_numbers`: per
+    column ``(within_shrink, its interval, p_within, shrink_beyond_base)``. Only asked for
+    (``diagnose(..., within_evidence=True)``, ``--within-evidence``):
+    it never enters a transfer shrink, the verdict or the summary.
 
     Parameters
     ----------

@@ -161,9 +161,11 @@ class SurrogateTest:
         self._hits = np.zeros(0, dtype=bool)
         check_surrogates(surrogates)
         self._continuous = surrogates == "continuous"
-        if self._continuous:  # the part that wraps round is lifted by its group's end-minus-start change
+        # the part that wraps round is lifted by its group's end-minus-start change
+        if self._continuous:
             slices = group_slices(groups)
-            self._first_row = np.concatenate([np.full(sl.stop - sl.start, sl.start) for sl in slices])
+            self._first_row = np.concatenate([np.full(sl.stop - sl.start, sl.start)
+                                              for sl in slices])
             last = np.concatenate([np.full(sl.stop - sl.start, sl.stop - 1) for sl in slices])
             self._step_Z = bank.Z[last] - bank.Z[self._first_row]
             self._step_partner = None if bank.partner is None else \
@@ -221,15 +223,17 @@ class SurrogateTest:
 
     def outcome(self) -> TestOutcome:
         """The test's result."""
-        # A near-perfect fit can leave a gain a rounding error above 1 (the SSE is a difference of sums).
+        # A near-perfect fit can leave a gain a rounding
+        # error above 1 (the SSE is a difference of sums).
         remaining = float(np.sqrt(self.cv.sse_base * max(1 - self.observed, 0.0) / self.cv.n))
         explained = float(np.sqrt(max(self.observed, 0.0) * self.cv.sse_base / self.cv.n))
-        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value, self.drawn, remaining,
-                           self.observed, explained)
+        return TestOutcome(self.bank, self.variant, self.observed, self.gains, self.p_value,
+                           self.drawn, remaining, self.observed, explained)
 
 
 class BetweenRunTest:
-    """The between-run test of a run-level bank (:func:`svrqp.gap.transfer.between.between_run_test`).
+    """The between-run test of a run-level bank
+    (:func:`svrqp.gap.transfer.between.between_run_test`).
 
     It draws no surrogates; it has the interface of :class:`SurrogateTest` so that
     :func:`run_tests` treats both alike (it is decided at once).
@@ -255,8 +259,10 @@ class BetweenRunTest:
                  bank: RunLevelBank):
         self.bank = bank
         sse_base = CrossValidatedDiscrepancy(r, base, folds).sse_base
-        sse_profile = CrossValidatedDiscrepancy(r, np.column_stack([base, bank.profile]), folds).sse_base
-        self.sse = CrossValidatedDiscrepancy(r, np.column_stack([base, bank.block()]), folds).sse_base
+        sse_profile = CrossValidatedDiscrepancy(r, np.column_stack([base, bank.profile]),
+                                                folds).sse_base
+        self.sse = CrossValidatedDiscrepancy(r, np.column_stack([base, bank.block()]),
+                                             folds).sse_base
         self.n = len(r)
         # Ranked by what the candidate adds beyond the common profile (which is no candidate's),
         # as a share of the base's error like every other bank's gain.
@@ -276,11 +282,13 @@ class BetweenRunTest:
     def outcome(self) -> TestOutcome:
         """The test's result."""
         return TestOutcome(self.bank, 0, self.gain, np.array([self.gain]), self.p_value, 0,
-                           float(np.sqrt(self.sse / self.n)), self.own_gain, self.explained, self.robust)
+                           float(np.sqrt(self.sse / self.n)), self.own_gain, self.explained,
+                           self.robust)
 
 
 def run_tests(
-    tests: list[SurrogateTest], most: int, decided: Callable[[np.ndarray], np.ndarray], n_jobs: int = 1
+    tests: list[SurrogateTest], most: int, decided: Callable[[np.ndarray], np.ndarray],
+    n_jobs: int = 1
 ) -> list[TestOutcome]:
     """Draw surrogates batch by batch for the tests whose decision is still open.
 
@@ -297,13 +305,20 @@ def run_tests(
     rejected = np.zeros(len(tests), dtype=bool)
     with Parallel(n_jobs=n_jobs, backend="threading") as parallel:
         for batch in SURROGATE_BATCHES:
-            open_tests = [t for t, done in zip(tests, rejected) if not done and not t.stopped and t.drawn < most]
+            open_tests = [t
+                          for t, done in zip(tests, rejected,
+                                      strict=False) if not done and not t.stopped
+                          and t.drawn < most]
             if not open_tests:
                 break
-            work = [(test, chunk) for test in open_tests for chunk in test.offsets(min(batch, most - test.drawn))]
+            work = [
+                (test, chunk)
+                for test in open_tests
+                for chunk in test.offsets(min(batch, most - test.drawn))
+            ]
             hits = parallel(delayed(test.hits)(chunk) for test, chunk in work)
             for test in open_tests:
-                test.record([h for (owner, _), h in zip(work, hits) if owner is test])
+                test.record([h for (owner, _), h in zip(work, hits, strict=False) if owner is test])
             rejected = decided(np.array([t.p_value for t in tests]))
     return [t.outcome() for t in tests]
 
@@ -336,7 +351,8 @@ class LagRecipe:
 
     @classmethod
     def of(cls, x: np.ndarray, t: np.ndarray, groups: np.ndarray, taus: np.ndarray) -> LagRecipe:
-        """The recipe of candidate values ``x`` on the real rows (order ``t``, groups ``groups``)."""
+        """The recipe of candidate values ``x`` on the
+        real rows (order ``t``, groups ``groups``)."""
         alpha = filter_coefficients(t, groups, taus)
         ell = lowpass_columns(x[:, None], alpha)[:, 0, :] - x[:, None]
         centre = ell.mean(axis=0)
@@ -392,7 +408,8 @@ class CandidateBank:
 
     def out_of_sample_errors(self, r: np.ndarray, B: np.ndarray, folds: list[np.ndarray],
                              groups: np.ndarray) -> np.ndarray:
-        """Errors of ``r ~ B + block`` on the real rows, the variant chosen inside each fold (nested CV)."""
+        """Errors of ``r ~ B + block`` on the real rows,
+        the variant chosen inside each fold (nested CV)."""
         return nested_errors(r, B, self.Z, self.partner, folds, groups)
 
 
@@ -421,8 +438,10 @@ def build_banks(data: GapData, taus: np.ndarray) -> list[Bank]:
         if column not in data.features:
             banks.append(CandidateBank(column, "level", None, partner[:, None]))
         for name, dynamic in DYNAMIC.items():
-            banks.append(CandidateBank(column, name, None, standardised(dynamic(x, data.t[real], groups)[:, None])[0]))
+            banks.append(CandidateBank(column, name, None,
+                                       standardised(dynamic(x, data.t[real], groups)[:, None])[0]))
         # The lag restarts at each real group's first row, exactly as its surrogates do.
         recipe = LagRecipe.of(x, data.t[real], groups, taus)
-        banks.append(CandidateBank(column, "lag", taus, recipe.own(x[:, None])[:, 0, :], partner, recipe))
+        banks.append(CandidateBank(column, "lag", taus, recipe.own(x[:, None])[:, 0, :], partner,
+                                   recipe))
     return banks

@@ -1,4 +1,5 @@
-"""Figures of a gap report (matplotlib; every axis labelled with its unit, read by :func:`svrqp.units.unit_of`).
+"""Figures of a gap report (matplotlib; every axis labelled
+with its unit, read by :func:`svrqp.units.unit_of`).
 
 matplotlib is imported when a figure is drawn, not with this module: a diagnosis that writes no
 report never loads it. Each figure is a ``Figure`` of its own, never pyplot's global state, so the
@@ -59,12 +60,14 @@ def gap_figure(s: Series, regions: list[tuple[float, float, str | None]]) -> byt
     _lines(bottom, s, residual, real, color="C3", lw=1, label="residual (real rows)")
     pooled = [(low, high) for low, high, run in regions if run is None]
     for k, (low, high) in enumerate(pooled):
-        bottom.axvspan(low, high, color="C3", alpha=0.12, label="error concentrates" if k == 0 else None)
+        bottom.axvspan(low, high, color="C3", alpha=0.12,
+                       label="error concentrates" if k == 0 else None)
     within = [(low, high, run) for low, high, run in regions if run is not None]
     for k, (low, high, run) in enumerate(within):
-        bottom.axvspan(low, high, color="C4", alpha=0.15, label="error concentrates within one run" if k == 0 else None)
-        bottom.annotate(f"run {run}", ((low + high) / 2, 1.0), xycoords=("data", "axes fraction"), ha="center",
-                        va="top", fontsize=7, color="C4")
+        bottom.axvspan(low, high, color="C4", alpha=0.15,
+                       label="error concentrates within one run" if k == 0 else None)
+        bottom.annotate(f"run {run}", ((low + high) / 2, 1.0), xycoords=("data", "axes fraction"),
+                        ha="center", va="top", fontsize=7, color="C4")
     bottom.axhline(0, color="k", lw=0.5)
     bottom.set_ylabel(f"residual {axis_label(s.target)}")
     bottom.set_xlabel(axis_label(s.order_name))
@@ -92,7 +95,8 @@ def before_after_figure(s: Series, effect: str, region: tuple[float, float] | No
     _lines(ax, s, after, real, color="C2", lw=1, label=f"after adding {effect} (out of sample)")
     ax.set_ylabel(f"residual {axis_label(s.target)}")
     if region is not None:
-        _lines(axes[1], s, residual - after, real, color="C2", lw=1, label=f"{effect}: profile on held-out runs")
+        _lines(axes[1], s, residual - after, real, color="C2", lw=1, label=f"{effect}: profile on "
+                                                                           f"held-out runs")
         axes[1].set_ylabel(f"effect {axis_label(s.target)}")
     for panel in axes:
         if region is not None:
