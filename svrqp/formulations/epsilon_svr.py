@@ -32,9 +32,10 @@ Three QPs state the same dual (all minimise the negated objective):
   :math:`A = [-\mathbf 1^\top,\ \mathbf 1^\top]`, :math:`b = 0`, :math:`lb = 0`, :math:`ub = C`.
 * **split** — :math:`x = [\beta; \alpha; \alpha^*] \in \mathbb R^{3n}` with :math:`\beta` tied by an
   equality, so :math:`P` holds only the :math:`n\times n` kernel block:
-  :math:`P = \operatorname{diag}(K, 0, 0)`, :math:`q = [-y;\ \varepsilon\mathbf 1;\ \varepsilon\mathbf 1]`,
-  :math:`A = \begin{bmatrix} I & I & -I\\ \mathbf 1^\top & 0 & 0\end{bmatrix}`, :math:`b = 0`,
-  :math:`lb = [-C; 0; 0]`, :math:`ub = [C; C; C]`.
+  :math:`P = \operatorname{diag}(K, 0, 0)`,
+  :math:`q = [-y;\ \varepsilon\mathbf 1;\ \varepsilon\mathbf 1]`,
+  :math:`A = \begin{bmatrix} I & I & -I\\ \mathbf 1^\top & 0 & 0\end{bmatrix}`,
+  :math:`b = 0`, :math:`lb = [-C; 0; 0]`, :math:`ub = [C; C; C]`.
 * **primal** (linear kernel only) — :math:`x = [w; b; \xi; \xi^*]`, sparse
   :math:`P = \operatorname{diag}(I_d, 0, 0, 0)`, :math:`q = [0; 0; C\mathbf 1; C\mathbf 1]`,
   :math:`G = \begin{bmatrix} -X & -\mathbf 1 & 0 & -I\\ X & \mathbf 1 & -I & 0\end{bmatrix}`,
@@ -115,7 +116,8 @@ DUAL_STATEMENT = (
 
 
 def check_parameters(y: NDArray[np.float64], C: float, epsilon: float) -> None:
-    """Raise :class:`ProblemError` unless ``C > 0``, ``epsilon >= 0`` and ``y`` is a finite 1-D array."""
+    """Raise :class:`ProblemError` unless ``C > 0``,
+    ``epsilon >= 0`` and ``y`` is a finite 1-D array."""
     if not np.isfinite(C) or C <= 0:
         raise ProblemError(f"C must be a finite positive number, got {C!r}")
     if not np.isfinite(epsilon) or epsilon < 0:
@@ -124,7 +126,8 @@ def check_parameters(y: NDArray[np.float64], C: float, epsilon: float) -> None:
         raise ProblemError("y must be a finite 1-D array")
 
 
-def zero_tolerance(beta: NDArray[np.float64], C: float, sv_tolerance: float = SV_TOLERANCE) -> float:
+def zero_tolerance(beta: NDArray[np.float64], C: float,
+                   sv_tolerance: float = SV_TOLERANCE) -> float:
     r"""Largest :math:`|\beta_i|` read as zero: ``sv_tolerance``·min(C, max|β|).
 
     Relative to the solution's own scale and not to C alone: at C = 1e7 the coefficients of a
@@ -133,8 +136,10 @@ def zero_tolerance(beta: NDArray[np.float64], C: float, sv_tolerance: float = SV
     return sv_tolerance * min(float(C), float(np.max(np.abs(beta), initial=0.0)))
 
 
-def dual_stacked(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
-    r"""The dual in the stacked variables :math:`z = [\alpha; \alpha^*]` (see the module docstring)."""
+def dual_stacked(K: NDArray[np.float64], y: NDArray[np.float64], C: float,
+                 epsilon: float) -> QuadraticProgram:
+    r"""The dual in the stacked variables
+    :math:`z = [\alpha; \alpha^*]` (see the module docstring)."""
     check_parameters(y, C, epsilon)
     n = y.shape[0]
     ones = np.ones(n)
@@ -151,8 +156,10 @@ def dual_stacked(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
     )
 
 
-def dual_split(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
-    r"""The dual with :math:`\beta = \alpha^* - \alpha` as an equality; P is :math:`\operatorname{diag}(K, 0, 0)`."""
+def dual_split(K: NDArray[np.float64], y: NDArray[np.float64], C: float,
+               epsilon: float) -> QuadraticProgram:
+    r"""The dual with :math:`\beta = \alpha^* - \alpha` as an
+    equality; P is :math:`\operatorname{diag}(K, 0, 0)`."""
     check_parameters(y, C, epsilon)
     n = y.shape[0]
     eye = sp.eye(n, format="csc")
@@ -174,15 +181,18 @@ def dual_split(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     )
 
 
-def primal_linear(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
-    r"""The linear-kernel primal in :math:`x = [w; b; \xi; \xi^*]` with sparse constraint matrices."""
+def primal_linear(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
+                  epsilon: float) -> QuadraticProgram:
+    r"""The linear-kernel primal in :math:`x = [w; b; \xi; \xi^*]`
+    with sparse constraint matrices."""
     check_parameters(y, C, epsilon)
     n, d = X.shape
     eye = sp.eye(n, format="csc")
     zeros = sp.csc_matrix((n, n))
     ones = sp.csc_matrix(np.ones((n, 1)))
     Xs = sp.csc_matrix(X)
-    G = sp.vstack([sp.hstack([-Xs, -ones, zeros, -eye]), sp.hstack([Xs, ones, -eye, zeros])], format="csc")
+    G = sp.vstack([sp.hstack([-Xs, -ones, zeros, -eye]), sp.hstack([Xs, ones, -eye, zeros])],
+                  format="csc")
     return QuadraticProgram(
         P=sp.diags(np.concatenate([np.ones(d), np.zeros(1 + 2 * n)]), format="csc"),
         q=np.concatenate([np.zeros(d + 1), np.full(2 * n, float(C))]),
@@ -253,7 +263,8 @@ def intercept_from_residual(
     epsilon: float,
     sv_tolerance: float = SV_TOLERANCE,
 ) -> float:
-    r""":func:`intercept_from_kkt` from the residuals :math:`r = y - K\beta` (no kernel matrix needed)."""
+    r""":func:`intercept_from_kkt` from the residuals
+    :math:`r = y - K\beta` (no kernel matrix needed)."""
     state = states(beta, C, sv_tolerance, zero_tolerance(beta, C, sv_tolerance))
     upper_free, lower_free = state == FREE_POSITIVE, state == FREE_NEGATIVE
     if upper_free.any() or lower_free.any():
@@ -321,9 +332,11 @@ def polish(
         return None
     b = solution[m]
     residual = multipliers(polished, b, K @ polished, y, epsilon).residual
-    final = np.where(upper, AT_UPPER, np.where(lower, AT_LOWER, np.where(free, sign, ZERO))).astype(np.int8)
+    final = np.where(upper, AT_UPPER,
+                     np.where(lower, AT_LOWER, np.where(free, sign, ZERO))).astype(np.int8)
     slack = kkt_tolerance * (1.0 + float(np.max(np.abs(y))))
-    # the free points sit on their tube edge by construction: the sets fixed by the guess are checked
+    # the free points sit on their tube edge by
+    # construction: the sets fixed by the guess are checked
     feasible = np.all(kkt_violation(residual, final, epsilon)[~free] <= slack)
     return polished if feasible else None
 
@@ -331,7 +344,8 @@ def polish(
 def dual_objective(
     K: NDArray[np.float64], y: NDArray[np.float64], beta: NDArray[np.float64], epsilon: float
 ) -> float:
-    r"""The minimised dual objective :math:`\tfrac12\beta^\top K\beta - y^\top\beta + \varepsilon\lVert\beta\rVert_1`.
+    r"""The minimised dual objective
+    :math:`\tfrac12\beta^\top K\beta - y^\top\beta + \varepsilon\lVert\beta\rVert_1`.
 
     Equal to the QP objective of every dual form at the optimum (where
     :math:`\alpha_i\alpha_i^* = 0`), and computable from any model's :math:`\beta` — e.g.
@@ -389,6 +403,8 @@ class DualScaling(NamedTuple):
         return cls(float(np.mean(y)), a, min(float(C), a))
 
 
-def support_mask(beta: NDArray[np.float64], C: float, sv_tolerance: float = SV_TOLERANCE) -> NDArray[np.bool_]:
-    r"""Support vectors: :math:`|\beta_i| >` :func:`zero_tolerance` (``sv_tolerance``·min(C, max|β|))."""
+def support_mask(beta: NDArray[np.float64], C: float,
+                 sv_tolerance: float = SV_TOLERANCE) -> NDArray[np.bool_]:
+    r"""Support vectors: :math:`|\beta_i| >`
+    :func:`zero_tolerance` (``sv_tolerance``·min(C, max|β|))."""
     return np.abs(beta) > zero_tolerance(beta, C, sv_tolerance)

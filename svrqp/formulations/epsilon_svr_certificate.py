@@ -39,7 +39,8 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError, SolverError
 
-#: The state of a coefficient (:func:`states`): at :math:`-C`, free negative, zero, free positive, at :math:`+C`.
+#: The state of a coefficient (:func:`states`): at :math:`-C`,
+#: free negative, zero, free positive, at :math:`+C`.
 AT_LOWER, FREE_NEGATIVE, ZERO, FREE_POSITIVE, AT_UPPER = -2, -1, 0, 1, 2
 
 #: The keys of :func:`model_certificate`.
@@ -49,8 +50,10 @@ MODEL_CERTIFICATES: tuple[str, ...] = ("box_rel", "balance_rel", "kkt_rel")
 ROUNDING_ULPS = 64.0
 
 
-def states(beta: NDArray[np.float64], C: float, bound_tol: float, zero_tol: float | None = None) -> NDArray[np.int8]:
-    r"""The state of each coefficient: -2 at :math:`-C`, -1 free negative, 0 zero, 1 free positive, 2 at :math:`+C`.
+def states(beta: NDArray[np.float64], C: float, bound_tol: float,
+           zero_tol: float | None = None) -> NDArray[np.int8]:
+    r"""The state of each coefficient: -2 at :math:`-C`, -1
+    free negative, 0 zero, 1 free positive, 2 at :math:`+C`.
 
     :math:`|\beta_i| \le` ``zero_tol`` (default ``bound_tol``·C) is zero;
     :math:`|\beta_i| \ge C(1 - \text{bound\_tol})` is at its bound (``bound_tol = 0``: exactly
@@ -73,24 +76,28 @@ class Multipliers(NamedTuple):
     residual: NDArray[np.float64]  #: r = y - K beta - b
 
 
-def multipliers(beta: NDArray[np.float64], b: float, Kbeta: NDArray[np.float64], y: NDArray[np.float64],
-                epsilon: float) -> Multipliers:
-    r"""The reconstructed point and multipliers of the stacked dual at :math:`(\beta, b)` (module docstring).
+def multipliers(beta: NDArray[np.float64], b: float, Kbeta: NDArray[np.float64],
+                y: NDArray[np.float64], epsilon: float) -> Multipliers:
+    r"""The reconstructed point and multipliers of the
+    stacked dual at :math:`(\beta, b)` (module docstring).
 
     ``Kbeta`` is :math:`K\beta` on the training inputs (computed by the caller, from whatever
     kernel access it has).
     """
     r = y - Kbeta - b
-    return Multipliers(np.maximum(-beta, 0.0), np.maximum(beta, 0.0), b, np.concatenate([-epsilon - r, r - epsilon]), r)
+    return Multipliers(np.maximum(-beta, 0.0), np.maximum(beta, 0.0), b,
+                       np.concatenate([-epsilon - r, r - epsilon]), r)
 
 
-def kkt_violation(residual: NDArray[np.float64], state: NDArray[np.int8], epsilon: float) -> NDArray[np.float64]:
+def kkt_violation(residual: NDArray[np.float64], state: NDArray[np.int8],
+                  epsilon: float) -> NDArray[np.float64]:
     r"""How far each point is from its condition (module docstring), in the units of y.
 
     :math:`|r_i| - \varepsilon` for a zero, :math:`|r_i - \varepsilon s_i|` for a free coefficient
     of sign :math:`s_i`, :math:`\varepsilon - r_i` at :math:`+C` and :math:`r_i + \varepsilon` at
     :math:`-C`; a point meets its condition when its value is at most 0 (a slack for rounding is
-    the caller's). ``residual`` is :math:`r` (``Multipliers.residual``), ``state`` from :func:`states`.
+    the caller's). ``residual`` is :math:`r`
+    (``Multipliers.residual``), ``state`` from :func:`states`.
     """
     free = np.abs(residual - epsilon * np.clip(state, FREE_NEGATIVE, FREE_POSITIVE))
     return np.select([state == ZERO, state == AT_UPPER, state == AT_LOWER],
@@ -99,7 +106,8 @@ def kkt_violation(residual: NDArray[np.float64], state: NDArray[np.int8], epsilo
 
 def dual_qp_point(formulation: str, point: Multipliers
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    r"""The primal point and multipliers ``(x, y_eq, z_box)`` of a dual QP at the model of ``point``.
+    r"""The primal point and multipliers ``(x, y_eq, z_box)``
+    of a dual QP at the model of ``point``.
 
     In the variables of the QPs of :mod:`svrqp.formulations.epsilon_svr` (qpsolvers' signs):
 
@@ -115,13 +123,17 @@ def dual_qp_point(formulation: str, point: Multipliers
     alpha, alpha_star, b, z_box, r = point
     if formulation == "split":
         beta = alpha_star - alpha
-        return np.concatenate([beta, alpha, alpha_star]), np.append(r, b), np.concatenate([np.zeros_like(beta), z_box])
+        return (
+            np.concatenate([beta, alpha, alpha_star]), np.append(r, b),
+            np.concatenate([np.zeros_like(beta), z_box]),
+        )
     if formulation == "stacked":
         return np.concatenate([alpha, alpha_star]), np.array([b]), z_box
     raise ProblemError(f"formulation must be one of ('split', 'stacked'), got {formulation!r}")
 
 
-def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64], K_beta: NDArray[np.float64], b: float,
+def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
+                      K_beta: NDArray[np.float64], b: float,
                       C: float, epsilon: float, kernel_scale: float) -> dict[str, float]:
     r"""How far a returned model :math:`(\beta, b)` is from the ε-SVR optimality conditions, in the
     units of the problem (not of C).
@@ -158,7 +170,11 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64], K_beta:
     above = np.minimum(np.maximum(signed_r - epsilon, 0.0), np.maximum(C - magnitude, 0.0) * k)
     violation = np.where(beta == 0.0, inside, np.maximum(below, above))
     l1 = float(magnitude.sum())
-    rounding = ROUNDING_ULPS * np.finfo(float).eps * (float(np.max(np.abs(y), initial=0.0)) + abs(b) + k * l1)
+    rounding = (
+        ROUNDING_ULPS
+        * np.finfo(float).eps
+        * (float(np.max(np.abs(y), initial=0.0)) + abs(b) + k * l1)
+    )
     return {
         "box_rel": float(np.max(np.maximum(magnitude - C, 0.0), initial=0.0)) / C,
         "balance_rel": max(k * abs(float(beta.sum())) - rounding, 0.0) / s_y,
@@ -167,18 +183,20 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64], K_beta:
 
 
 def failed_model_certificates(certificate: dict[str, float], check_tol: float) -> list[str]:
-    """The keys of :func:`model_certificate` in ``certificate`` whose value exceeds ``check_tol`` (NaN
-    included), in the order of :data:`MODEL_CERTIFICATES`; empty when the model meets them all."""
+    """The keys of :func:`model_certificate` in ``certificate`` whose value exceeds ``check_tol``
+    (NaN included), in the order of :data:`MODEL_CERTIFICATES`;
+    empty when the model meets them all."""
     return [key for key in MODEL_CERTIFICATES if not certificate[key] <= check_tol]
 
 
-def require_model_certificate(certificate: dict[str, float], check_tol: float, backend: str) -> None:
+def require_model_certificate(certificate: dict[str, float], check_tol: float,
+                              backend: str) -> None:
     """Raise :class:`~svrqp.exceptions.SolverError` naming ``backend`` when a value of
     :func:`model_certificate` in ``certificate`` (other keys are ignored) exceeds ``check_tol``
     (NaN included)."""
     failed = failed_model_certificates(certificate, check_tol)
     if failed:
         worst = failed[0]
-        raise SolverError(f"backend {backend!r} returned a model that misses the ε-SVR optimality conditions: "
-                          f"its {worst[:-4]} certificate is {certificate[worst]:.2e} (relative) > {check_tol:.1e}",
-                          backend, "inaccurate")
+        raise SolverError(f"backend {backend!r} returned a model that misses the ε-SVR optimality "
+                          f"conditions: its {worst[:-4]} certificate is {certificate[worst]:.2e} "
+                          f"(relative) > {check_tol:.1e}", backend, "inaccurate")

@@ -1,4 +1,5 @@
-r"""The stated ε-SVR dual QP at a model :math:`(\beta, b)`, from :math:`K\beta` alone, P never formed.
+r"""The stated ε-SVR dual QP at a model :math:`(\beta, b)`,
+from :math:`K\beta` alone, P never formed.
 
 The QPs of :mod:`svrqp.formulations.epsilon_svr` touch the kernel only through :math:`Px`:
 
@@ -47,12 +48,15 @@ class KnownProduct:
 
     def __matmul__(self, other: Any) -> NDArray[np.float64]:
         if other is not self.vector and not np.array_equal(other, self.vector):
-            raise ProblemError("KnownProduct only knows its product with the vector it was built for")
+            raise ProblemError("KnownProduct only knows its product with the vector it was built "
+                               "for")
         return self.product
 
 
-def kernel_free_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float) -> QuadraticProgram:
-    """The QP of ``formulation`` with an empty kernel block: q, A, b and the box as stated, P all zero."""
+def kernel_free_qp(formulation: str, y: NDArray[np.float64], C: float,
+                   epsilon: float) -> QuadraticProgram:
+    """The QP of ``formulation`` with an empty kernel
+    block: q, A, b and the box as stated, P all zero."""
     if formulation not in ("split", "stacked"):
         raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
     n = y.size
@@ -64,18 +68,21 @@ def kernel_scale(X: NDArray[np.float64], kernel_parameters: dict[str, Any]) -> f
     """:math:`\\max_i K_{ii}` without forming K (``X`` is the Gram matrix for ``"precomputed"``)."""
     if kernel_parameters["kernel"] == "precomputed":
         return float(np.max(np.diagonal(X), initial=0.0))
-    return float(np.max(gram_diagonal(np.asarray(X, dtype=float), **kernel_parameters), initial=0.0))
+    return float(np.max(gram_diagonal(np.asarray(X, dtype=float), **kernel_parameters),
+                        initial=0.0))
 
 
 class ModelOnQP(NamedTuple):
     """A model :math:`(\\beta, b)` written on a dual QP: what :func:`model_on_qp` returns."""
 
     qp: QuadraticProgram  #: the kernel-free copy whose P answers the one product P x
-    point: tuple[NDArray[np.float64], NDArray[np.float64], None, NDArray[np.float64]]  #: (x, y_eq, z, z_box)
+    #: (x, y_eq, z, z_box)
+    point: tuple[NDArray[np.float64], NDArray[np.float64], None, NDArray[np.float64]]
     certificate: dict[str, float]  #: model_certificate of (beta, b)
 
 
-def model_on_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float, beta: NDArray[np.float64],
+def model_on_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: float,
+                beta: NDArray[np.float64],
                 b: float, Kbeta: NDArray[np.float64], scale: float) -> ModelOnQP:
     """The stated dual QP of ``formulation`` at :math:`(\\beta, b)` (module docstring).
 
@@ -84,7 +91,12 @@ def model_on_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: flo
     the residuals and objective every backend's answer gets.
     """
     x, y_eq, z_box = dual_qp_point(formulation, multipliers(beta, b, Kbeta, y, epsilon))
-    Px = np.concatenate([Kbeta, np.zeros(2 * y.size)]) if formulation == "split" else np.concatenate([-Kbeta, Kbeta])
+    Px = (
+        np.concatenate([Kbeta, np.zeros(2 * y.size)])
+        if formulation == "split"
+        else np.concatenate([-Kbeta, Kbeta])
+    )
     view = copy.copy(kernel_free_qp(formulation, y, C, epsilon))
     view.P = KnownProduct(x, Px)
-    return ModelOnQP(view, (x, y_eq, None, z_box), model_certificate(y, beta, Kbeta, b, C, epsilon, scale))
+    return ModelOnQP(view, (x, y_eq, None, z_box),
+                     model_certificate(y, beta, Kbeta, b, C, epsilon, scale))

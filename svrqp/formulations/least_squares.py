@@ -112,8 +112,8 @@ class LinearFit:
     """A multiple linear regression :math:`y = a_0 + \\sum_j a_j x_j` (S0 eq. (5)).
 
     ``x_centre`` and ``centre_value`` (:math:`\\bar x` and :math:`\\bar y`; ``None`` and 0
-    without an intercept) give the same line as :math:`f(x) = \\bar y + (x - \\bar x)^\\top a`, the form
-    :meth:`predict` evaluates: with inputs offset far from zero (epoch seconds, 1.7e9) the raw
+    without an intercept) give the same line as :math:`f(x) = \\bar y + (x - \\bar x)^\\top a`, the
+    form :meth:`predict` evaluates: with inputs offset far from zero (epoch seconds, 1.7e9) the raw
     form :math:`a_0 + x^\\top a` adds two numbers near :math:`10^{15}` and loses the answer.
     """
 
@@ -258,7 +258,8 @@ def solve_normal_equations(
     condition_number = float((singular_values[0] / singular_values[-1]) ** 2)
     if rank_deficient == "lstsq" and condition_number * np.finfo(float).eps > 1e-2:
         # Full rank by the singular values, but too close to collinear for the normal equations,
-        # whose condition number is the square of the design's: Cholesky would fail or keep no digit.
+        # whose condition number is the square of the
+        # design's: Cholesky would fail or keep no digit.
         return _minimum_norm(X, y, rank, condition_number)
     if condition_number > CONDITION_WARNING:
         warnings.warn(
@@ -279,8 +280,8 @@ def solve_normal_equations(
 
 def _minimum_norm(X: np.ndarray, y: np.ndarray, rank: int,
                   condition_number: float = np.inf) -> NormalEquationsSolution:
-    """The minimum-norm least-squares answer by an SVD of ``X`` itself (``scipy.linalg.lstsq``), never
-    through the normal equations; minimum norm of ``a`` itself, so on the unscaled columns."""
+    """The minimum-norm least-squares answer by an SVD of ``X`` itself (``scipy.linalg.lstsq``),
+    never through the normal equations; minimum norm of ``a`` itself, so on the unscaled columns."""
     a = scipy.linalg.lstsq(X, y)[0]
     return NormalEquationsSolution(coef=a, rank=rank, condition_number=condition_number)
 

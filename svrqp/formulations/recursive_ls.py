@@ -69,17 +69,17 @@ factorisation
 
 .. math::
 
-    \begin{bmatrix} x_k^\top \\ \sqrt\lambda\, R_{k-1} \end{bmatrix} = Q_k \begin{bmatrix} R_k \\ 0 \end{bmatrix},
-    \qquad
-    \begin{bmatrix} z_k \\ \cdot \end{bmatrix} = Q_k^\top \begin{bmatrix} y_k \\ \sqrt\lambda\, R_{k-1} a_{k-1} \end{bmatrix},
-    \qquad a_k = R_k^{-1} z_k ,
+    \begin{bmatrix} x_k^\top \\ \sqrt\lambda\, R_{k-1} \end{bmatrix} = Q_k \begin{bmatrix} R_k \\ 0
+    \end{bmatrix}, \qquad
+    \begin{bmatrix} z_k \\ \cdot \end{bmatrix} = Q_k^\top \begin{bmatrix} y_k \\ \sqrt\lambda\,
+    R_{k-1} a_{k-1} \end{bmatrix}, \qquad a_k = R_k^{-1} z_k ,
 
 which gives the same :math:`a_k` as eqs. (13)–(17) (it is the exponentially weighted least-squares
 problem above, solved by orthogonal transformations) without dividing by :math:`\lambda`: the
 covariance form's :math:`P_k / \lambda` grows by :math:`1/\lambda` per step and lost every digit
 for :math:`\lambda = 10^{-8}`, and failed outright for :math:`10^{-30}` (issue #39). The accuracy is
-about :math:`\kappa(R)\,\epsilon` rather than :math:`\kappa(P^{-1})\,\epsilon`. A forgetting factor so
-small that the samples which keep a non-zero weight no longer determine every coefficient raises
+about :math:`\kappa(R)\,\epsilon` rather than :math:`\kappa(P^{-1})\,\epsilon`. A forgetting factor
+so small that the samples which keep a non-zero weight no longer determine every coefficient raises
 :class:`~svrqp.exceptions.SingularSystemError` naming the factor.
 """
 
@@ -135,7 +135,8 @@ class RecursiveLSState:
 
     @property
     def P(self) -> np.ndarray:
-        """:math:`P_k = (R_k^\top R_k)^{-1}`, the inverse of the discounted information matrix (eq. 8)."""
+        """:math:`P_k = (R_k^\top R_k)^{-1}`, the inverse
+        of the discounted information matrix (eq. 8)."""
         R_inv = scipy.linalg.solve_triangular(self.R, np.eye(self.R.shape[0]))
         return R_inv @ R_inv.T
 
@@ -224,11 +225,12 @@ def batch_state(
     if y.shape[0] != m:
         raise ProblemError(f"X has {m} rows but y has {y.shape[0]} values")
     if m < X.shape[1]:
-        raise ProblemError(f"fewer samples than parameters: {m} sample(s) for {X.shape[1]} parameters, the "
-                           "least-squares problem is underdetermined")
+        raise ProblemError(f"fewer samples than parameters: {m} sample(s) for {X.shape[1]} "
+                           "parameters, the least-squares problem is underdetermined")
     weights = forgetting ** np.arange(m - 1, -1, -1, dtype=float)
     root = np.sqrt(weights)
-    if forgetting == 1.0:  # the exact normal equations name the dependent columns of a singular design
+    # the exact normal equations name the dependent columns of a singular design
+    if forgetting == 1.0:
         solve_normal_equations(X, y, column_names=column_names)
     R, z = _weighted_factor(X, y, root, forgetting, column_names)
     a = scipy.linalg.solve_triangular(R, z)
@@ -251,7 +253,8 @@ def _weighted_factor(X: np.ndarray, y: np.ndarray, root: np.ndarray, forgetting:
     r"""Upper-triangular :math:`R` with :math:`R^\top R = \sum_i \lambda^{m-i} x_i x_i^\top` and
     :math:`z = Q^\top y_w`, so that :math:`a = R^{-1} z`: a QR factorisation of the weighted rows,
     newest (heaviest) first, with equilibrated columns. Raises :class:`SingularSystemError` when the
-    weighted rows are rank deficient (a forgetting factor so small that too few rows keep a weight)."""
+    weighted rows are rank deficient (a forgetting
+    factor so small that too few rows keep a weight)."""
     weighted = (X * root[:, None])[::-1]
     norms = np.linalg.norm(weighted, axis=0)
     scale = 1.0 / np.where(norms > 0, norms, 1.0)
@@ -261,9 +264,10 @@ def _weighted_factor(X: np.ndarray, y: np.ndarray, root: np.ndarray, forgetting:
     if singular.size < p or not singular[-1] > max(X.shape) * np.finfo(float).eps * singular[0]:
         names = column_names if column_names is not None else [f"x{j}" for j in range(p)]
         raise SingularSystemError(
-            f"the regressors {names} weighted by the forgetting factor {forgetting:g} (sample i of {len(X)} "
-            f"weighted {forgetting:g}^(m-i)) are rank deficient: the samples that keep a weight do not "
-            "determine every coefficient; use a larger forgetting factor or more varied samples")
+            f"the regressors {names} weighted by the forgetting factor {forgetting:g} (sample i of "
+            f"{len(X)} weighted {forgetting:g}^(m-i)) are rank deficient: the samples that keep a "
+            "weight do not determine every coefficient; use a larger forgetting factor or more "
+            "varied samples")
     return R_scaled / scale[None, :], Q.T @ (y * root)[::-1]
 
 

@@ -39,8 +39,8 @@ class KernelColumns:
     columns already computed are taken from the cache.
     """
 
-    def __init__(self, X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0, degree: int = 3,
-                 coef0: float = 0.0) -> None:
+    def __init__(self, X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0,
+                 degree: int = 3, coef0: float = 0.0) -> None:
         self.X = np.asarray(X, dtype=float)
         if self.X.ndim != 2:
             raise ProblemError(f"X must be 2-D, got shape {self.X.shape}")
@@ -48,7 +48,8 @@ class KernelColumns:
         self.parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
         self._points = centred(kernel, self.X)[0]  # as in gram(): RBF values from centred inputs
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            self._left = left_factor(self._points, kernel, gamma, coef0)  # shared by every column block
+            # shared by every column block
+            self._left = left_factor(self._points, kernel, gamma, coef0)
         # The cache: column j of K is _store[:, _slot[j]]. One Fortran array (capacity doubled as it
         # fills) so that serving many cached columns is one gather, not a stack of small arrays.
         self._slot: dict[int, int] = {}
@@ -65,14 +66,16 @@ class KernelColumns:
         return gram_diagonal(self.X, **self.parameters)
 
     def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
-        """:math:`K_{:, idx}`, shape ``(n, len(idx))``; columns not yet cached are computed in one block."""
+        """:math:`K_{:, idx}`, shape ``(n, len(idx))``;
+        columns not yet cached are computed in one block."""
         idx = np.asarray(idx, dtype=np.intp).ravel()
         missing = [j for j in dict.fromkeys(idx.tolist()) if j not in self._slot]
         if missing:
             block = self.uncached(np.array(missing, dtype=np.intp))
             used = len(self._slot)
             if used + len(missing) > self._store.shape[1]:
-                grown = np.empty((self.n, max(2 * self._store.shape[1], used + len(missing))), order="F")
+                grown = np.empty((self.n, max(2 * self._store.shape[1], used + len(missing))),
+                                 order="F")
                 grown[:, :used] = self._store[:, :used]
                 self._store = grown
             self._store[:, used:used + len(missing)] = block
@@ -81,10 +84,12 @@ class KernelColumns:
         return self._store[:, [self._slot[j] for j in idx.tolist()]]
 
     def uncached(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
-        """:math:`K_{:, idx}` computed afresh and not stored (for a caller that reads each column once)."""
+        """:math:`K_{:, idx}` computed afresh and not stored
+        (for a caller that reads each column once)."""
         kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            block = self._left @ right_factor(self._points[np.asarray(idx, dtype=np.intp).ravel()], kernel, gamma).T
+            block = self._left @ right_factor(self._points[np.asarray(idx, dtype=np.intp).ravel()],
+                                              kernel, gamma).T
         finish_in_place(block, kernel, self.parameters["degree"])
         return block
 
@@ -106,7 +111,8 @@ class KernelColumns:
         idx, inverse = np.unique(np.asarray(idx, dtype=np.intp).ravel(), return_inverse=True)
         if idx.size == 0:
             return np.zeros(self.n)
-        v = np.bincount(inverse.ravel(), weights=np.asarray(v, dtype=float).ravel(), minlength=idx.size)
+        v = np.bincount(inverse.ravel(), weights=np.asarray(v, dtype=float).ravel(),
+                        minlength=idx.size)
         kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
         with np.errstate(over="ignore", invalid="ignore"):  # checked on the result below
             right = np.ascontiguousarray(right_factor(self._points[idx], kernel, gamma).T)
@@ -119,15 +125,19 @@ class KernelColumns:
         return result
 
     def _finish(self, block: NDArray[np.float64]) -> None:
-        finish_in_place(block, self.parameters["kernel"], self.parameters["degree"], in_product=True)
+        finish_in_place(block, self.parameters["kernel"], self.parameters["degree"],
+                        in_product=True)
 
     def _rows_times(self, left: NDArray[np.float64], right: NDArray[np.float64],
                     v: NDArray[np.float64]) -> NDArray[np.float64]:
-        r""":math:`k(\text{rows}, idx)\,v` for the rows whose left factor is ``left``, in row blocks."""
+        r""":math:`k(\text{rows}, idx)\,v` for the rows
+        whose left factor is ``left``, in row blocks."""
         rows = max(1, PRODUCT_BLOCK_ENTRIES // max(right.shape[1], 1))
-        buffer, result = np.empty(min(rows, left.shape[0]) * right.shape[1]), np.empty(left.shape[0])
+        buffer, result = np.empty(min(rows,
+                                      left.shape[0]) * right.shape[1]), np.empty(left.shape[0])
         for start in range(0, left.shape[0], rows):
-            block = buffer[:min(rows, left.shape[0] - start) * right.shape[1]].reshape(-1, right.shape[1])
+            block = buffer[:min(rows,
+                                left.shape[0] - start) * right.shape[1]].reshape(-1, right.shape[1])
             np.matmul(left[start:start + block.shape[0]], right, out=block)
             self._finish(block)
             np.matmul(block, v, out=result[start:start + block.shape[0]])
@@ -135,7 +145,8 @@ class KernelColumns:
 
     def _symmetric_times(self, left: NDArray[np.float64], right: NDArray[np.float64],
                          v: NDArray[np.float64]) -> NDArray[np.float64]:
-        r""":math:`K_{idx, idx}\,v` from the tiles on and above the diagonal only (see :meth:`products`)."""
+        r""":math:`K_{idx, idx}\,v` from the tiles on and
+        above the diagonal only (see :meth:`products`)."""
         m = left.shape[0]
         side = max(1, math.isqrt(PRODUCT_BLOCK_ENTRIES))
         buffer, result = np.empty(min(side, m) ** 2), np.zeros(m)
@@ -143,7 +154,9 @@ class KernelColumns:
             rows = slice(a, min(a + side, m))
             for b in range(a, m, side):
                 columns = slice(b, min(b + side, m))
-                tile = buffer[:(rows.stop - a) * (columns.stop - b)].reshape(rows.stop - a, columns.stop - b)
+                tile = buffer[: (rows.stop - a) * (columns.stop - b)].reshape(
+                    rows.stop - a, columns.stop - b
+                )
                 np.matmul(left[rows], right[:, columns], out=tile)
                 self._finish(tile)
                 result[rows] += tile @ v[columns]

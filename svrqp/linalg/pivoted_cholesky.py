@@ -1,8 +1,9 @@
 r"""Greedy pivoted Cholesky of a Gram matrix: :math:`K \approx LL^\top` with a rigorous trace bound.
 
 **Factor.** Greedy pivoted Cholesky (the Nyström approximation on adaptively chosen landmarks,
-Harbrecht, Peters & Schneider 2012): with residual diagonal :math:`d = \operatorname{diag}(K - LL^\top)`,
-step :math:`k` picks :math:`i_k = \arg\max_i d_i` and appends the column
+Harbrecht, Peters & Schneider 2012): with residual diagonal
+:math:`d = \operatorname{diag}(K - LL^\top)`, step :math:`k`
+picks :math:`i_k = \arg\max_i d_i` and appends the column
 
 .. math::
 
@@ -66,16 +67,17 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
     max_rank
         Largest number of columns of L.
     tol
-        Stop when :math:`\\operatorname{tr}(K - LL^\\top) \\le` ``tol`` · :math:`\\operatorname{tr} K`.
+        Stop when :math:`\\operatorname{tr}(K - LL^\\top) \\le`
+        ``tol`` · :math:`\\operatorname{tr} K`.
     give_up
         Also stop as soon as the decay of the residual trace shows that ``tol`` is out of reach
         within ``max_rank`` (see :data:`GIVE_UP_MARGIN`): for a caller that only wants a factor
-        if it is good, such as :func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data`. The factor returned
-        then misses ``tol`` (its ``relative_trace_error`` says by how much).
+        if it is good, such as :func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data`. The
+        factor returned then misses ``tol`` (its ``relative_trace_error`` says by how much).
     cache
         Keep the pivot columns in ``columns``' cache, for a caller that reads them again (the
-        crossover of :func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data`); without, each column is
-        computed and dropped (writing an n×rank cache costs 10–25 % of the factorisation's
+        crossover of :func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data`); without, each
+        column is computed and dropped (writing an n×rank cache costs 10–25 % of the factorisation's
         time at n = 30000, measured).
     """
     n = columns.n
@@ -95,13 +97,16 @@ def pivoted_cholesky(columns: KernelColumns, *, max_rank: int, tol: float = 1e-8
             break
         if k >= GIVE_UP_FIRST_CHECK // 2 and k & (k - 1) == 0:  # a power of two
             remaining_at[k] = remaining
-            if give_up and k >= GIVE_UP_FIRST_CHECK and _out_of_reach(remaining_at[k // 2], remaining, k,
+            if give_up and k >= GIVE_UP_FIRST_CHECK and _out_of_reach(remaining_at[k // 2],
+                                                                      remaining, k,
                                                                      tol * trace, max_rank):
                 break
         pivot = int(np.argmax(residual))
         if residual[pivot] <= 0.0:
             break  # the remaining residual is rounding noise
-        column = (columns if cache else columns.uncached)(np.array([pivot]))[:, 0] - L[:, :k] @ L[pivot, :k]
+        column = (columns if cache else columns.uncached)(np.array([pivot]))[:, 0] - L[:, :k] @ L[
+            pivot, :k
+        ]
         L[:, k] = column / np.sqrt(residual[pivot])
         residual -= L[:, k] ** 2
         residual[pivot] = 0.0

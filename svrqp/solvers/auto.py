@@ -1,19 +1,21 @@
-r"""``EpsilonSVR(solver="auto")``: the fastest exact path for the problem, certified on the stated QP.
+r"""``EpsilonSVR(solver="auto")``: the fastest exact
+path for the problem, certified on the stated QP.
 
 **The rule** (measured; see ``docs/solvers.md`` and ``benchmarks/results/epsilon_svr_vs_libsvm*``):
 
-1. ``"smo_crossover"`` (:mod:`svrqp.solvers.warm_start`): libsvm's SMO at a loose tolerance, then the
-   exact active-set crossover. First for every kernel and size: a loose SMO run costs a fraction
+1. ``"smo_crossover"`` (:mod:`svrqp.solvers.warm_start`): libsvm's SMO at a loose tolerance, then
+   the exact active-set crossover. First for every kernel and size: a loose SMO run costs a fraction
    of a tight one, and the crossover needs only the kernel columns of the support vectors.
 2. ``"dual_ipm"`` (:func:`svrqp.solvers.dual_ipm.exact.solve_exact_from_data`, or
-   :func:`~svrqp.solvers.dual_ipm.exact.solve_exact` on a precomputed kernel): the interior point on the
-   reduced n×n system (or a low-rank factor) and the same crossover, when the first path does not
-   reach the exact optimum (the crossover did not settle, or its certificate misses ``check_tol``).
+   :func:`~svrqp.solvers.dual_ipm.exact.solve_exact` on a precomputed kernel): the interior point on
+   the reduced n×n system (or a low-rank factor) and the same crossover, when the first path does
+   not reach the exact optimum (the crossover did not
+   settle, or its certificate misses ``check_tol``).
 
-Each answer is certified on the QP of ``formulation`` (:mod:`svrqp.formulations.epsilon_svr_residuals`): the
-relative primal residual, dual residual and duality gap must be at most ``check_tol``. When no
-path certifies, :class:`SolverError` names every path tried and why it was rejected — never an
-uncertified answer.
+Each answer is certified on the QP of ``formulation``
+(:mod:`svrqp.formulations.epsilon_svr_residuals`): the relative primal residual, dual residual and
+duality gap must be at most ``check_tol``. When no path certifies, :class:`SolverError` names every
+path tried and why it was rejected — never an uncertified answer.
 """
 
 from __future__ import annotations
@@ -55,7 +57,8 @@ def _dual_ipm(X, y, C, epsilon, kernel_parameters, tol):
     if kernel_parameters["kernel"] == "precomputed":
         fit = dual_ipm.solve_exact(X, y, C, epsilon, tol=tol)
     else:
-        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, kernel_parameters, settings=ExactSettings(tol=tol))
+        fit = dual_ipm.solve_exact_from_data(X, y, C, epsilon, kernel_parameters,
+                                             settings=ExactSettings(tol=tol))
     support = np.flatnonzero(fit.beta)
     Kbeta = _kernel_times(X, kernel_parameters, support, fit.beta[support])
     settings = {"ipm_iterations": fit.ipm.iterations, "ipm_converged": fit.ipm.converged,
@@ -75,8 +78,8 @@ def _kernel_times(X: NDArray[np.float64], kernel_parameters: dict[str, Any], idx
     return gram(X, X[idx], **kernel_parameters) @ coefficients
 
 
-def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
-               kernel_parameters: dict[str, Any],
+def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
+               *, kernel_parameters: dict[str, Any],
                settings: DualSettings | None = None) -> DualFit:
     """Run one exact path and certify its answer.
 
@@ -111,10 +114,12 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     start = time.perf_counter()
     beta, b, Kbeta, path_settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
     solve_time = time.perf_counter() - start
-    on_qp = model_on_qp(settings.formulation, y, C, epsilon, beta, b, Kbeta, kernel_scale(X, kernel_parameters))
+    on_qp = model_on_qp(settings.formulation, y, C, epsilon, beta, b, Kbeta,
+                        kernel_scale(X, kernel_parameters))
     record = SolverRecord(path, f"svrqp {__version__}",
                           {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s},
-                          build_time=time.perf_counter() - start - solve_time, solve_time=solve_time)
+                          build_time=time.perf_counter() - start - solve_time,
+                          solve_time=solve_time)
     solution = Solution.of_qp(on_qp.qp, on_qp.point, record, extra_residuals=on_qp.certificate)
     require_certificates(solution, on_qp.qp, check_tol)
     require_model_certificate(solution.residuals, check_tol, path)
@@ -126,8 +131,8 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
                settings: DualSettings | None = None) -> DualFit:
     """Try the paths of :data:`AUTO_ORDER` until one certifies (arguments as :func:`solve_path`).
 
-    ``fit.solution.backend`` names the path that certified; ``fit.solution.settings["rejected"]`` lists
-    the paths tried before it and why they were rejected.
+    ``fit.solution.backend`` names the path that certified; ``fit.solution.settings["rejected"]``
+    lists the paths tried before it and why they were rejected.
 
     Raises
     ------
@@ -137,7 +142,8 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     rejected: list[str] = []
     for path in AUTO_ORDER:
         try:
-            fit = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters, settings=settings)
+            fit = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters,
+                             settings=settings)
         except (SvrqpError, np.linalg.LinAlgError) as error:
             rejected.append(f"{path}: {error}")
             continue

@@ -60,20 +60,23 @@ class DualProblem:
 @dataclass(frozen=True)
 class DualSettings:
     """How a dual is solved and certified (:func:`solve_dual`,
-    :func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm`, :func:`svrqp.solvers.auto.solve_auto`)."""
+    :func:`svrqp.solvers.dual_ipm.certified.solve_dual_ipm`,
+    :func:`svrqp.solvers.auto.solve_auto`)."""
 
     formulation: str = "split"  #: the QP statement solved and certified on ("split" or "stacked")
     tol: float = 1e-8  #: requested accuracy
-    check_tol: float | None = None  #: largest relative certificate accepted (None: 100·tol, see check_limit)
+    #: largest relative certificate accepted (None: 100·tol, see check_limit)
+    check_tol: float | None = None
 
 
-def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float, record: SolverRecord,
-                        check_tol: float) -> Solution:
+def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float,
+                        record: SolverRecord, check_tol: float) -> Solution:
     """The :class:`~svrqp.solution.Solution` of ``dual.qp`` at the returned model, its QP residuals
     and its :func:`~svrqp.formulations.epsilon_svr_certificate.model_certificate` checked;
     ``record`` gives the backend, its settings, times and iterations."""
     Kbeta = dual.K @ beta
-    x, y_eq, z_box = dual_qp_point(dual.formulation, multipliers(beta, b, Kbeta, dual.y, dual.epsilon))
+    x, y_eq, z_box = dual_qp_point(dual.formulation,
+                                   multipliers(beta, b, Kbeta, dual.y, dual.epsilon))
     certificate = model_certificate(dual.y, beta, Kbeta, b, dual.C, dual.epsilon,
                                     float(np.max(np.diagonal(dual.K), initial=0.0)))
     solution = Solution.of_qp(dual.qp, (x, y_eq, None, z_box), record, extra_residuals=certificate)
@@ -83,28 +86,34 @@ def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float, 
 
 
 class DualFit(NamedTuple):
-    """What every certified dual fit returns (:func:`solve_dual`, ``solve_dual_ipm``, the ``auto`` paths)."""
+    """What every certified dual fit returns (:func:`solve_dual`,
+    ``solve_dual_ipm``, the ``auto`` paths)."""
 
-    beta: NDArray[np.float64]  #: all n coefficients, alpha* - alpha (as returned: see returned_coefficients)
+    #: all n coefficients, alpha* - alpha (as returned: see returned_coefficients)
+    beta: NDArray[np.float64]
     intercept: float  #: the bias b from the KKT conditions
-    problem: QuadraticProgram | None  #: the QP that was solved, in the units of the data (None: never formed)
+    #: the QP that was solved, in the units of the data (None: never formed)
+    problem: QuadraticProgram | None
     solution: Solution  #: its certificate-checked solution, at the returned (beta, b)
     polished: bool  #: whether polish() or the crossover replaced the solver's coefficients
 
 
-def certified_dual_fit(dual: DualProblem, beta: NDArray[np.float64], record: SolverRecord, check_tol: float,
-                       polished: bool) -> DualFit:
+def certified_dual_fit(dual: DualProblem, beta: NDArray[np.float64], record: SolverRecord,
+                       check_tol: float, polished: bool) -> DualFit:
     r"""Round β to the coefficients a model keeps
     (:func:`~svrqp.formulations.epsilon_svr.returned_coefficients`), read b off the KKT
     conditions and certify both on ``dual.qp`` (:func:`_certified_solution`)."""
     beta = returned_coefficients(beta, dual.C, exact=polished)
     b = intercept_from_kkt(dual.K, dual.y, beta, dual.C, dual.epsilon)
-    return DualFit(beta, b, dual.qp, _certified_solution(dual, beta, b, record, check_tol), polished)
+    return DualFit(beta, b, dual.qp, _certified_solution(dual, beta, b, record, check_tol),
+                   polished)
 
 
-def solve_dual(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, backend: str = "clarabel",
-               settings: DualSettings = DualSettings(), *, initvals: NDArray[np.float64] | None = None) -> DualFit:
-    r"""Build a dual QP, solve it in well-scaled units, polish it, and read off :math:`\beta` and ``b``.
+def solve_dual(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
+               backend: str = "clarabel", settings: DualSettings = DualSettings(), *,
+               initvals: NDArray[np.float64] | None = None) -> DualFit:
+    r"""Build a dual QP, solve it in well-scaled units,
+    polish it, and read off :math:`\beta` and ``b``.
 
     The one sequence every dual fit goes through (the estimators and the tuning loops). The
     backend solves the QP of :class:`DualScaling` (its settings record the scaling under
@@ -120,18 +129,20 @@ def solve_dual(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     check_tol = check_limit(tol, settings.check_tol)
     dual = DualProblem.of(formulation, K, y, C, epsilon)
     m, a, u = scaling = DualScaling.of(y, dual.C)
-    K_scaled, y_scaled, C_scaled, epsilon_scaled = ((K if u == a else (u / a) * K), (y - m) / a, dual.C / u,
-                                                    dual.epsilon / a)
+    K_scaled, y_scaled, C_scaled, epsilon_scaled = ((K if u == a else (u / a) * K), (y - m) / a,
+                                                    dual.C / u, dual.epsilon / a)
     scaled = build(formulation, y_scaled, C_scaled, epsilon_scaled, K=K_scaled)
     record = qp_backends.solve_qp(scaled, backend, tol=tol, check_tol=check_tol,
-                                  initvals=None if initvals is None else np.asarray(initvals, dtype=float) / u)
+                                  initvals=None if initvals is None
+                                  else np.asarray(initvals, dtype=float) / u)
     record.settings["scaling"] = scaling._asdict()
     beta_scaled = beta_from_solution(formulation, y.shape[0], record.x)
     polished = polish(K_scaled, y_scaled, beta_scaled, C_scaled, epsilon_scaled)
     if polished is None:
         # The exact crossover of svrqp.solvers.dual_ipm: polish guesses the active sets once, the
         # crossover corrects them (coefficients a few 1e-6·C inside a bound, for instance).
-        exact = crossover(lambda idx: K_scaled[:, idx], y_scaled, C_scaled, epsilon_scaled, beta_scaled)
+        exact = crossover(lambda idx: K_scaled[:, idx], y_scaled, C_scaled, epsilon_scaled,
+                          beta_scaled)
         polished = exact.beta if exact.exact else None
     beta = u * (beta_scaled if polished is None else polished)
     return certified_dual_fit(dual, beta, record.record, check_tol, polished is not None)

@@ -23,7 +23,10 @@ def solve_linear_system(system: LinearSystem, *, check_tol: float = 1e-9) -> Sol
     solve_time = time.perf_counter() - start
     residuals = system.residual(x)
     if residuals["residual_rel"] > check_tol:
-        raise SolverError(f"LU residual {residuals['residual_rel']:.2e} > {check_tol:.1e} on {system.name!r}",
-                          "lu", "inaccurate")
-    return Solution.of_linear_system(x, residuals, SolverRecord("lu", f"scipy {version('scipy')}",
-                                                                {"check_tol": check_tol}, solve_time=solve_time))
+        raise SolverError(f"LU residual {residuals['residual_rel']:.2e} > {check_tol:.1e} on "
+                          f"{system.name!r}", "lu", "inaccurate")
+    return Solution.of_linear_system(
+        x, residuals, SolverRecord(
+            "lu", f"scipy {version('scipy')}", {"check_tol": check_tol}, solve_time=solve_time
+        ),
+    )

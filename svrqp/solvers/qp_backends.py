@@ -1,4 +1,5 @@
-"""Quadratic programs through every installed backend: ``solve_qp(problem, backend=...) -> Solution``.
+"""Quadratic programs through every installed backend:
+``solve_qp(problem, backend=...) -> Solution``.
 
 A QP goes to any installed `qpsolvers <https://qpsolvers.github.io>`_ backend or to cvxpy (the
 same QP stated in cvxpy's modelling language). Every backend has one adapter entry in
@@ -81,20 +82,21 @@ BACKENDS: dict[str, Backend] = {
     for backend in (
         Backend(
             "clarabel", "clarabel", None, True,
-            lambda tol: {"tol_gap_abs": tol, "tol_gap_rel": tol, "tol_feas": tol, "tol_ktratio": 1e-2 * tol,
-                         "time_limit": TIME_LIMIT_S},
-            frozenset({"max_iter", "time_limit", "tol_gap_abs", "tol_gap_rel", "tol_feas", "tol_ktratio",
-                       "equilibrate_enable", "presolve_enable", "direct_solve_method",
-                       "static_regularization_enable", "iterative_refinement_enable"}),
+            lambda tol: {"tol_gap_abs": tol, "tol_gap_rel": tol, "tol_feas": tol,
+                         "tol_ktratio": 1e-2 * tol, "time_limit": TIME_LIMIT_S},
+            frozenset({"max_iter", "time_limit", "tol_gap_abs", "tol_gap_rel", "tol_feas",
+                       "tol_ktratio", "equilibrate_enable", "presolve_enable",
+                       "direct_solve_method", "static_regularization_enable",
+                       "iterative_refinement_enable"}),
         ),
         Backend(
             "osqp", "osqp", None, True,
             # ADMM reaches 1e-8 only with polishing and many iterations (measured on the primal).
-            lambda tol: {"eps_abs": tol, "eps_rel": tol, "polishing": True, "max_iter": ITERATION_LIMIT,
-                         "time_limit": TIME_LIMIT_S},
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "polishing": True,
+                         "max_iter": ITERATION_LIMIT, "time_limit": TIME_LIMIT_S},
             frozenset({"max_iter", "eps_abs", "eps_rel", "polishing", "rho", "sigma", "alpha",
-                       "adaptive_rho", "scaling", "time_limit", "check_termination", "warm_starting",
-                       "eps_prim_inf", "eps_dual_inf", "polish_refine_iter"}),
+                       "adaptive_rho", "scaling", "time_limit", "check_termination",
+                       "warm_starting", "eps_prim_inf", "eps_dual_inf", "polish_refine_iter"}),
         ),
         Backend(
             "piqp", "piqp", "solvers", False,
@@ -105,8 +107,9 @@ BACKENDS: dict[str, Backend] = {
         Backend(
             "proxqp", "proxsuite", "solvers", False,
             lambda tol: {"eps_abs": tol, "eps_rel": 0.0, "max_iter": ITERATION_LIMIT},
-            frozenset({"eps_abs", "eps_rel", "max_iter", "rho", "mu_eq", "mu_in", "check_duality_gap",
-                       "eps_duality_gap_abs", "eps_duality_gap_rel", "backend"}),
+            frozenset({"eps_abs", "eps_rel", "max_iter", "rho", "mu_eq", "mu_in",
+                       "check_duality_gap", "eps_duality_gap_abs", "eps_duality_gap_rel",
+                       "backend"}),
         ),
         Backend(
             "highs", "highspy", "solvers", True,
@@ -121,7 +124,8 @@ BACKENDS: dict[str, Backend] = {
             "daqp", "daqp", "solvers", False,
             # eps_prox > 0 turns on DAQP's proximal-point outer loop, which solves semidefinite
             # QPs exactly (the SVR duals' P is singular by construction).
-            lambda tol: {"primal_tol": tol, "dual_tol": tol, "eps_prox": 1e-6, "iter_limit": ITERATION_LIMIT},
+            lambda tol: {"primal_tol": tol, "dual_tol": tol, "eps_prox": 1e-6,
+                         "iter_limit": ITERATION_LIMIT},
             frozenset({"primal_tol", "dual_tol", "zero_tol", "iter_limit", "eps_prox", "eta_prox",
                        "prox_iter_limit", "progress_tol", "cycle_tol", "pivot_tol", "rho_soft"}),
         ),
@@ -133,7 +137,8 @@ BACKENDS: dict[str, Backend] = {
         ),
         Backend(
             "scs", "scs", "solvers", True,
-            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iters": 1_000_000, "time_limit_secs": TIME_LIMIT_S},
+            lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iters": 1_000_000,
+                         "time_limit_secs": TIME_LIMIT_S},
             frozenset({"eps_abs", "eps_rel", "eps_infeas", "max_iters", "time_limit_secs",
                        "acceleration_lookback", "normalize", "scale", "adaptive_scale"}),
         ),
@@ -145,8 +150,8 @@ BACKENDS: dict[str, Backend] = {
         Backend(
             "qpalm", "qpalm", "solvers", True,
             lambda tol: {"eps_abs": tol, "eps_rel": tol, "max_iter": ITERATION_LIMIT},
-            frozenset({"eps_abs", "eps_rel", "eps_abs_in", "eps_rel_in", "max_iter", "rho", "sigma_max",
-                       "scaling", "proximal", "gamma_init", "gamma_max"}),
+            frozenset({"eps_abs", "eps_rel", "eps_abs_in", "eps_rel_in", "max_iter", "rho",
+                       "sigma_max", "scaling", "proximal", "gamma_init", "gamma_max"}),
         ),
         Backend(
             "cvxpy", "cvxpy", None, True,
@@ -263,7 +268,8 @@ def _swallow_highs_banner() -> None:
 Outcome = tuple[Point, str, SolverRecord]
 
 
-def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict[str, Any], initvals) -> Outcome:
+def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict[str, Any],
+                     initvals) -> Outcome:
     import qpsolvers
 
     if backend.name == "highs":
@@ -284,15 +290,16 @@ def _solve_qpsolvers(problem: QuadraticProgram, backend: Backend, settings: dict
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # backends warn on failure; the status below says it
         try:
-            result = qpsolvers.solve_problem(qp, solver=backend.name, initvals=initvals, **solver_settings)
+            result = qpsolvers.solve_problem(qp, solver=backend.name, initvals=initvals,
+                                             **solver_settings)
         except Exception as err:  # a backend crash becomes a SolverError naming it
             raise SolverError(f"backend {backend.name!r} raised {type(err).__name__}: {err}",
                               backend.name, "failed") from err
     solve_time = time.perf_counter() - start
     extras = result.extras or {}
     status = "optimal" if result.found else _status_from_text(str(extras.get("status", "")))
-    record = SolverRecord(backend.name, backend_version(backend.name), settings, build_time, solve_time,
-                          _iterations(extras))
+    record = SolverRecord(backend.name, backend_version(backend.name), settings, build_time,
+                          solve_time, _iterations(extras))
     return (result.x, result.y, result.z, result.z_box), status, record
 
 
@@ -332,7 +339,8 @@ def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals) 
     if model.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or x.value is None:
         record = SolverRecord("cvxpy", backend_version("cvxpy"), settings, build_time, solve_time)
         return (None, None, None, None), _status_from_text(model.status), record
-    duals = {name: np.atleast_1d(np.asarray(c.dual_value, dtype=float)) for name, c in zip(names, constraints)}
+    duals = {name: np.atleast_1d(np.asarray(c.dual_value, dtype=float))
+             for name, c in zip(names, constraints, strict=False)}
     z_box = None
     if "lb" in duals or "ub" in duals:
         z_box = np.zeros(problem.n)
@@ -341,9 +349,10 @@ def _solve_cvxpy(problem: QuadraticProgram, settings: dict[str, Any], initvals) 
         if "ub" in duals:
             z_box[finite_ub] += duals["ub"]
     iterations = model.solver_stats.num_iters if model.solver_stats else None
-    record = SolverRecord("cvxpy", backend_version("cvxpy"), {**settings, "solver": solver}, build_time, solve_time,
-                          iterations)
-    return (np.asarray(x.value, dtype=float), duals.get("y"), duals.get("z"), z_box), "optimal", record
+    record = SolverRecord("cvxpy", backend_version("cvxpy"), {**settings, "solver": solver},
+                          build_time, solve_time, iterations)
+    return (np.asarray(x.value, dtype=float), duals.get("y"), duals.get("z"),
+            z_box), "optimal", record
 
 
 def solve_qp(
@@ -368,12 +377,14 @@ def solve_qp(
         Requested accuracy, mapped onto the backend's own tolerances.
     check_tol
         Largest relative primal residual, dual residual and duality gap accepted; defaults to
-        :data:`~svrqp.solution.DEFAULT_CHECK_FACTOR` ``* tol`` (:func:`~svrqp.solution.check_limit`).
+        :data:`~svrqp.solution.DEFAULT_CHECK_FACTOR`
+        ``* tol`` (:func:`~svrqp.solution.check_limit`).
     initvals
         Warm start for backends that accept one.
     options
         Backend settings as a mapping: the way to pass a setting whose name is also a
-        parameter of this function (PIQP's and ProxQP's ``backend``: ``options={"backend": "sparse"}``).
+        parameter of this function (PIQP's and ProxQP's
+        ``backend``: ``options={"backend": "sparse"}``).
     **settings
         Backend settings as keywords (merged with ``options``; a name given both ways is an
         error). Unknown names are rejected with the list of valid ones.
@@ -389,7 +400,8 @@ def solve_qp(
     spec = require_backend(backend)
     twice = sorted(set(options or {}) & set(settings))
     if twice:
-        raise ProblemError(f"option(s) {twice} given both in options= and as keywords; give each once")
+        raise ProblemError(f"option(s) {twice} given both in options= and as keywords; give each "
+                           f"once")
     settings = _validated_settings(spec, tol, {**(options or {}), **settings})
     if spec.name == "cvxpy":
         outcome = _solve_cvxpy(problem, settings, initvals)

@@ -64,7 +64,8 @@ PILOT_MIN_POINTS = 200
 PILOT_ITERATIONS_PER_POINT = 10
 #: Holding is tried from this many points on: below, a decomposition run over all points is cheap
 #: and the pilot costs more than it saves (measured on the benchmark panel at n = 1000, C = 1: the
-#: held start took 1.16× and 1.50× libsvm's time where the run over all points took 1.12× and 1.08×).
+#: held start took 1.16× and 1.50× libsvm's time where
+#: the run over all points took 1.12× and 1.08×).
 SCREEN_MIN_POINTS = 2000
 #: A point is held at zero when the pilot's residual is within (1 − INSIDE_MARGIN)·ε of the tube's
 #: centre, at ±C when it is beyond (1 + OUTSIDE_MARGIN)·ε.
@@ -96,7 +97,8 @@ class DecompositionFit:
     intercept: float
     iterations: int
     rounds: int = 1
-    held: NDArray[np.bool_] | None = None  #: points held at zero or ±C in the last run (None: no hold)
+    #: points held at zero or ±C in the last run (None: no hold)
+    held: NDArray[np.bool_] | None = None
 
     @property
     def screened(self) -> int:
@@ -106,8 +108,10 @@ class DecompositionFit:
 
 def decomposition_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
                       kernel_parameters: Mapping[str, Any], tol: float,
-                      rows: NDArray[np.intp] | None = None, max_iter: int | None = None) -> DecompositionFit:
-    """libsvm's SMO (second-order working-set selection) on ``rows`` (all when ``None``), β of every point.
+                      rows: NDArray[np.intp] | None = None,
+                      max_iter: int | None = None) -> DecompositionFit:
+    """libsvm's SMO (second-order working-set selection)
+    on ``rows`` (all when ``None``), β of every point.
 
     A precomputed kernel restricts the Gram matrix ``X`` to ``rows`` on both sides; ``max_iter``
     (default: :data:`SMO_ITERATIONS_PER_POINT` per point, at least :data:`SMO_MIN_ITERATIONS`; -1:
@@ -166,13 +170,15 @@ def screened_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
     _balance(held, value, residual)
     if held.mean() < MIN_SCREENED or held.sum() > n - 2:
         return None
-    for rounds in range(1, MAX_ROUNDS + 1):
+    for rounds in range(1, MAX_ROUNDS + 1):  # noqa: B007 (read after the loop)
         bounded = np.flatnonzero(value)
         target = y - products(bounded, value[bounded]) if bounded.size else y
-        fit = decomposition_fit(X, target, C, epsilon, kernel_parameters, tol, rows=np.flatnonzero(~held))
+        fit = decomposition_fit(X, target, C, epsilon, kernel_parameters, tol,
+                                rows=np.flatnonzero(~held))
         iterations += fit.iterations
         residual = _residuals(target, fit.beta, fit.intercept, products)
-        contradicted = held & np.where(value == 0.0, np.abs(residual) > epsilon, value * residual < C * epsilon)
+        contradicted = held & np.where(value == 0.0, np.abs(residual) > epsilon,
+                                       value * residual < C * epsilon)
         if contradicted.sum() <= CROSSOVER_VIOLATORS:
             break
         held &= ~contradicted
@@ -192,27 +198,35 @@ def _subsample(rng: np.random.Generator, n: int, fraction: float) -> NDArray[np.
 
 
 def _pilot(X, y, C, epsilon, kernel_parameters, sample) -> _Pilot | None:
-    """A pilot run on ``sample`` (step 1 of the module docstring); None when it exceeds its iteration budget."""
+    """A pilot run on ``sample`` (step 1 of the module
+    docstring); None when it exceeds its iteration budget."""
     n, m = y.size, sample.size
     budget = max(1, PILOT_ITERATIONS_PER_POINT * m)
-    fit = decomposition_fit(X[sample], y[sample], C * n / m, epsilon, kernel_parameters, PILOT_TOL, max_iter=budget)
+    fit = decomposition_fit(X[sample], y[sample], C * n / m, epsilon, kernel_parameters, PILOT_TOL,
+                            max_iter=budget)
     if fit.iterations >= budget:
         return None
     support = np.flatnonzero(fit.beta)
-    fitted = gram(X[sample], X[sample[support]], **kernel_arguments(kernel_parameters)) @ fit.beta[support]
+    fitted = gram(X[sample], X[sample[support]],
+                  **kernel_arguments(kernel_parameters)) @ fit.beta[support]
     fitted += fit.intercept
     return _Pilot(fit, float(_holds(y[sample] - fitted, C, epsilon)[0].mean()), sample)
 
 
-def _holds(residual: NDArray[np.float64], C: float, epsilon: float) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+def _holds(residual: NDArray[np.float64], C: float,
+           epsilon: float) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
     """Which points to hold (step 2 of the module docstring) and the β each is held at."""
     size = np.abs(residual)
     outside = size > (1.0 + OUTSIDE_MARGIN) * epsilon
-    return (size < (1.0 - INSIDE_MARGIN) * epsilon) | outside, np.where(outside, C * np.sign(residual), 0.0)
+    return (size < (1.0 - INSIDE_MARGIN) * epsilon) | outside, np.where(
+        outside, C * np.sign(residual), 0.0
+    )
 
 
-def _balance(held: NDArray[np.bool_], value: NDArray[np.float64], residual: NDArray[np.float64]) -> None:
-    """Release the least certain bounded holds of the larger side until the held β sum to zero (in place)."""
+def _balance(held: NDArray[np.bool_], value: NDArray[np.float64],
+             residual: NDArray[np.float64]) -> None:
+    """Release the least certain bounded holds of the
+    larger side until the held β sum to zero (in place)."""
     excess = int(np.sum(value > 0) - np.sum(value < 0))
     if excess == 0:
         return

@@ -55,7 +55,8 @@ HELD_START = CrossoverSettings(stalled_steps=2)
 
 @dataclass
 class WarmStartFit:
-    """Outcome of :func:`solve_warm_started`: coefficients, bias, :math:`K\\beta` and the crossover record."""
+    """Outcome of :func:`solve_warm_started`: coefficients,
+    bias, :math:`K\\beta` and the crossover record."""
 
     beta: NDArray[np.float64]
     intercept: float
@@ -73,7 +74,8 @@ def precomputed_columns(K: NDArray[np.float64]):
 
 
 def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
-                       kernel_parameters: Mapping[str, Any], *, smo_tol: float = WARM_START_TOL) -> WarmStartFit:
+                       kernel_parameters: Mapping[str, Any], *,
+                       smo_tol: float = WARM_START_TOL) -> WarmStartFit:
     """Loose SMO (Fan, Chen & Lin 2005) then the exact crossover (module docstring).
 
     On a kernel of inputs the loose run first tries the held start of
@@ -116,5 +118,6 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
         support = np.flatnonzero(result.beta)
         Kbeta = (products or (lambda idx, v: columns(idx) @ v))(support, result.beta[support])
     end = time.perf_counter()
-    return WarmStartFit(result.beta, result.intercept, Kbeta, result.exact, result.steps, iterations,
+    return WarmStartFit(result.beta, result.intercept, Kbeta, result.exact, result.steps,
+                        iterations,
                         warm.screened, {"smo_s": middle - start, "crossover_s": end - middle})

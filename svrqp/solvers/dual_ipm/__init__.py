@@ -3,7 +3,8 @@
 :mod:`~svrqp.solvers.dual_ipm.interior_point` (Newton steps on the reduced n×n system, dense or
 low-rank), :mod:`~svrqp.solvers.dual_ipm.crossover` (active-set steps to the exact optimum) and
 :mod:`~svrqp.solvers.dual_ipm.exact` (the two together, the low-rank path first when it applies) and
-:mod:`~svrqp.solvers.dual_ipm.certified` (its answer certified on a stated QP, as ``EpsilonSVR`` runs it).
+:mod:`~svrqp.solvers.dual_ipm.certified` (its answer
+certified on a stated QP, as ``EpsilonSVR`` runs it).
 """
 
 from svrqp.solvers.dual_ipm.crossover import (
@@ -24,5 +25,7 @@ from svrqp.solvers.dual_ipm.kernel_operators import (
     KernelOperator,
 )
 
-__all__ = ["CrossoverResult", "CrossoverSettings", "DenseKernel", "ExactFit", "ExactSettings", "FactoredKernel",
-           "IPMResult", "KernelOperator", "crossover", "interior_point", "solve_exact", "solve_exact_from_data"]
+__all__ = ["CrossoverResult", "CrossoverSettings", "DenseKernel", "ExactFit", "ExactSettings",
+           "FactoredKernel",
+           "IPMResult", "KernelOperator", "crossover", "interior_point", "solve_exact",
+           "solve_exact_from_data"]

@@ -33,7 +33,8 @@ DUAL_FORMULATIONS: tuple[str, ...] = ("split", "stacked")
 def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
                    settings: DualSettings | None = None, *, X: NDArray[np.float64] | None = None,
                    kernel_parameters: dict[str, Any] | None = None) -> DualFit:
-    """Solve the ε-SVR dual with :mod:`svrqp.solvers.dual_ipm` and certify it on the QP ``settings.formulation``.
+    """Solve the ε-SVR dual with :mod:`svrqp.solvers.dual_ipm`
+    and certify it on the QP ``settings.formulation``.
 
     With the inputs ``X`` and the ``kernel_parameters`` of K (an RBF or polynomial kernel),
     :func:`~svrqp.solvers.dual_ipm.exact.solve_exact_from_data` runs: a low-rank interior point
@@ -54,16 +55,19 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
     tol = settings.tol
     check_tol = check_limit(tol, settings.check_tol)
     start = time.perf_counter()
-    dual = DualProblem.of(settings.formulation, K, y, C, epsilon)  # a float C: an int would overflow int8 states
+    # a float C: an int would overflow int8 states
+    dual = DualProblem.of(settings.formulation, K, y, C, epsilon)
     build_time = time.perf_counter() - start
     if X is None:
         fit = solve_exact(K, y, dual.C, dual.epsilon, tol=tol)
     else:
-        fit = solve_exact_from_data(X, y, dual.C, dual.epsilon, kernel_parameters, settings=ExactSettings(tol=tol),
-                                    K=K)
+        fit = solve_exact_from_data(X, y, dual.C, dual.epsilon, kernel_parameters,
+                                    settings=ExactSettings(tol=tol), K=K)
     record = SolverRecord(
         DUAL_IPM, f"svrqp {__version__}",
-        {"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations, "ipm_converged": fit.ipm.converged,
-         "crossover_steps": fit.crossover.steps, "crossover_exact": fit.crossover.exact, "low_rank_path": fit.low_rank},
+        {"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
+         "ipm_converged": fit.ipm.converged,
+         "crossover_steps": fit.crossover.steps, "crossover_exact": fit.crossover.exact,
+         "low_rank_path": fit.low_rank},
         build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations)
     return certified_dual_fit(dual, fit.beta, record, check_tol, fit.crossover.exact)

@@ -12,11 +12,11 @@ signs :math:`s_F` the optimum solves (cf. ``epsilon_svr.polish``)
     \qquad \mathbf 1^\top \beta_F = -\mathbf 1^\top \beta_{\bar F} ;
 
 and the residuals :math:`\rho = y - K\beta - b` free every fixed coefficient that violates its KKT
-condition (a zero with :math:`|\rho_i| > \varepsilon`, a bound with :math:`\rho` on the wrong side of
-:math:`\pm\varepsilon`). The primal–dual active-set method (Hintermüller, Ito & Kunisch 2002) also
-moves every free coefficient whose solution changed sign or left the box, all at once: a few steps
-from a good start, without a guarantee. The feasible active-set method instead steps towards the
-free-set solution only as far as signs and box allow, fixing the coefficient that blocks: while
+condition (a zero with :math:`|\rho_i| > \varepsilon`, a bound with :math:`\rho` on the wrong side
+of :math:`\pm\varepsilon`). The primal–dual active-set method (Hintermüller, Ito & Kunisch 2002)
+also moves every free coefficient whose solution changed sign or left the box, all at once: a few
+steps from a good start, without a guarantee. The feasible active-set method instead steps towards
+the free-set solution only as far as signs and box allow, fixing the coefficient that blocks: while
 the free-set systems are nonsingular the objective never increases, so it cannot cycle. A
 singular free-set system (coinciding inputs, or a linear kernel with more free points than
 features plus one) is either consistent — many optimal :math:`\beta`, the least-squares one is
@@ -46,42 +46,47 @@ CROSSOVER_THRESHOLD = 1e-6
 class CrossoverSettings:
     """How far :func:`crossover` goes (see its docstring)."""
 
-    threshold: float = CROSSOVER_THRESHOLD  #: fraction of C within which a start coefficient is at zero or a bound
+    #: fraction of C within which a start coefficient is at zero or a bound
+    threshold: float = CROSSOVER_THRESHOLD
     kkt_tol: float = 1e-9  #: slack on the tube conditions, relative to 1 + max|y|
-    max_steps: int = 200  #: limit on the feasible active-set steps; ``exact`` is false when it is reached
+    #: limit on the feasible active-set steps; ``exact`` is false when it is reached
+    max_steps: int = 200
     fast_steps: int = 8  #: limit on the primal–dual active-set steps tried first
-    #: primal–dual steps that may change no fewer states than the best step before, before the feasible
-    #: method takes over (0: give up at the first)
+    #: primal–dual steps that may change no fewer states than the best step before, before the
+    #: feasible method takes over (0: give up at the first)
     stalled_steps: int = 0
 
 
 @dataclass
 class CrossoverResult:
-    """Outcome of :func:`crossover`: the coefficients, bias, steps taken and whether every KKT condition holds."""
+    """Outcome of :func:`crossover`: the coefficients, bias,
+    steps taken and whether every KKT condition holds."""
 
     beta: NDArray[np.float64]
     intercept: float
     steps: int
     exact: bool
     free: int
-    Kbeta: NDArray[np.float64] | None = None  # K beta from the final (accurate) bounded term, when exact
+    # K beta from the final (accurate) bounded term, when exact
+    Kbeta: NDArray[np.float64] | None = None
 
 
-def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64], C: float,
-              epsilon: float, beta: NDArray[np.float64], *,
-              products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]] | None = None,
+def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64],
+              C: float, epsilon: float, beta: NDArray[np.float64], *,
+              products: Callable[[NDArray[np.intp], NDArray[np.float64]],
+                                 NDArray[np.float64]] | None = None,
               settings: CrossoverSettings = CrossoverSettings()) -> CrossoverResult:
     """Active-set steps from an approximate ``beta`` to the exact optimum (module docstring).
 
-    First up to ``settings.fast_steps`` primal–dual active-set steps (every state updated at once: a few
-    steps from a good start, but no guarantee); if they do not settle, the feasible active-set
+    First up to ``settings.fast_steps`` primal–dual active-set steps (every state updated at once: a
+    few steps from a good start, but no guarantee); if they do not settle, the feasible active-set
     method restarts from ``beta`` (one blocking coefficient at a time, objective never increasing).
 
     Parameters
     ----------
     columns
-        ``columns(idx)`` returns the exact kernel columns :math:`K_{:, idx}` (shape ``(n, len(idx))``),
-        so only the columns of support vectors are ever formed.
+        ``columns(idx)`` returns the exact kernel columns :math:`K_{:, idx}` (shape
+        ``(n, len(idx))``), so only the columns of support vectors are ever formed.
     y, C, epsilon
         Targets and SVR parameters.
     beta
@@ -89,8 +94,9 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
         of a bound or of zero are taken as active
         (:func:`svrqp.formulations.epsilon_svr_certificate.states`).
     products
-        ``products(idx, v)`` returns :math:`K_{:, idx} v`; defaults to ``columns(idx) @ v``. A linear
-        kernel passes :math:`X (X_{idx}^\\top v)`, so the many bounded columns are never formed.
+        ``products(idx, v)`` returns :math:`K_{:, idx} v`; defaults to ``columns(idx) @ v``. A
+        linear kernel passes :math:`X (X_{idx}^\\top v)`,
+        so the many bounded columns are never formed.
     settings
         The start threshold, the slack on the tube conditions and the two step limits.
     """
@@ -109,7 +115,8 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
 
 
 class _KernelAccess:
-    r"""Kernel columns for the crossover and the bounded term :math:`K_{:,B}\beta_B`, kept up to date.
+    r"""Kernel columns for the crossover and the bounded
+    term :math:`K_{:,B}\beta_B`, kept up to date.
 
     Each active-set step changes few states, so the bounded term changes by a few columns:
     updating it by the change only makes a step cost :math:`O(n\,(|F| + \Delta))` kernel entries
@@ -126,7 +133,8 @@ class _KernelAccess:
     """
 
     def __init__(self, columns: Callable[[NDArray[np.intp]], NDArray[np.float64]],
-                 products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]], n: int) -> None:
+                 products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]],
+                 n: int) -> None:
         self.free_columns, self._products, self.n = columns, products, n
         self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
         self.bounded_term = np.zeros(n)
@@ -135,11 +143,14 @@ class _KernelAccess:
 
     @property
     def accurate(self) -> bool:
-        """Whether the bounded term's rounding is within about twice a fresh product's (class docstring)."""
+        """Whether the bounded term's rounding is within
+        about twice a fresh product's (class docstring)."""
         return self._changed_columns <= self._scratch_columns
 
-    def update_bounded(self, fixed: NDArray[np.float64], *, fresh: bool = False) -> NDArray[np.float64]:
-        r""":math:`K \cdot` ``fixed`` (``fixed`` is ±C on the bounded set, 0 elsewhere), updated by the change only.
+    def update_bounded(self, fixed: NDArray[np.float64], *,
+                       fresh: bool = False) -> NDArray[np.float64]:
+        r""":math:`K \cdot` ``fixed`` (``fixed`` is ±C on the
+        bounded set, 0 elsewhere), updated by the change only.
 
         ``fresh`` recomputes it from all bounded columns unless it is ``accurate`` already.
         """
@@ -148,7 +159,8 @@ class _KernelAccess:
             self._fixed, self.bounded_term = np.zeros(self.n), np.zeros(self.n)
         changed = np.flatnonzero(fixed != self._fixed)
         if changed.size:
-            self.bounded_term = self.bounded_term + self._products(changed, fixed[changed] - self._fixed[changed])
+            self.bounded_term = self.bounded_term + self._products(
+                changed, fixed[changed] - self._fixed[changed])
             self._fixed = fixed.copy()
         if from_scratch:
             self._scratch_columns, self._changed_columns = changed.size, 0
@@ -158,8 +170,9 @@ class _KernelAccess:
 
 
 def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False):
-    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, K_{:,bounded} beta_bounded,
-    and the direction in which the free-set objective is unbounded below (None when it is not)."""
+    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, K_{:,bounded}
+    beta_bounded, and the direction in which the free-set
+    objective is unbounded below (None when it is not)."""
     free = np.flatnonzero(np.abs(states) == 1)
     fixed = np.where(np.abs(states) == 2, np.sign(states) * C, 0.0)
     K_free = kernel.free_columns(free)
@@ -176,15 +189,18 @@ ENTERING_PER_STEP = 64
 
 
 def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float):
-    """The worst fixed coefficients whose residual violates their KKT condition: (to free positive, to free negative).
+    """The worst fixed coefficients whose residual violates
+    their KKT condition: (to free positive, to free negative).
 
     A zero with :math:`|\\rho| > \\varepsilon` or a bound with :math:`\\rho` on the wrong side of
-    :math:`\\pm\\varepsilon` violates by that distance; at most ``ENTERING_PER_STEP`` plus the number
-    of free coefficients enter at once.
+    :math:`\\pm\\varepsilon` violates by that distance; at most ``ENTERING_PER_STEP`` plus the
+    number of free coefficients enter at once.
     """
     zero = states == 0
-    violation_positive = np.where(zero, rho - epsilon, np.where(states == 2, epsilon - rho, -np.inf))
-    violation_negative = np.where(zero, -rho - epsilon, np.where(states == -2, rho + epsilon, -np.inf))
+    violation_positive = np.where(zero, rho - epsilon,
+                                  np.where(states == 2, epsilon - rho, -np.inf))
+    violation_negative = np.where(zero, -rho - epsilon,
+                                  np.where(states == -2, rho + epsilon, -np.inf))
     positive, negative = violation_positive > slack, violation_negative > slack
     limit = ENTERING_PER_STEP + int(np.sum(np.abs(states) == 1))
     if positive.sum() + negative.sum() > limit:
@@ -202,7 +218,8 @@ def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
     return rho - b, b
 
 
-def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, stalled_steps) -> CrossoverResult:
+def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps,
+                            stalled_steps) -> CrossoverResult:
     """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result.
 
     Gives up once the number of state changes has failed ``stalled_steps`` + 1 times to fall below
@@ -211,9 +228,10 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, sta
     """
     beta, b, fresh, fewest_changes, stalls = np.zeros(y.size), 0.0, False, y.size + 1, 0
     for step in range(1, max_steps + 1):
-        free, fixed, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states,
-                                                                                     fresh)
-        if unbounded is not None:  # no free-set optimum to jump to: the feasible method moves along it
+        free, fixed, K_free, bounded_term, target, b, unbounded = _free_set_solution(
+            kernel, y, C, epsilon, states, fresh)
+        # no free-set optimum to jump to: the feasible method moves along it
+        if unbounded is not None:
             return CrossoverResult(beta, b, step, False, int(free.size))
         beta = fixed.copy()
         beta[free] = target
@@ -229,8 +247,10 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, sta
         if np.array_equal(new_states, states):
             if fresh or kernel.accurate or not _balanced(beta, C):
                 exact = _balanced(beta, C) and _free_equalities_hold(rho, states, epsilon, slack)
-                return CrossoverResult(beta, b, step, exact, int(free.size), K_free @ target + bounded_term)
-            fresh = True  # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
+                return CrossoverResult(beta, b, step, exact, int(free.size),
+                                       K_free @ target + bounded_term)
+            # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
+            fresh = True
             continue
         changes = int(np.count_nonzero(new_states != states))
         stalls += changes >= fewest_changes
@@ -241,14 +261,17 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps, sta
 
 
 def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) -> CrossoverResult:
-    """Move towards the free-set optimum as far as signs and box allow; free KKT violators after a full step."""
+    """Move towards the free-set optimum as far as signs
+    and box allow; free KKT violators after a full step."""
     current = np.where(np.abs(states) == 2, np.sign(states) * C, np.where(states == 0, 0.0, beta))
     b, fresh = 0.0, False
     for step in range(1, max_steps + 1):
-        free, _, K_free, bounded_term, target, b, unbounded = _free_set_solution(kernel, y, C, epsilon, states, fresh)
+        free, _, K_free, bounded_term, target, b, unbounded = _free_set_solution(
+            kernel, y, C, epsilon, states, fresh)
         if unbounded is None:
             direction = target - current[free]
-        else:  # scaled so that the largest coordinate would cross the whole box: a coefficient must block
+        # scaled so that the largest coordinate would cross the whole box: a coefficient must block
+        else:
             direction = unbounded * (2.0 * C / np.max(np.abs(unbounded)))
         length, blocking = _step_to_sign_or_box(current[free], direction, states[free], C)
         current[free] += length * direction
@@ -264,8 +287,10 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
         if not (entering_positive.any() or entering_negative.any()):
             if fresh or kernel.accurate or not _balanced(current, C):
                 exact = _balanced(current, C) and _free_equalities_hold(rho, states, epsilon, slack)
-                return CrossoverResult(current, b, step, exact, int(free.size), K_free @ current[free] + bounded_term)
-            fresh = True  # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
+                return CrossoverResult(current, b, step, exact, int(free.size),
+                                       K_free @ current[free] + bounded_term)
+            # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
+            fresh = True
             continue
         states[entering_positive] = 1
         states[entering_negative] = -1
@@ -279,13 +304,15 @@ def _balanced(beta: NDArray[np.float64], C: float) -> bool:
     return abs(float(beta.sum())) <= BALANCE_TOL * C * beta.size
 
 
-#: Relative tolerance of the equality :math:`\mathbf 1^\top\beta = 0` in the crossover's final check.
+#: Relative tolerance of the equality
+#: :math:`\mathbf 1^\top\beta = 0` in the crossover's final check.
 BALANCE_TOL = 1e-9
 
 
 def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8], epsilon: float,
                           slack: float) -> bool:
-    """Whether every free coefficient sits on its tube edge, :math:`y_i - f(x_i) = \\varepsilon s_i`.
+    """Whether every free coefficient sits on its tube
+    edge, :math:`y_i - f(x_i) = \\varepsilon s_i`.
 
     The free-set solve makes this hold unless its system was inconsistent (coinciding inputs with
     different targets both free), which the final check must not take on trust.
@@ -294,20 +321,23 @@ def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8
     return bool(np.all(certificate.kkt_violation(residual, states, epsilon)[free] <= slack))
 
 
-def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64], signs: NDArray[np.int8],
-                         C: float) -> tuple[float, NDArray[np.bool_]]:
-    """Largest step in [0, 1] keeping ``s·x`` in [0, C] for each sign s, and which coordinates block it."""
+def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64],
+                         signs: NDArray[np.int8], C: float) -> tuple[float, NDArray[np.bool_]]:
+    """Largest step in [0, 1] keeping ``s·x`` in [0, C]
+    for each sign s, and which coordinates block it."""
     toward = signs * direction  # rate of change of s·x
     position = signs * x
     with np.errstate(divide="ignore", invalid="ignore"):
-        limits = np.where(toward < 0, position / -toward, np.where(toward > 0, (C - position) / toward, np.inf))
+        limits = np.where(toward < 0, position / -toward,
+                          np.where(toward > 0, (C - position) / toward, np.inf))
     limits = np.maximum(limits, 0.0)
     length = float(min(1.0, np.min(limits, initial=np.inf)))
     return length, limits <= length if length < 1.0 else np.zeros(x.size, dtype=bool)
 
 
 def _midpoint_bias(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float) -> float:
-    """With no free coefficient, b is the midpoint of the interval the KKT conditions allow (libsvm's rule)."""
+    """With no free coefficient, b is the midpoint of the
+    interval the KKT conditions allow (libsvm's rule)."""
     zero, upper, lower = states == 0, states == 2, states == -2
     low = np.concatenate([rho[zero] - epsilon, rho[lower] + epsilon])
     high = np.concatenate([rho[zero] + epsilon, rho[upper] - epsilon])
@@ -326,7 +356,8 @@ INCONSISTENT_TOL = 1e-9
 
 def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: float
                     ) -> tuple[NDArray[np.float64], float, NDArray[np.float64] | None]:
-    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}`: ``(x, b, unbounded)``.
+    """Solve :math:`K_{FF}x + b\\mathbf 1 = \\text{rhs},\\ \\mathbf 1^\\top x = \\text{total}`:
+    ``(x, b, unbounded)``.
 
     Cholesky of :math:`K_{FF}` and the Schur complement for b. When :math:`K_{FF}` is singular
     (a linear kernel with more free points than features, or coinciding points) the least-squares
@@ -345,7 +376,8 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
         factor = scipy.linalg.cho_factor(K_FF, lower=True, check_finite=False)
         pivots = np.abs(np.diag(factor[0])) ** 2
         if pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
-            solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]), check_finite=False)
+            solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]),
+                                              check_finite=False)
             mu, nu = solution[:, 0], solution[:, 1]
             b = (mu.sum() - total) / nu.sum()
             return mu - b * nu, float(b), None
@@ -356,7 +388,8 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
     M[:m, m] = M[m, :m] = 1.0
     v = np.concatenate([rhs, [total]])
     x = scipy.linalg.lstsq(M, v, cond=SINGULAR_PIVOT_RATIO, check_finite=False,
-                         lapack_driver="gelsy")[0]  # QR with column pivoting: several times faster than the SVD
+                         # QR with column pivoting: several times faster than the SVD
+                         lapack_driver="gelsy")[0]
     w = v - M @ x
     consistent = np.max(np.abs(w)) <= INCONSISTENT_TOL * (1.0 + np.max(np.abs(v)))
     return x[:m], float(x[m]), None if consistent else w[:m]

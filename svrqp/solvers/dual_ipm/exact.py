@@ -1,4 +1,5 @@
-"""The exact ε-SVR dual: the interior point, then the crossover; on a low-rank factor when the kernel allows."""
+"""The exact ε-SVR dual: the interior point, then the
+crossover; on a low-rank factor when the kernel allows."""
 
 from __future__ import annotations
 
@@ -36,17 +37,20 @@ class ExactFit:
     ipm: IPMResult
     crossover: CrossoverResult
     times_s: dict[str, float]
-    low_rank: bool = False  # whether the interior point ran on a low-rank factor (no Gram matrix formed)
+    # whether the interior point ran on a low-rank factor (no Gram matrix formed)
+    low_rank: bool = False
 
 
 def solve_exact(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float, *,
                 tol: float = 1e-8, max_iter: int = 100) -> ExactFit:
-    """Interior point on the reduced dense system, then the active-set crossover to the exact optimum.
+    """Interior point on the reduced dense system,
+    then the active-set crossover to the exact optimum.
 
     When the crossover does not settle (``crossover.exact`` false) the interior-point solution is
     returned; its certificates say how accurate it is.
     """
-    return _interior_point_then_crossover(DenseKernel(K), lambda idx: K[:, idx], y, C, epsilon, tol, max_iter)
+    return _interior_point_then_crossover(DenseKernel(K), lambda idx: K[:, idx], y, C, epsilon, tol,
+                                          max_iter)
 
 
 #: The interior point behind a crossover stops at this relative accuracy (or the requested one, if
@@ -56,14 +60,17 @@ def solve_exact(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilo
 IDENTIFICATION_TOL = 1e-4
 
 
-def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilon, tol, max_iter) -> ExactFit:
+def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilon, tol,
+                                   max_iter) -> ExactFit:
     times_s = {"ipm_s": 0.0, "crossover_s": 0.0}
     for ipm_tol in dict.fromkeys([max(tol, IDENTIFICATION_TOL), tol]):  # the loose run first
         start = time.perf_counter()
         ipm = interior_point(kernel, y, C, epsilon, tol=ipm_tol, max_iter=max_iter)
         middle = time.perf_counter()
-        result = crossover(columns, y, C, epsilon, ipm.beta,
-                           settings=CrossoverSettings(threshold=max(CROSSOVER_THRESHOLD, np.sqrt(ipm_tol))))
+        result = crossover(
+            columns, y, C, epsilon, ipm.beta,
+            settings=CrossoverSettings(threshold=max(CROSSOVER_THRESHOLD, np.sqrt(ipm_tol))),
+        )
         times_s["ipm_s"] += middle - start
         times_s["crossover_s"] += time.perf_counter() - middle
         if result.exact:
@@ -83,9 +90,11 @@ class ExactSettings:
 
 
 def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
-                          kernel_parameters: Mapping[str, Any], *, settings: ExactSettings = ExactSettings(),
+                          kernel_parameters: Mapping[str, Any], *,
+                          settings: ExactSettings = ExactSettings(),
                           K: NDArray[np.float64] | None = None) -> ExactFit:
-    """The fastest exact path: a low-rank interior point when the kernel allows it, the dense one otherwise.
+    """The fastest exact path: a low-rank interior point
+    when the kernel allows it, the dense one otherwise.
 
     ``kernel_parameters`` are ``kernel``, ``gamma``, ``degree`` and ``coef0`` as in
     :func:`svrqp.kernels.gram`. A pivoted Cholesky factor of rank at most ``settings.max_rank``
@@ -106,11 +115,12 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     parameters = kernel_arguments(kernel_parameters)
     start = time.perf_counter()
     columns = KernelColumns(X, **parameters)
-    factor = pivoted_cholesky(columns, max_rank=settings.max_rank or max(1, n // 8), tol=settings.factor_tol,
-                              give_up=True)
+    factor = pivoted_cholesky(columns, max_rank=settings.max_rank or max(1, n // 8),
+                              tol=settings.factor_tol, give_up=True)
     factor_s = time.perf_counter() - start
     if factor.relative_trace_error <= settings.factor_tol:
-        fit = _interior_point_then_crossover(FactoredKernel(factor.L), columns, y, C, epsilon, tol, max_iter)
+        fit = _interior_point_then_crossover(FactoredKernel(factor.L), columns, y, C, epsilon, tol,
+                                             max_iter)
         if fit.crossover.exact:
             fit.times_s.update(factor_s=factor_s, gram_s=0.0)
             fit.low_rank = True

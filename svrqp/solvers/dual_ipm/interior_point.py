@@ -1,12 +1,15 @@
-r"""A structure-exploiting interior-point method for the ε-SVR dual, and an exact active-set crossover.
+r"""A structure-exploiting interior-point method for
+the ε-SVR dual, and an exact active-set crossover.
 
 **Problem** (S0 eq. 6 in the stacked variables of :mod:`svrqp.formulations.epsilon_svr`,
 :math:`\beta = \alpha^* - \alpha`):
 
 .. math::
 
-    \min_{\alpha, \alpha^*}\ \tfrac12 \beta^\top K \beta + \varepsilon \mathbf 1^\top(\alpha + \alpha^*)
-    - y^\top \beta \quad\text{s.t.}\quad \mathbf 1^\top\beta = 0,\quad 0 \le \alpha, \alpha^* \le C .
+    \min_{\alpha, \alpha^*}\ \tfrac12 \beta^\top K \beta
+    + \varepsilon \mathbf 1^\top(\alpha + \alpha^*)
+    - y^\top \beta \quad\text{s.t.}\quad \mathbf
+      1^\top\beta = 0,\quad 0 \le \alpha, \alpha^* \le C .
 
 **Optimality conditions**, with :math:`b` the multiplier of the equality (the bias),
 :math:`z, z^* \ge 0` those of :math:`\alpha, \alpha^* \ge 0` and :math:`u, u^* \ge 0` those of
@@ -25,8 +28,8 @@ r"""A structure-exploiting interior-point method for the ε-SVR dual, and an exa
 
 .. math::
 
-    (K + D^{-1})\,\Delta\beta + \Delta b\,\mathbf 1 = D^{-1} h, \qquad \mathbf 1^\top \Delta\beta = -r_e,
-    \qquad h = g^*/\Theta^* - g/\Theta ,
+    (K + D^{-1})\,\Delta\beta + \Delta b\,\mathbf 1 = D^{-1} h, \qquad \mathbf 1^\top \Delta\beta =
+    -r_e, \qquad h = g^*/\Theta^* - g/\Theta ,
 
 where :math:`g^*, g` are the right-hand sides of the linearised dual equations (Mehrotra
 predictor–corrector terms included). This is an :math:`n \times n` symmetric positive definite
@@ -63,7 +66,8 @@ class IPMResult:
     """Outcome of :func:`interior_point`.
 
     ``residuals`` holds the relative primal residual :math:`|r_e|`, dual residual
-    :math:`\\max(\\lVert r\\rVert_\\infty, \\lVert r^*\\rVert_\\infty)` and complementarity gap at the last iterate.
+    :math:`\\max(\\lVert r\\rVert_\\infty, \\lVert r^*\\rVert_\\infty)`
+    and complementarity gap at the last iterate.
     """
 
     beta: NDArray[np.float64]
@@ -93,7 +97,8 @@ def _max_step(x: NDArray, dx: NDArray) -> float:
 
 def interior_point(kernel: KernelOperator, y: NDArray[np.float64], C: float, epsilon: float, *,
                    tol: float = 1e-8, max_iter: int = 100) -> IPMResult:
-    """Mehrotra predictor–corrector on the stacked ε-SVR dual through the reduced system (module docstring).
+    """Mehrotra predictor–corrector on the stacked ε-SVR
+    dual through the reduced system (module docstring).
 
     Parameters
     ----------
@@ -142,12 +147,14 @@ class _Point:
         self.w_s, self.w_a = self.C - self.s, self.C - self.a
 
     def moved(self, step: tuple[_Direction, float], kernel: KernelOperator) -> _Point:
-        r"""The iterate after ``alpha`` times ``direction`` (``step``), with :math:`K\beta` recomputed."""
+        r"""The iterate after ``alpha`` times ``direction``
+        (``step``), with :math:`K\beta` recomputed."""
         (ds, da, db, dz_s, du_s, dz_a, du_a), alpha = step
         s, a = self.s + alpha * ds, self.a + alpha * da
         return _Point(s, a, self.b + alpha * db, self.z_s + alpha * dz_s, self.u_s + alpha * du_s,
                       self.z_a + alpha * dz_a, self.u_a + alpha * du_a,
-                      kernel.matvec(s - a), self.C)  # recomputed, not updated, so rounding does not accumulate
+                      # recomputed, not updated, so rounding does not accumulate
+                      kernel.matvec(s - a), self.C)
 
 
 def _starting_point(y: NDArray[np.float64], C: float, epsilon: float) -> _Point:
@@ -183,7 +190,8 @@ def _residuals(point: _Point, y: NDArray[np.float64], epsilon: float, scale: flo
     r_s = Kbeta + b + epsilon - y - point.z_s + point.u_s
     r_a = -Kbeta - b + epsilon + y - point.z_a + point.u_a
     r_e = float(beta.sum())
-    mu = _mean_complementarity((s, point.w_s, a, point.w_a), (point.z_s, point.u_s, point.z_a, point.u_a))
+    mu = _mean_complementarity((s, point.w_s, a, point.w_a),
+                               (point.z_s, point.u_s, point.z_a, point.u_a))
     objective = 0.5 * float(beta @ Kbeta) + epsilon * float(a.sum() + s.sum()) - float(y @ beta)
     relative = {
         "primal_rel": abs(r_e) / (1.0 + n * C),
@@ -206,8 +214,9 @@ class _Direction(NamedTuple):
 
 
 class _NewtonSystem:
-    r"""One iteration's reduced system :math:`(K + D^{-1})\Delta\beta + \Delta b\mathbf 1 = D^{-1}h`,
-    factorised once for the predictor and the corrector (module docstring)."""
+    r"""One iteration's reduced system
+    :math:`(K + D^{-1})\Delta\beta + \Delta b\mathbf 1 = D^{-1}h`, factorised
+    once for the predictor and the corrector (module docstring)."""
 
     def __init__(self, kernel: KernelOperator, point: _Point, residuals: _Residuals) -> None:
         self.point, self.residuals = point, residuals
@@ -218,7 +227,8 @@ class _NewtonSystem:
         self.ones_solution = self.solve(np.ones(point.s.size))
 
     def direction(self, rz_s: NDArray, ru_s: NDArray, rz_a: NDArray, ru_a: NDArray) -> _Direction:
-        """The Newton direction for the complementarity right-hand sides ``rz_s, ru_s, rz_a, ru_a``."""
+        """The Newton direction for the complementarity
+        right-hand sides ``rz_s, ru_s, rz_a, ru_a``."""
         point, theta_s, theta_a, d = self.point, self.theta_s, self.theta_a, self.d
         s, w_s, a, w_a = point.s, point.w_s, point.a, point.w_a
         rho_s = -rz_s / s + ru_s / w_s
@@ -237,7 +247,8 @@ class _NewtonSystem:
 def _step_length(point: _Point, step: _Direction) -> float:
     """Largest step in [0, 1] that keeps every bound slack and multiplier non-negative."""
     ds, da, _, dz_s, du_s, dz_a, du_a = step
-    return min(_max_step(point.s, ds), _max_step(point.w_s, -ds), _max_step(point.a, da), _max_step(point.w_a, -da),
+    return min(_max_step(point.s, ds), _max_step(point.w_s, -ds), _max_step(point.a, da),
+               _max_step(point.w_a, -da),
                _max_step(point.z_s, dz_s), _max_step(point.u_s, du_s), _max_step(point.z_a, dz_a),
                _max_step(point.u_a, du_a))
 
@@ -251,8 +262,10 @@ def _predictor_corrector(newton: _NewtonSystem) -> tuple[_Direction, float]:
     affine = newton.direction(-s * z_s, -w_s * u_s, -a * z_a, -w_a * u_a)
     alpha = _step_length(point, affine)
     ds, da, _, dz_s, du_s, dz_a, du_a = affine
-    mu_affine = _mean_complementarity((s + alpha * ds, w_s - alpha * ds, a + alpha * da, w_a - alpha * da),
-                                      (z_s + alpha * dz_s, u_s + alpha * du_s, z_a + alpha * dz_a, u_a + alpha * du_a))
+    mu_affine = _mean_complementarity((s + alpha * ds, w_s - alpha * ds, a + alpha * da,
+                                       w_a - alpha * da),
+                                      (z_s + alpha * dz_s, u_s + alpha * du_s, z_a + alpha * dz_a,
+                                       u_a + alpha * du_a))
     mu = newton.residuals.mu
     sigma_mu = (mu_affine / mu) ** 3 * mu
     step = newton.direction(sigma_mu - s * z_s - ds * dz_s, sigma_mu - w_s * u_s + ds * du_s,

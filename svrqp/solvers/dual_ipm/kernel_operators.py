@@ -1,4 +1,5 @@
-"""The Gram matrix as the interior point sees it: dense (Cholesky) or factored :math:`K = LL^\top` (Woodbury)."""
+"""The Gram matrix as the interior point sees it: dense
+(Cholesky) or factored :math:`K = LL^\top` (Woodbury)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,8 @@ class DenseKernel:
 
     def __init__(self, K: NDArray[np.float64]) -> None:
         self.K = K
-        self._workspace = np.empty_like(K, order="F")  # reused: fresh n×n allocations cost page faults
+        # reused: fresh n×n allocations cost page faults
+        self._workspace = np.empty_like(K, order="F")
 
     @property
     def n(self) -> int:
@@ -35,12 +37,15 @@ class DenseKernel:
         try:
             factor = scipy.linalg.cho_factor(M, lower=True, overwrite_a=True, check_finite=False)
         except np.linalg.LinAlgError:
-            raise SingularSystemError("K + D^-1 is not positive definite: is the kernel PSD?") from None
+            raise SingularSystemError(
+                "K + D^-1 is not positive definite: is the kernel PSD?"
+            ) from None
         return lambda rhs: scipy.linalg.cho_solve(factor, rhs, check_finite=False)
 
 
 class FactoredKernel:
-    """A factored kernel :math:`K = LL^\\top` (``L`` of shape ``(n, r)``): Woodbury solves in :math:`O(nr^2)`."""
+    """A factored kernel :math:`K = LL^\\top` (``L`` of
+    shape ``(n, r)``): Woodbury solves in :math:`O(nr^2)`."""
 
     def __init__(self, L: NDArray[np.float64]) -> None:
         self.L = L
@@ -55,7 +60,8 @@ class FactoredKernel:
         return self.L @ (self.L.T @ v)
 
     def shifted_solver(self, shift: NDArray[np.float64]) -> Callable[[NDArray], NDArray]:
-        """A solver of :math:`(LL^\\top + \\operatorname{diag}(\\text{shift}))\\,x = \\text{rhs}` (Woodbury)."""
+        """A solver of
+        :math:`(LL^\\top + \\operatorname{diag}(\\text{shift}))\\,x = \\text{rhs}` (Woodbury)."""
         d = 1.0 / shift
         # I + L^T D L as the Gram matrix of D^{1/2} L (lower triangle; no n×r product with D kept)
         core = scipy.linalg.blas.dsyrk(1.0, (self.L * np.sqrt(d)[:, None]).T, trans=0, lower=1)
@@ -67,7 +73,9 @@ class FactoredKernel:
 
         def solve(rhs: NDArray) -> NDArray:
             Drhs = rhs * d
-            return Drhs - d * (self.L @ scipy.linalg.cho_solve(factor, self.L.T @ Drhs, check_finite=False))
+            return Drhs - d * (
+                self.L @ scipy.linalg.cho_solve(factor, self.L.T @ Drhs, check_finite=False)
+            )
 
         return solve
 
