@@ -21,10 +21,10 @@ model its training rows back (checked against the digest) so that both are rebui
 linear-kernel primal fit keeps its solution vectors (``O(n)`` numbers; the multipliers of that QP
 are not a function of the model alone).
 
-:class:`svrqp.LSSVR` (:class:`CompactSystemMixin`) keeps its solution (:math:`(b, \\alpha)`, ``O(n)``)
-and drops its KKT system (an :math:`(n+1)\\times(n+1)` matrix, S4 eq. (5)); every training row is a
-support vector, so ``problem_`` is rebuilt from ``support_vectors_``, ``y`` and the fit's ``C`` and
-kernel (a precomputed Gram matrix is kept, as scikit-learn's ``KernelRidge`` keeps it).
+:class:`svrqp.LSSVR` (:class:`CompactSystemMixin`) keeps its solution (:math:`(b, \\alpha)`,
+``O(n)``) and drops its KKT system (an :math:`(n+1)\\times(n+1)` matrix, S4 eq. (5)); every training
+row is a support vector, so ``problem_`` is rebuilt from ``support_vectors_``, ``y`` and the fit's
+``C`` and kernel (a precomputed Gram matrix is kept, as scikit-learn's ``KernelRidge`` keeps it).
 """
 
 from __future__ import annotations
@@ -44,20 +44,23 @@ from svrqp.solution import Solution
 
 #: Attributes held only in memory (dropped from pickles, rebuilt on demand).
 _CACHES = ("_problem", "_solution")
-#: Entries of the fit record held only in memory: the training rows (given back by ``with_training_data``).
+#: Entries of the fit record held only in memory: the
+#: training rows (given back by ``with_training_data``).
 _TRAINING_ROWS = ("X_rows", "others", "y")
 
 
 class CompactFitMixin:
-    """``problem_`` and ``solution_`` as properties; pickles keep the model and the solver record only."""
+    """``problem_`` and ``solution_`` as properties;
+    pickles keep the model and the solver record only."""
 
     @property
     def problem_(self) -> QuadraticProgram:
         """The QP that was solved (rebuilt from the training data when not held)."""
         if self.__dict__.get("_problem") is None:
             record = self._fit_record()
-            self._problem = epsilon_svr.build(record["formulation"], record["y"], record["C"], record["epsilon"],
-                                              K=self._fit_gram() if record["formulation"] != "primal" else None,
+            self._problem = epsilon_svr.build(record["formulation"], record["y"], record["C"],
+                                              record["epsilon"], K=self._fit_gram()
+                                              if record["formulation"] != "primal" else None,
                                               X=self._training_rows())
         return self._problem
 
@@ -67,7 +70,8 @@ class CompactFitMixin:
 
     @property
     def solution_(self) -> Solution:
-        """The certificate-checked :class:`svrqp.solution.Solution` (vectors rebuilt when not held)."""
+        """The certificate-checked :class:`svrqp.solution.Solution`
+        (vectors rebuilt when not held)."""
         if self.__dict__.get("_solution") is None:
             self._solution = self._rebuilt_solution()
         return self._solution
@@ -82,26 +86,32 @@ class CompactFitMixin:
         if record["formulation"] == "primal":
             return self._solution_record  # pickled with its vectors
         if "y" not in record:
-            return self._solution_record  # unpickled without training data: the record without vectors
+            # unpickled without training data: the record without vectors
+            return self._solution_record
         X, y = self._training_rows(), record["y"]
         beta = np.zeros(y.size)
         beta[self.support_] = self.dual_coef_[0]
         Kbeta = self._kernel(X, X[self.support_]) @ self.dual_coef_[0]
         # X is the Gram matrix when the kernel is precomputed
-        on_qp = model_on_qp(record["formulation"], y, record["C"], record["epsilon"], beta, float(self.intercept_[0]),
-                            Kbeta, kernel_scale(X, record["kernel"]))
-        return Solution.of_qp(on_qp.qp, on_qp.point, self._solution_record.record, extra_residuals=on_qp.certificate)
+        on_qp = model_on_qp(record["formulation"], y, record["C"], record["epsilon"], beta,
+                            float(self.intercept_[0]), Kbeta, kernel_scale(X, record["kernel"]))
+        return Solution.of_qp(on_qp.qp, on_qp.point, self._solution_record.record,
+                              extra_residuals=on_qp.certificate)
 
-    def _keep_fit_data(self, X: NDArray[np.float64], y: NDArray[np.float64], formulation: str) -> None:
-        """Store what rebuilding ``problem_`` and ``solution_`` needs (call at the end of ``fit``)."""
-        self._fit_data = {"formulation": formulation, "C": float(self.C), "epsilon": float(self.epsilon),
-                          "kernel": {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
-                                     "coef0": self.coef0},
+    def _keep_fit_data(self, X: NDArray[np.float64], y: NDArray[np.float64],
+                       formulation: str) -> None:
+        """Store what rebuilding ``problem_`` and
+        ``solution_`` needs (call at the end of ``fit``)."""
+        self._fit_data = {"formulation": formulation, "C": float(self.C),
+                          "epsilon": float(self.epsilon),
+                          "kernel": {"kernel": self.kernel, "gamma": self.gamma_,
+                                     "degree": self.degree, "coef0": self.coef0},
                           "n": int(y.size)}
         self._store_training_rows(X, y)
 
     def with_training_data(self, X: NDArray[np.float64], y: NDArray[np.float64]):
-        """Give an unpickled model its training rows back, so that ``problem_`` and ``solution_`` can be rebuilt.
+        """Give an unpickled model its training rows back, so
+        that ``problem_`` and ``solution_`` can be rebuilt.
 
         Parameters
         ----------
@@ -122,14 +132,17 @@ class CompactFitMixin:
         record = self._fit_record(rows=False)
         X, y = np.ascontiguousarray(X, dtype=float), np.ascontiguousarray(y, dtype=float).ravel()
         if _digest(X, y) != self._data_digest():
-            raise ValueError(f"these are not the data {type(self).__name__} was fitted on (n = {record['n']}): "
-                             "problem_ and solution_ can only be rebuilt from the fit's own X and y")
+            raise ValueError(
+                f"these are not the data {type(self).__name__} was fitted on (n = {record['n']}): "
+                "problem_ and solution_ can only be rebuilt from the fit's own X and y"
+            )
         self._store_training_rows(X, y)
         return self
 
     def _data_digest(self) -> str:
         """The digest of the fit's data, computed from the rows held the first time it is asked for
-        (by a pickle, which leaves the rows out, or by :meth:`with_training_data`), not during ``fit``."""
+        (by a pickle, which leaves the rows out, or by
+        :meth:`with_training_data`), not during ``fit``."""
         record = self._fit_record(rows=False)
         if "digest" not in record:
             record["digest"] = _digest(self._training_rows(), self._fit_record()["y"])
@@ -142,13 +155,15 @@ class CompactFitMixin:
         self._fit_data.update({"X_rows": X[others], "others": np.flatnonzero(others), "y": y})
 
     def _fit_record(self, rows: bool = True) -> dict[str, Any]:
-        """The fit's record; with ``rows``, one that holds the training rows (after unpickling: once given back)."""
+        """The fit's record; with ``rows``, one that holds the
+        training rows (after unpickling: once given back)."""
         if "_fit_data" not in self.__dict__:
             raise AttributeError("the model is not fitted: problem_ and solution_ exist after fit")
         if rows and "y" not in self._fit_data:
-            raise AttributeError(f"an unpickled {type(self).__name__} does not carry its training rows (its pickle "
-                                 "keeps what predicting needs, as scikit-learn's SVR): call "
-                                 "model.with_training_data(X, y) with the fit's data to rebuild problem_")
+            raise AttributeError(f"an unpickled {type(self).__name__} does not carry its training "
+                                 "rows (its pickle keeps what predicting needs, as scikit-learn's "
+                                 "SVR): call model.with_training_data(X, y) with the fit's data "
+                                 "to rebuild problem_")
         return self._fit_data
 
     def _training_rows(self) -> NDArray[np.float64]:
@@ -168,18 +183,25 @@ class CompactFitMixin:
 
     def _fit_gram(self) -> NDArray[np.float64]:
         X = self._training_rows()
-        return X if self._fit_record(rows=False)["kernel"]["kernel"] == "precomputed" else self._kernel(X, X)
+        return (
+            X
+            if self._fit_record(rows=False)["kernel"]["kernel"] == "precomputed"
+            else self._kernel(X, X)
+        )
 
     def __getstate__(self) -> dict[str, Any]:
-        state = dict(super().__getstate__())  # a copy: object.__getstate__ returns the live __dict__
+        # a copy: object.__getstate__ returns the live __dict__
+        state = dict(super().__getstate__())
         for name in _CACHES:
             state.pop(name, None)
         record = state.get("_solution_record")
         if record is not None and self.__dict__.get("_fit_data", {}).get("formulation") != "primal":
-            state["_solution_record"] = dataclasses.replace(record, x=None, y=None, z=None, z_box=None)
+            state["_solution_record"] = dataclasses.replace(record, x=None, y=None, z=None,
+                                                            z_box=None)
         if "_fit_data" in state:
             self._data_digest()  # recorded before the rows are left out
-            state["_fit_data"] = {key: value for key, value in state["_fit_data"].items() if key not in _TRAINING_ROWS}
+            state["_fit_data"] = {key: value for key, value in state["_fit_data"].items()
+                                  if key not in _TRAINING_ROWS}
         return state
 
 
@@ -193,7 +215,8 @@ def _digest(X: NDArray[np.float64], y: NDArray[np.float64]) -> str:
 
 
 class CompactSystemMixin:
-    """LS-SVR's ``problem_`` as a property: formed by ``fit`` only when solved by LU, never pickled."""
+    """LS-SVR's ``problem_`` as a property: formed by
+    ``fit`` only when solved by LU, never pickled."""
 
     @property
     def problem_(self) -> LinearSystem:
@@ -202,7 +225,8 @@ class CompactSystemMixin:
             if "_fit_data" not in self.__dict__:
                 raise AttributeError("the model is not fitted: problem_ exists after fit")
             record = self._fit_data
-            K = record["K"] if record["K"] is not None else gram(self.support_vectors_, **record["kernel"])
+            K = record["K"] if record["K"] is not None else gram(self.support_vectors_,
+                                                                 **record["kernel"])
             self._problem = ls_svr.kkt_system(K, record["y"], record["C"], record["fit_intercept"])
         return self._problem
 
@@ -211,12 +235,15 @@ class CompactSystemMixin:
         self._problem = value
 
     def _keep_fit_data(self, K: NDArray[np.float64] | None, y: NDArray[np.float64]) -> None:
-        """Store what rebuilding ``problem_`` needs; ``K`` only for a precomputed kernel (call in ``fit``)."""
-        self._fit_data = {"K": K, "y": y, "C": float(self.C), "fit_intercept": bool(self.fit_intercept),
-                          "kernel": {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
-                                     "coef0": self.coef0}}
+        """Store what rebuilding ``problem_`` needs; ``K``
+        only for a precomputed kernel (call in ``fit``)."""
+        self._fit_data = {"K": K, "y": y, "C": float(self.C),
+                          "fit_intercept": bool(self.fit_intercept),
+                          "kernel": {"kernel": self.kernel, "gamma": self.gamma_,
+                                     "degree": self.degree, "coef0": self.coef0}}
 
     def __getstate__(self) -> dict[str, Any]:
-        state = dict(super().__getstate__())  # a copy: object.__getstate__ returns the live __dict__
+        # a copy: object.__getstate__ returns the live __dict__
+        state = dict(super().__getstate__())
         state.pop("_problem", None)
         return state

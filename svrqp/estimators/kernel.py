@@ -50,9 +50,11 @@ class _KernelModel(RegressorMixin, BaseEstimator):
         check_magnitude(X, "X")
         check_magnitude(y, "y")
         if X.shape[0] < 2:
-            raise ProblemError(f"n_samples = {X.shape[0]}: at least 2 samples are needed to fit, got 1 sample")
+            raise ProblemError(f"n_samples = {X.shape[0]}: at least 2 samples are needed to fit, "
+                               f"got 1 sample")
         if self.kernel == "precomputed" and X.shape[0] != X.shape[1]:
-            raise ProblemError(f"a precomputed kernel must be square (n_samples, n_samples), got {X.shape}")
+            raise ProblemError(f"a precomputed kernel must be square (n_samples, n_samples), got "
+                               f"{X.shape}")
         return X, y
 
     def _resolve_gamma(self, X: NDArray[np.float64]) -> float:
@@ -65,8 +67,10 @@ class _KernelModel(RegressorMixin, BaseEstimator):
         return float(self.gamma)
 
     def _kernel_parameters(self) -> dict[str, Any]:
-        """``kernel``, the resolved ``gamma_``, ``degree`` and ``coef0``, as :func:`svrqp.kernels.gram` takes them."""
-        return {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree, "coef0": self.coef0}
+        """``kernel``, the resolved ``gamma_``, ``degree`` and
+        ``coef0``, as :func:`svrqp.kernels.gram` takes them."""
+        return {"kernel": self.kernel, "gamma": self.gamma_, "degree": self.degree,
+                "coef0": self.coef0}
 
     def _decision(self, X: ArrayLike) -> NDArray[np.float64]:
         check_is_fitted(self)
@@ -114,9 +118,9 @@ class EpsilonSVR(CompactFitMixin, _KernelModel):
     solver : str, default="auto"
         ``"auto"`` (:mod:`svrqp.solvers.auto`: the fastest exact path for the problem, certified
         on the QP of ``formulation``; the choice is kept as ``solver_``),
-        ``"smo_crossover"`` (:mod:`svrqp.solvers.warm_start`: a loose SMO run, then the exact active-set
-        crossover), ``"dual_ipm"`` (:func:`svrqp.solvers.dual_ipm.exact.solve_exact`, an interior point on the
-        reduced n×n system with the same crossover) or any backend of
+        ``"smo_crossover"`` (:mod:`svrqp.solvers.warm_start`: a loose SMO run, then the exact
+        active-set crossover), ``"dual_ipm"`` (:func:`svrqp.solvers.dual_ipm.exact.solve_exact`, an
+        interior point on the reduced n×n system with the same crossover) or any backend of
         :data:`svrqp.solvers.qp_backends.BACKENDS` (the QP handed to a stock solver). With
         ``formulation="primal"``, ``"auto"`` hands the primal QP to Clarabel.
     formulation : {"split", "stacked", "primal"}, default="split"
@@ -191,8 +195,10 @@ class EpsilonSVR(CompactFitMixin, _KernelModel):
         self.fallback = fallback
 
     def export_sections(self) -> description.Sections:
-        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
-        return description.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True, requested_tol=self.tol)
+        """The ``model`` and ``solver`` sections of its
+        exported document (:mod:`svrqp.description`)."""
+        return description.kernel_sections(self, epsilon=self.epsilon, fit_intercept=True,
+                                           requested_tol=self.tol)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> EpsilonSVR:
         """Build the ε-SVR QP for (X, y), solve it, and keep the support vectors.
@@ -205,18 +211,22 @@ class EpsilonSVR(CompactFitMixin, _KernelModel):
         check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         if self.formulation == "primal" and self.kernel != "linear":
-            raise ProblemError(f"formulation='primal' needs kernel='linear', got kernel={self.kernel!r}")
+            raise ProblemError(f"formulation='primal' needs kernel='linear', got "
+                               f"kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
         check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
         fit = solve_epsilon_svr(X, y, SVRTask(self.C, self.epsilon, self._kernel_parameters()),
-                                SolveOptions(self.solver, self.formulation, self.tol, self.check_tol, self.fallback))
+                                SolveOptions(self.solver, self.formulation, self.tol,
+                                             self.check_tol, self.fallback))
         self.problem_, self.solution_, self.polished_ = fit.problem, fit.solution, fit.polished
         self.solver_, self.fallback_reason_ = fit.solver, fit.fallback_reason
         if fit.coef is not None:
             self.coef_ = fit.coef
         support = fit.beta != 0.0  # the certified coefficients are exactly zero off the support
         self.support_ = np.flatnonzero(support)
-        self.support_vectors_ = X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
+        self.support_vectors_ = (
+            X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
+        )
         self.dual_coef_ = fit.beta[support][None, :]
         self.intercept_ = np.array([fit.intercept])
         self._keep_fit_data(X, y, self.formulation)
@@ -258,8 +268,8 @@ class LSSVR(CompactSystemMixin, _KernelModel):
         "solver": [OneOf(frozenset({"cholesky", "lu"}))],
     }
 
-    def __init__(self, *, C=1.0, kernel="rbf", gamma="scale", degree=3, coef0=0.0, fit_intercept=True,
-                 solver="cholesky"):
+    def __init__(self, *, C=1.0, kernel="rbf", gamma="scale", degree=3, coef0=0.0,
+                 fit_intercept=True, solver="cholesky"):
         self.C = C
         self.kernel = kernel
         self.gamma = gamma
@@ -269,8 +279,10 @@ class LSSVR(CompactSystemMixin, _KernelModel):
         self.solver = solver
 
     def export_sections(self) -> description.Sections:
-        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
-        return description.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept, requested_tol=None)
+        """The ``model`` and ``solver`` sections of its
+        exported document (:mod:`svrqp.description`)."""
+        return description.kernel_sections(self, epsilon=None, fit_intercept=self.fit_intercept,
+                                           requested_tol=None)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LSSVR:
         """Solve the LS-SVR KKT system for (X, y).
@@ -286,16 +298,19 @@ class LSSVR(CompactSystemMixin, _KernelModel):
         check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
         K = training_gram(X, self._kernel_parameters())
         self._keep_fit_data(K if self.kernel == "precomputed" else None, y)
-        self.problem_ = ls_svr.kkt_system(K, y, self.C, self.fit_intercept) if self.solver == "lu" else None
+        self.problem_ = ls_svr.kkt_system(K, y, self.C,
+                                          self.fit_intercept) if self.solver == "lu" else None
         if self.solver == "lu":
             self.solution_ = solve_linear_system(self.problem_)
             x = self.solution_.x
             alpha, b = (x[1:], float(x[0])) if self.fit_intercept else (x, 0.0)
         else:
-            # A Gram matrix of our own is not needed afterwards (problem_ is rebuilt from X on demand):
-            # factor it in place; a precomputed kernel is the caller's array and is left alone.
-            alpha, b, self.solution_ = ls_svr.solve_cholesky_schur(K, y, self.C, self.fit_intercept,
-                                                                   overwrite_K=self.kernel != "precomputed")
+            # A Gram matrix of our own is not needed afterwards (problem_ is rebuilt from X on
+            # demand): factor it in place; a precomputed
+            # kernel is the caller's array and is left alone.
+            alpha, b, self.solution_ = ls_svr.solve_cholesky_schur(
+                K, y, self.C, self.fit_intercept, overwrite_K=self.kernel != "precomputed"
+            )
         if not (np.all(np.isfinite(alpha)) and np.isfinite(b)):
             raise SolverError("LS-SVR system gave non-finite coefficients", self.solver, "failed")
         self.support_ = np.arange(X.shape[0])

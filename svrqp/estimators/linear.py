@@ -7,7 +7,8 @@
   (S3 eqs. (13)–(19)); :func:`merge_models` merges two of them (S3 eqs. (20)–(24)).
 
 Units are read from column names that follow the project's convention (``T7_C``, ``error_um``,
-``x_mm``) or the ``name(unit)`` form of measured tables (``t1(°C)``, ``ch1(um)``): :mod:`svrqp.units`.
+``x_mm``) or the ``name(unit)`` form of measured
+tables (``t1(°C)``, ``ch1(um)``): :mod:`svrqp.units`.
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ from svrqp.parameters import Boolean, Number, OneOf, check_parameters
 from svrqp.table_checks import check_magnitude, check_numeric_array
 from svrqp.units import latex_symbol, ratio_unit, split_unit
 
-#: How :class:`LinearLS` and :class:`PolynomialLS` solve (the ``solver`` of their exported documents).
+#: How :class:`LinearLS` and :class:`PolynomialLS`
+#: solve (the ``solver`` of their exported documents).
 NORMAL_EQUATIONS = "normal equations, equilibrated, Cholesky (svrqp.formulations.least_squares)"
 #: How :class:`RecursiveLS` solves.
 RECURSION = "recursive least squares (S3 eqs. 13-17), started from the batch normal equations"
@@ -97,7 +99,8 @@ def _target_name(y: ArrayLike) -> str:
 
 def _finite_training_data(estimator: BaseEstimator, X: ArrayLike, y: ArrayLike, reset: bool
                           ) -> tuple[NDArray, NDArray]:
-    # NaN and text must raise the library's ProblemError, so they are looked for before sklearn does.
+    # NaN and text must raise the library's ProblemError,
+    # so they are looked for before sklearn does.
     check_numeric_array(X, "X")
     check_numeric_array(y, "y")
     y_values = np.asarray(y)
@@ -162,12 +165,15 @@ class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
         self.rank_deficient = rank_deficient
 
     def export_sections(self) -> description.Sections:
-        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        """The ``model`` and ``solver`` sections of its
+        exported document (:mod:`svrqp.description`)."""
         return description.Sections(
             description.linear_model(self.coef_, self.centre_value_, self.fit_intercept),
-            description.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
-                                             {"condition_number": self.condition_number_, "rank": self.rank_}),
-            centre=self.x_centre_ if self.fit_intercept else None)
+            description.least_squares_solver(
+                NORMAL_EQUATIONS, self.get_params(),
+                {"condition_number": self.condition_number_, "rank": self.rank_},
+            ), centre=self.x_centre_ if self.fit_intercept else None,
+        )
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> LinearLS:
         """Solve the normal equations for (X, y).
@@ -193,7 +199,8 @@ class LinearLS(_LinearFormula, RegressorMixin, BaseEstimator):
         return self
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
-        """Predict :math:`a_0 + X a`, evaluated as :math:`\\bar y + (X - \\bar x) a` (see ``x_centre_``)."""
+        """Predict :math:`a_0 + X a`, evaluated as
+        :math:`\\bar y + (X - \\bar x) a` (see ``x_centre_``)."""
         return (_finite_inputs(self, X) - self.x_centre_) @ self.coef_ + self.centre_value_
 
 
@@ -222,7 +229,8 @@ class PolynomialLS(RegressorMixin, BaseEstimator):
         self.degree = degree
 
     def export_sections(self) -> description.Sections:
-        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        """The ``model`` and ``solver`` sections of its
+        exported document (:mod:`svrqp.description`)."""
         return description.Sections(
             description.polynomial_model(self.degree, self.domain_, self.legendre_coef_),
             description.least_squares_solver(NORMAL_EQUATIONS, self.get_params(),
@@ -305,11 +313,14 @@ class RecursiveLS(_LinearFormula, RegressorMixin, BaseEstimator):
         return hasattr(self, "state_")
 
     def export_sections(self) -> description.Sections:
-        """The ``model`` and ``solver`` sections of its exported document (:mod:`svrqp.description`)."""
+        """The ``model`` and ``solver`` sections of its
+        exported document (:mod:`svrqp.description`)."""
         return description.Sections(
-            description.linear_model(self.coef_, float(self.state_.a[0]), True, forgetting=float(self.forgetting),
+            description.linear_model(self.coef_, float(self.state_.a[0]), True,
+                                     forgetting=float(self.forgetting),
                                      n_samples_seen=int(self.n_samples_seen_)),
-            description.least_squares_solver(RECURSION, {"forgetting": self.forgetting}, {"sigma2": self.sigma2_}),
+            description.least_squares_solver(RECURSION, {"forgetting": self.forgetting},
+                                             {"sigma2": self.sigma2_}),
             centre=self.x_offset_)
 
     def fit(self, X: ArrayLike, y: ArrayLike) -> RecursiveLS:

@@ -22,9 +22,9 @@ a log-linear model of :math:`|r|` on the standardised inputs :math:`z` (least sq
 around the model refitted on every row.
 
 This is the cross-validation ("CV") conformal method: the full model is not one of the fold
-models, so finite-sample coverage is approximate (exact for split conformal); ``benchmarks/guarded.py``
-measures it. The difficulty model is fitted on the same residuals it normalises (d + 1
-coefficients), which can narrow intervals slightly.
+models, so finite-sample coverage is approximate (exact for split conformal);
+``benchmarks/guarded.py`` measures it. The difficulty model is fitted on the same residuals it
+normalises (d + 1 coefficients), which can narrow intervals slightly.
 """
 
 from __future__ import annotations
@@ -61,23 +61,28 @@ class Calibration:
     difficulty_intercept: float | None
 
 
-def folds(n: int, groups: NDArray | None, n_splits: int, min_groups: int) -> tuple[str, list, tuple[str, ...] | None]:
+def folds(n: int, groups: NDArray | None, n_splits: int,
+          min_groups: int) -> tuple[str, list, tuple[str, ...] | None]:
     """The folds (a description, a list of (train, test) index pairs, the group labels used)."""
     if groups is not None:
         labels = np.unique(groups)
         if len(labels) >= min_groups:
             k = min(n_splits, len(labels))
             name = "leave-one-group-out" if k == len(labels) else f"{k}-fold by group"
-            return name, list(GroupKFold(n_splits=k).split(np.zeros(n), groups=groups)), tuple(map(str, labels))
+            return (
+                name, list(GroupKFold(n_splits=k).split(np.zeros(n), groups=groups)),
+                tuple(map(str, labels)),
+            )
         warnings.warn(GroupFallbackWarning(
-            f"groups: {len(labels)} group(s) given, group-aware calibration needs at least {min_groups}; "
-            f"falling back to {n_splits} contiguous row folds, which assume exchangeable rows — intervals on a "
-            "new run may be too narrow"), stacklevel=3)
+            f"groups: {len(labels)} group(s) given, group-aware calibration needs at least "
+            f"{min_groups}; falling back to {n_splits} contiguous row folds, which assume "
+            "exchangeable rows — intervals on a new run may be too narrow"), stacklevel=3)
     k = min(n_splits, n)
     return f"{k} contiguous row folds", list(KFold(n_splits=k).split(np.zeros(n))), None
 
 
-def out_of_fold_predictions(estimator, X, y: NDArray[np.float64], splits: list) -> NDArray[np.float64]:
+def out_of_fold_predictions(estimator, X, y: NDArray[np.float64],
+                            splits: list) -> NDArray[np.float64]:
     """Predictions of ``clone(estimator)`` refitted without each fold, on that fold."""
     prediction = np.empty(len(y))
     for train, test in splits:
@@ -90,7 +95,8 @@ def _rows(X, index: NDArray[np.intp]):
     return X.iloc[index] if hasattr(X, "iloc") else X[index]
 
 
-def fit_difficulty(Z: NDArray[np.float64], residuals: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+def fit_difficulty(Z: NDArray[np.float64],
+                   residuals: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
     """``(c, c0)`` of :math:`\\sigma(x) = \\exp(c_0 + c^\\top z)` by least squares on log |r|."""
     delta = 1e-6 * max(float(np.mean(np.abs(residuals))), np.finfo(float).tiny)
     A = np.column_stack([np.ones(len(Z)), Z])
@@ -98,7 +104,8 @@ def fit_difficulty(Z: NDArray[np.float64], residuals: NDArray[np.float64]) -> tu
     return solution[1:], float(solution[0])
 
 
-def difficulty(Z: NDArray[np.float64], coef: NDArray[np.float64], intercept: float) -> NDArray[np.float64]:
+def difficulty(Z: NDArray[np.float64], coef: NDArray[np.float64],
+               intercept: float) -> NDArray[np.float64]:
     """:math:`\\sigma(x) = \\exp(c_0 + c^\\top z)` per row."""
     return np.exp(intercept + Z @ coef)
 
@@ -107,7 +114,8 @@ def conformal_quantile(scores: NDArray[np.float64], coverage: float) -> float:
     """The conformal quantile of ``scores`` at ``coverage``, by ``crepes``."""
     n = len(scores)
     if (1.0 - coverage) * (n + 1) < 1.0:
-        raise ProblemError(f"coverage {coverage} needs at least {math.ceil(1 / (1 - coverage)) - 1} calibration "
+        raise ProblemError(f"coverage {coverage} needs at least "
+                           f"{math.ceil(1 / (1 - coverage)) - 1} calibration "
                            f"rows, got {n}: lower the coverage or give more rows")
     require("guard", "calibrated intervals")
     from crepes import ConformalRegressor
@@ -136,5 +144,5 @@ def calibrate(estimator, X, y: NDArray[np.float64], Z: NDArray[np.float64], grou
     if settings.method == "normalized":
         coef, intercept = fit_difficulty(Z, residuals)
         scores = scores / difficulty(Z, coef, intercept)
-    return Calibration(name, len(splits), labels, np.sort(scores), conformal_quantile(scores, settings.coverage),
-                       coef, intercept)
+    return Calibration(name, len(splits), labels, np.sort(scores),
+                       conformal_quantile(scores, settings.coverage), coef, intercept)

@@ -38,7 +38,8 @@ ROUNDING_MARGIN = 1e-9
 EIGENVALUE_FLOOR = 1e-9
 
 
-def standardised(X: NDArray[np.float64], mean: NDArray[np.float64], scale: NDArray[np.float64]) -> NDArray[np.float64]:
+def standardised(X: NDArray[np.float64], mean: NDArray[np.float64],
+                 scale: NDArray[np.float64]) -> NDArray[np.float64]:
     """:math:`z = (x - \\mu) \\oslash s`, row by row."""
     return (X - mean) / scale
 
@@ -49,9 +50,10 @@ def mahalanobis(Z: NDArray[np.float64], precision: NDArray[np.float64]) -> NDArr
 
 
 def outside_rows(X: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],
-                 mean: NDArray[np.float64], scale: NDArray[np.float64], precision: NDArray[np.float64],
-                 threshold: float) -> NDArray[np.bool_]:
-    """True per row outside ``[low, high]`` in some input or with :math:`D(x) > \tau` (NaN: outside)."""
+                 mean: NDArray[np.float64], scale: NDArray[np.float64],
+                 precision: NDArray[np.float64], threshold: float) -> NDArray[np.bool_]:
+    """True per row outside ``[low, high]`` in some
+    input or with :math:`D(x) > \tau` (NaN: outside)."""
     in_range = np.all((X >= low) & (X <= high), axis=1)
     return ~(in_range & (mahalanobis(standardised(X, mean, scale), precision) <= threshold))
 
@@ -84,11 +86,13 @@ class InputDomain:
         precision = (precision + precision.T) / 2.0
         quantile_distance = float(np.quantile(mahalanobis(Z, precision), quantile, method="higher"))
         threshold = quantile_distance * (1.0 + ROUNDING_MARGIN)
-        return cls(tuple(names), X.min(axis=0), X.max(axis=0), mean, scale, precision, threshold, quantile)
+        return cls(tuple(names), X.min(axis=0), X.max(axis=0), mean, scale, precision, threshold,
+                   quantile)
 
     def distance(self, X: ArrayLike) -> NDArray[np.float64]:
         """Mahalanobis distance :math:`D(x)` of each row."""
-        return mahalanobis(standardised(np.asarray(X, dtype=float), self.mean, self.scale), self.precision)
+        return mahalanobis(standardised(np.asarray(X, dtype=float), self.mean, self.scale),
+                           self.precision)
 
     def outside(self, X: ArrayLike) -> NDArray[np.bool_]:
         """True for each row outside the range of some input or beyond the distance threshold."""
@@ -105,11 +109,13 @@ class InputDomain:
         X = np.asarray(X, dtype=float)
         excess = np.where(X > self.high, X - self.high, np.where(X < self.low, X - self.low, 0.0))
         distance = self.distance(X)
-        table = pd.DataFrame({
-            "outside": self.outside(X),
-            "inputs_outside": [", ".join(n for n, e in zip(self.names, row, strict=True) if e != 0.0) for row in excess],
-            **{f"excess_{name}": excess[:, j] for j, name in enumerate(self.names)},
-            "distance": distance,
-            "distance_threshold": self.threshold,
-        })
+        table = pd.DataFrame(
+            {
+                "outside": self.outside(X), "inputs_outside": [
+                    ", ".join(n for n, e in zip(self.names, row, strict=True) if e != 0.0)
+                    for row in excess
+                ], **{f"excess_{name}": excess[:, j] for j, name in enumerate(self.names)},
+                "distance": distance, "distance_threshold": self.threshold,
+            }
+        )
         return table

@@ -43,15 +43,18 @@ def _checked_groups(groups: ArrayLike, n_rows: int) -> NDArray:
     if pd.isna(groups).any():
         raise ProblemError("groups: some labels are missing (NaN); give every row a group")
     if groups.dtype == object:
-        kinds = {"text" if isinstance(label, str | bytes) else "number" if isinstance(label, Real) else
+        kinds = {"text" if isinstance(label,
+                                      str | bytes) else "number" if isinstance(label, Real) else
                  type(label).__name__ for label in groups}
         if len(kinds) > 1:
-            raise ProblemError(f"groups: labels mix types ({', '.join(sorted(kinds))}); give every row a "
-                               "label of the same type (all numbers or all text)")
+            raise ProblemError(f"groups: labels mix types ({', '.join(sorted(kinds))}); give every "
+                               "row a label of the same type (all numbers or all text)")
         try:
             np.unique(groups)
         except TypeError as err:
-            raise ProblemError(f"groups: labels cannot be ordered ({err}); give numbers or text") from None
+            raise ProblemError(
+                f"groups: labels cannot be ordered ({err}); give numbers or text"
+            ) from None
     return groups
 
 
@@ -89,7 +92,8 @@ class Guarded(RegressorMixin, BaseEstimator):
     n_features_in_ : int
         Number of inputs.
     feature_names_in_ : ndarray of str
-        Input names, when ``X`` was a DataFrame (the domain then names them; else ``x0``, ``x1``, ...).
+        Input names, when ``X`` was a DataFrame (the
+        domain then names them; else ``x0``, ``x1``, ...).
     """
 
     _parameter_checks = {
@@ -101,7 +105,8 @@ class Guarded(RegressorMixin, BaseEstimator):
         "domain_quantile": [Number(0.0, 1.0, closed="right")],
     }
 
-    def __init__(self, estimator, *, coverage=0.9, method="absolute", n_splits=10, min_groups=3, domain_quantile=1.0):
+    def __init__(self, estimator, *, coverage=0.9, method="absolute", n_splits=10, min_groups=3,
+                 domain_quantile=1.0):
         self.estimator = estimator
         self.coverage = coverage
         self.method = method
@@ -112,12 +117,15 @@ class Guarded(RegressorMixin, BaseEstimator):
     def _check_parameters(self) -> None:
         coverage = self.coverage
         if isinstance(coverage, bool) or not isinstance(coverage, Real) or not 0.0 < coverage < 1.0:
-            raise ProblemError(f"coverage must be a number strictly between 0 and 1, got {coverage!r}")
-        if not all(callable(getattr(self.estimator, method, None)) for method in ("fit", "predict")):
-            raise ProblemError(f"estimator must be a scikit-learn regressor with fit and predict, got "
-                               f"{self.estimator!r}")
+            raise ProblemError(f"coverage must be a number strictly between 0 and 1, got "
+                               f"{coverage!r}")
+        if not all(callable(getattr(self.estimator, method, None))
+                   for method in ("fit", "predict")):
+            raise ProblemError("estimator must be a scikit-learn regressor with fit and predict, "
+                               f"got {self.estimator!r}")
         if not is_regressor(self.estimator):
-            raise ProblemError(f"estimator must be a regressor, got {type(self.estimator).__name__} "
+            raise ProblemError(f"estimator must be a regressor, got "
+                               f"{type(self.estimator).__name__} "
                                "(scikit-learn's is_regressor is false for it)")
         check_parameters(self, self._parameter_checks)
 
@@ -128,15 +136,17 @@ class Guarded(RegressorMixin, BaseEstimator):
         """
         try:
             if fitting:
-                X_raw, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64, ensure_all_finite=False,
-                                         ensure_min_samples=2)
+                X_raw, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64,
+                                         ensure_all_finite=False, ensure_min_samples=2)
             else:
-                X_raw = validate_data(self, X, reset=False, dtype=np.float64, ensure_all_finite=False)
+                X_raw = validate_data(self, X, reset=False, dtype=np.float64,
+                                      ensure_all_finite=False)
         except ValueError as err:
             raise ProblemError(str(err)) from None
         bad = np.flatnonzero(~np.isfinite(X_raw).all(axis=1))
         if len(bad):
-            raise ProblemError(f"X: {len(bad)} row(s) hold NaN or infinite values (positions {bad[:10].tolist()}"
+            raise ProblemError(f"X: {len(bad)} row(s) hold NaN or infinite values (positions "
+                               f"{bad[:10].tolist()}"
                                f"{', ...' if len(bad) > 10 else ''}); drop or fill them first")
         return X_raw if y is None else (X_raw, y)  # validate_data refused a non-finite y
 
@@ -162,7 +172,8 @@ class Guarded(RegressorMixin, BaseEstimator):
         X_raw, y = self._inputs(X, y, fitting=True)
         if groups is not None:
             groups = _checked_groups(groups, len(y))
-        names = [str(name) for name in getattr(self, "feature_names_in_", [f"x{j}" for j in range(X_raw.shape[1])])]
+        names = [str(name) for name in getattr(self, "feature_names_in_",
+                                               [f"x{j}" for j in range(X_raw.shape[1])])]
         self.domain_ = InputDomain.fit(X_raw, names, self.domain_quantile)
         Z = standardised(X_raw, self.domain_.mean, self.domain_.scale)
         inner = self._model_input(X_raw)
@@ -179,12 +190,14 @@ class Guarded(RegressorMixin, BaseEstimator):
         if outside.any():
             warnings.warn(ExtrapolationWarning(
                 f"{int(outside.sum())} of {len(outside)} row(s) lie outside the training domain of "
-                f"{', '.join(self.domain_.names)}; the model extrapolates there and the interval's coverage "
-                "does not hold — see check_domain(X)"), stacklevel=3)
-        return X_raw, np.asarray(self.estimator_.predict(self._model_input(X_raw)), dtype=float).ravel()
+                f"{', '.join(self.domain_.names)}; the model extrapolates there and the interval's "
+                "coverage does not hold — see check_domain(X)"), stacklevel=3)
+        return X_raw, np.asarray(self.estimator_.predict(self._model_input(X_raw)),
+                                 dtype=float).ravel()
 
     def predict(self, X: ArrayLike) -> NDArray[np.float64]:
-        """The wrapped model's prediction; warns with ExtrapolationWarning for rows outside the domain."""
+        """The wrapped model's prediction; warns with
+        ExtrapolationWarning for rows outside the domain."""
         return self._predict(X)[1]
 
     def _half_width(self, X_raw: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -18,8 +18,10 @@ from numpy.typing import ArrayLike
 from svrqp.exceptions import ExtrapolationWarning
 
 
-def interval_columns(model: Any, X: pd.DataFrame, name: str = "svr", unit: str = "um") -> dict[str, np.ndarray]:
-    """``{name}_lower_{unit}``, ``{name}_upper_{unit}`` and ``{name}_outside`` for every row of ``X``."""
+def interval_columns(model: Any, X: pd.DataFrame, name: str = "svr",
+                     unit: str = "um") -> dict[str, np.ndarray]:
+    """``{name}_lower_{unit}``, ``{name}_upper_{unit}``
+    and ``{name}_outside`` for every row of ``X``."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)  # shown as shading instead
         interval = model.predict_interval(X)
@@ -38,7 +40,8 @@ def draw_guard(axis: Any, x: ArrayLike, lower: ArrayLike, upper: ArrayLike, outs
                coverage: float, color: str = "tab:blue") -> None:
     """Fill ``[lower, upper]`` over ``x`` and shade the stretches where ``outside`` is true."""
     x = np.asarray(x, dtype=float)
-    axis.fill_between(x, lower, upper, color=color, alpha=0.2, lw=0, label=f"{coverage:.0%} interval")
+    axis.fill_between(x, lower, upper, color=color, alpha=0.2, lw=0, label=f"{coverage:.0%} "
+                                                                           f"interval")
     for i, (start, stop) in enumerate(stretches(outside)):
         axis.axvspan(x[start], x[stop - 1], color="tab:red", alpha=0.12, lw=0,
                      label="outside training domain" if i == 0 else None)

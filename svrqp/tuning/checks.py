@@ -22,19 +22,22 @@ def validated(X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
 
 
 def check_model(model: str) -> None:
-    """Raise unless ``model`` is a searchable model of the registry (:func:`svrqp.registry.tunable`)."""
+    """Raise unless ``model`` is a searchable model of
+    the registry (:func:`svrqp.registry.tunable`)."""
     if model not in registry.tunable():
         raise ProblemError(f"model must be one of {registry.tunable()}, got {model!r}")
 
 
 def grid_values(values: ArrayLike, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
-    """The distinct grid values of ``name``, sorted; each finite and positive (non-negative with ``allow_zero``)."""
+    """The distinct grid values of ``name``, sorted; each
+    finite and positive (non-negative with ``allow_zero``)."""
     values = np.unique(np.asarray(values, dtype=float).ravel())
     if values.size == 0:
         raise ProblemError(f"the {name} grid is empty: give at least one value")
     lowest_allowed = "non-negative" if allow_zero else "positive"
     if not np.all(np.isfinite(values)) or (values.min() < 0 if allow_zero else values.min() <= 0):
-        raise ProblemError(f"every {name} must be finite and {lowest_allowed}, got {values.tolist()}")
+        raise ProblemError(f"every {name} must be finite and {lowest_allowed}, got "
+                           f"{values.tolist()}")
     return values
 
 
@@ -44,7 +47,8 @@ def log_range(bounds: Sequence[float], name: str) -> tuple[float, float]:
         raise ProblemError(f"{name} range must be (low, high), got {tuple(bounds)}")
     low, high = float(bounds[0]), float(bounds[1])
     if not (np.isfinite(low) and np.isfinite(high) and 0 < low < high):
-        raise ProblemError(f"{name} range must satisfy 0 < low < high (searched in log space), got ({low}, {high})")
+        raise ProblemError(f"{name} range must satisfy 0 < low < high (searched in log space), got "
+                           f"({low}, {high})")
     return np.log10(low), np.log10(high)
 
 
@@ -52,11 +56,14 @@ def fixed_gamma(gamma: float | str, X: NDArray) -> float:
     """The RBF γ held fixed by the GA: a positive number, or scikit-learn's ``"scale"``."""
     if isinstance(gamma, str):
         if gamma != "scale":
-            raise ProblemError(f"gamma must be a positive number, 'scale' or a (low, high) range, got {gamma!r}")
+            raise ProblemError(f"gamma must be a positive number, 'scale' or a (low, high) range, "
+                               f"got {gamma!r}")
         variance = float(X.var())
         if not variance > 0:
-            raise ProblemError("gamma='scale' needs features that vary (Var(X) is 0); give gamma explicitly")
+            raise ProblemError("gamma='scale' needs features that vary (Var(X) is 0); give gamma "
+                               "explicitly")
         return 1.0 / (X.shape[1] * variance)
     if not isinstance(gamma, Real) or not (np.isfinite(gamma) and gamma > 0):
-        raise ProblemError(f"gamma must be a positive number, 'scale' or a (low, high) range, got {gamma!r}")
+        raise ProblemError(f"gamma must be a positive number, 'scale' or a (low, high) range, got "
+                           f"{gamma!r}")
     return float(gamma)

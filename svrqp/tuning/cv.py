@@ -40,7 +40,8 @@ from svrqp.tuning.result import SearchResult, warn_on_edges
 
 @dataclass(frozen=True)
 class FitSettings:
-    """How every fit of a search is computed: the model, its solver and accuracy, warm starts along C."""
+    """How every fit of a search is computed: the model,
+    its solver and accuracy, warm starts along C."""
 
     model: str
     solver: str
@@ -50,7 +51,8 @@ class FitSettings:
 
 @dataclass(frozen=True)
 class Fold:
-    """One fold on a shared Gram matrix: fit on :math:`(K_{TT}, y_T)`, validate on :math:`(K_{VT}, y_V)`."""
+    """One fold on a shared Gram matrix: fit on
+    :math:`(K_{TT}, y_T)`, validate on :math:`(K_{VT}, y_V)`."""
 
     K_train: NDArray[np.float64]
     y_train: NDArray[np.float64]
@@ -58,7 +60,8 @@ class Fold:
     y_valid: NDArray[np.float64]
 
 
-def folds(cv: int | Any, X: NDArray, y: NDArray, groups: ArrayLike | None) -> list[tuple[NDArray, NDArray]]:
+def folds(cv: int | Any, X: NDArray, y: NDArray,
+          groups: ArrayLike | None) -> list[tuple[NDArray, NDArray]]:
     """The (train, validation) index pairs of ``cv``: a number of contiguous folds or a splitter."""
     if isinstance(cv, int | np.integer) and not 2 <= cv <= X.shape[0]:
         raise ProblemError(f"folds must be between 2 and n_samples = {X.shape[0]}, got {cv}")
@@ -80,7 +83,8 @@ def _fold_chain(
         try:
             if fit.model == "svr":
                 coef, b, previous = fit_on_gram(
-                    K_train, y_train, C, epsilon, fit.solver, fit.tol, previous if fit.warm_start else None)
+                    K_train, y_train, C, epsilon, fit.solver, fit.tol,
+                    previous if fit.warm_start else None)
             else:
                 coef, b, _ = ls_svr.solve_cholesky_schur(K_train, y_train, C)
         except SolverError:
@@ -104,7 +108,8 @@ def cv_mse(
     <svrqp.tuning.execution.Execution.parallel>`).
     """
     chain_keys = ["gamma"] if fit.model == "lssvr" else ["gamma", "epsilon"]
-    chains = [(key, rows.sort_values("C")) for key, rows in candidates.groupby(chain_keys, sort=True)]
+    chains = [(key, rows.sort_values("C"))
+              for key, rows in candidates.groupby(chain_keys, sort=True)]
 
     def tasks():
         K, K_gamma = None, None
@@ -114,7 +119,8 @@ def cv_mse(
             for fold_index, (train, valid) in enumerate(folds):
                 fold = Fold(K[np.ix_(train, train)], y[train], K[np.ix_(valid, train)], y[valid])
                 yield joblib.delayed(_fold_chain)(
-                    (fold_index, chain_index), fold, epsilon[0] if epsilon else None, rows["C"].to_numpy(), fit)
+                    (fold_index, chain_index), fold, epsilon[0] if epsilon else None,
+                    rows["C"].to_numpy(), fit)
 
     mse = np.full((len(folds), len(candidates)), np.inf)
     total = len(chains) * len(folds)
@@ -129,7 +135,8 @@ def cv_mse(
 def _scored_table(candidates: pd.DataFrame, mse: NDArray[np.float64]) -> pd.DataFrame:
     failed = ~np.isfinite(mse)
     if np.all(failed.any(axis=0)):
-        raise SolverError("every candidate had at least one failed fit; try another solver or tolerance")
+        raise SolverError("every candidate had at least one failed fit; try another solver or "
+                          "tolerance")
     finite = np.where(failed, 0.0, mse)
     table = candidates.copy()
     table["mse"] = np.where(failed.any(axis=0), np.inf, finite.mean(axis=0))
@@ -138,8 +145,8 @@ def _scored_table(candidates: pd.DataFrame, mse: NDArray[np.float64]) -> pd.Data
     return table.sort_values("mse", kind="stable").reset_index(drop=True)
 
 
-def scored_result(method: str, model: str, candidates: pd.DataFrame, mse: NDArray[np.float64], elapsed_s: float,
-                  convergence_mse: NDArray[np.float64] | None = None,
+def scored_result(method: str, model: str, candidates: pd.DataFrame, mse: NDArray[np.float64],
+                  elapsed_s: float, convergence_mse: NDArray[np.float64] | None = None,
                   bounds: dict[str, tuple[float, float]] | None = None) -> SearchResult:
     """The :class:`SearchResult` of ``candidates`` with fold MSEs ``mse`` (n_folds, n_candidates).
 
@@ -156,6 +163,7 @@ def scored_result(method: str, model: str, candidates: pd.DataFrame, mse: NDArra
     if bounds is None:
         bounds = {name: (float(candidates[name].min()), float(candidates[name].max()))
                   for name in names if candidates[name].nunique() > 1}
-    result = SearchResult(method, model, best_params, best_mse, table, elapsed_s, mse.size, convergence_mse, bounds)
+    result = SearchResult(method, model, best_params, best_mse, table, elapsed_s, mse.size,
+                          convergence_mse, bounds)
     warn_on_edges(result)
     return result

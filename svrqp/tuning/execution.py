@@ -70,11 +70,13 @@ class Execution:
         if self.backend not in JOBLIB_BACKENDS:
             raise ProblemError(f"backend must be one of {JOBLIB_BACKENDS}, got {self.backend!r}")
         if self.backend == "dask" and self.scheduler is None:
-            raise ProblemError("backend='dask' needs a scheduler: its address (tcp://host:8786) or a distributed.Client")
+            raise ProblemError("backend='dask' needs a scheduler: its address (tcp://host:8786) or "
+                               "a distributed.Client")
 
     @contextmanager
     def parallel(self) -> Iterator[None]:
-        """Configure joblib for :attr:`backend`; for Dask, connect to :attr:`scheduler` (address or Client)."""
+        """Configure joblib for :attr:`backend`; for Dask,
+        connect to :attr:`scheduler` (address or Client)."""
         if self.backend != "dask":
             with joblib.parallel_config(backend=self.backend, n_jobs=self.n_jobs):
                 yield
@@ -84,7 +86,8 @@ class Execution:
 
         client = self.scheduler if isinstance(self.scheduler, Client) else Client(self.scheduler)
         try:
-            with joblib.parallel_config(backend="dask", n_jobs=-1 if self.n_jobs is None else self.n_jobs):
+            with joblib.parallel_config(backend="dask",
+                                        n_jobs=-1 if self.n_jobs is None else self.n_jobs):
                 yield
         finally:
             if client is not self.scheduler:

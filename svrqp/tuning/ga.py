@@ -1,8 +1,8 @@
 r"""Genetic-algorithm search of S1 over (log C, log ε), fitness = −CV MSE, on pygad.
 
 **Genetic algorithm** (S1, on `pygad <https://pygad.readthedocs.io>`_): real-coded individuals
-:math:`(\log_{10} C, \log_{10}\varepsilon)` inside given ranges with the RBF :math:`\gamma` fixed, as
-S1 tunes C and ε only (:math:`\log_{10}\gamma` becomes a third gene on request), population 100,
+:math:`(\log_{10} C, \log_{10}\varepsilon)` inside given ranges with the RBF :math:`\gamma` fixed,
+as S1 tunes C and ε only (:math:`\log_{10}\gamma` becomes a third gene on request), population 100,
 crossover probability 0.85, mutation probability 0.02 (a mutated gene is redrawn uniformly in
 its range), rank selection, 50 generations, fitness :math:`-\operatorname{CV}(\theta)`
 (:mod:`svrqp.tuning.cv`), one elite kept per generation; seeded, so a run is reproducible.
@@ -60,8 +60,8 @@ class Genetic:
 
     def __post_init__(self) -> None:
         if self.population < 2 or self.generations < 1:
-            raise ProblemError(f"need population >= 2 and generations >= 1, got {self.population} and "
-                               f"{self.generations}")
+            raise ProblemError(f"need population >= 2 and generations >= 1, got {self.population} "
+                               f"and {self.generations}")
         for name in ("crossover_probability", "mutation_probability"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ProblemError(f"{name} must be in [0, 1], got {getattr(self, name)}")
@@ -110,15 +110,18 @@ def ga_search(
     execution = Execution() if execution is None else execution
     check_model(model)
     X, y = validated(X, y)
-    names, gene_space, fixed = _genes(model, {"C": C_range, "epsilon": epsilon_range, "gamma": gamma}, X)
+    names, gene_space, fixed = _genes(model,
+                                      {"C": C_range, "epsilon": epsilon_range, "gamma": gamma}, X)
     solver = gram_solver(execution.solver) if model == "svr" else execution.solver
     splits = folds(execution.cv, X, y, execution.groups)
-    fit = FitSettings(model, solver, execution.tol, warm_start=False)  # a generation's candidates are no C chains
+    # a generation's candidates are no C chains
+    fit = FitSettings(model, solver, execution.tol, warm_start=False)
     evaluated: dict[tuple[float, ...], tuple[NDArray, int]] = {}  # genes -> (fold MSE, generation)
 
     def fitness(ga: Any, solutions: NDArray, _indices) -> list[float]:
         rows = [tuple(map(float, genes)) for genes in np.atleast_2d(solutions)]
-        fresh = [genes for genes in dict.fromkeys(rows) if genes not in evaluated]  # GA repeats itself
+        # GA repeats itself
+        fresh = [genes for genes in dict.fromkeys(rows) if genes not in evaluated]
         if fresh:
             candidates = pd.DataFrame(10.0 ** np.array(fresh), columns=names).assign(**fixed)
             mse = cv_mse(X, y, candidates, splits, fit, None)
@@ -127,7 +130,8 @@ def ga_search(
         return [-_mean_or_inf(evaluated[genes][0]) for genes in rows]
 
     progress = execution.progress
-    on_generation = None if progress is None else lambda ga: progress(ga.generations_completed, genetic.generations)
+    on_generation = None if progress is None else lambda ga: progress(ga.generations_completed,
+                                                                      genetic.generations)
     ga = _algorithm(pygad, genetic, gene_space, fitness, on_generation)
     start = time.perf_counter()
     with execution.parallel():
@@ -137,9 +141,12 @@ def ga_search(
     candidates = pd.DataFrame(10.0 ** np.array(genes), columns=names).assign(**fixed)
     candidates = candidates[[*(["C", "epsilon"] if model == "svr" else ["C"]), "gamma"]]
     candidates["generation"] = [evaluated[g][1] for g in genes]
-    bounds = {name: (10.0 ** space["low"], 10.0 ** space["high"]) for name, space in zip(names, gene_space, strict=True)}
-    return scored_result("ga", model, candidates, np.column_stack([evaluated[g][0] for g in genes]), elapsed_s,
-                         convergence_mse=-np.asarray(ga.best_solutions_fitness, dtype=float), bounds=bounds)
+    bounds = {name: (10.0 ** space["low"], 10.0 ** space["high"])
+              for name, space in zip(names, gene_space, strict=True)}
+    return scored_result("ga", model, candidates, np.column_stack([evaluated[g][0] for g in genes]),
+                         elapsed_s,
+                         convergence_mse=-np.asarray(ga.best_solutions_fitness, dtype=float),
+                         bounds=bounds)
 
 
 def _pygad() -> Any:
@@ -149,15 +156,18 @@ def _pygad() -> Any:
     return pygad
 
 
-def _genes(model: str, ranges: dict[str, Any], X: NDArray) -> tuple[list[str], list[dict[str, float]], dict[str, float]]:
-    """Names of the genes, their ``{"low", "high"}`` log10 ranges, and the parameters held fixed (γ)."""
+def _genes(model: str, ranges: dict[str, Any],
+           X: NDArray) -> tuple[list[str], list[dict[str, float]], dict[str, float]]:
+    """Names of the genes, their ``{"low", "high"}``
+    log10 ranges, and the parameters held fixed (γ)."""
     names = ["C", "epsilon"] if model == "svr" else ["C"]
     fixed = {}
     if isinstance(ranges["gamma"], str) or np.ndim(ranges["gamma"]) == 0:
         fixed["gamma"] = fixed_gamma(ranges["gamma"], X)
     else:
         names.append("gamma")
-    gene_space = [dict(zip(("low", "high"), log_range(ranges[name], name))) for name in names]
+    gene_space = [dict(zip(("low", "high"), log_range(ranges[name], name), strict=False))
+                  for name in names]
     return names, gene_space, fixed
 
 

@@ -66,7 +66,9 @@ def grid_search(
     if model == "svr":
         grid["epsilon"] = grid_values(epsilon, "epsilon", allow_zero=True)
         solver = gram_solver(solver)
-    candidates = pd.DataFrame(list(ParameterGrid(grid)))[["C", "epsilon", "gamma"] if model == "svr" else ["C", "gamma"]]
+    candidates = pd.DataFrame(list(ParameterGrid(grid)))[
+        ["C", "epsilon", "gamma"] if model == "svr" else ["C", "gamma"]
+    ]
     splits = folds(execution.cv, X, y, execution.groups)
     start = time.perf_counter()
     with execution.parallel():

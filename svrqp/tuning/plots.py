@@ -20,7 +20,8 @@ def plot_convergence(result: SearchResult, target_unit: str = "target unit") -> 
     axes.xaxis.set_major_locator(MaxNLocator(integer=True))
     axes.set_xlabel("generation (-)")
     axes.set_ylabel(f"best CV MSE ({target_unit}²)")
-    axes.set_title("GA convergence: " + ", ".join(f"{k} = {v:.4g}" for k, v in result.best_params.items()))
+    axes.set_title("GA convergence: " + ", ".join(f"{k} = {v:.4g}"
+                                                  for k, v in result.best_params.items()))
     axes.grid(True, alpha=0.3)
     return figure
 
@@ -37,12 +38,14 @@ def plot_grid_scores(result: SearchResult, target_unit: str = "target unit") -> 
     for gamma, rows in table.sort_values("C").groupby("gamma"):
         axes.plot(rows["C"], rows["mse"], marker="o", label=f"γ = {gamma:.4g}")
     best = result.best_params
-    axes.plot(best["C"], result.best_mse, marker="*", markersize=14, color="black", linestyle="none", label="best")
+    axes.plot(best["C"], result.best_mse, marker="*", markersize=14, color="black",
+              linestyle="none", label="best")
     axes.set_xscale("log")
     axes.set_yscale("log")
     axes.set_xlabel("C (-)")
     axes.set_ylabel(f"CV MSE ({target_unit}²)")
-    title = "k-fold CV score" + (f" at ε = {best['epsilon']:.4g} {target_unit}" if "epsilon" in best else "")
+    title = "k-fold CV score" + (f" at ε = {best['epsilon']:.4g} {target_unit}"
+                                 if "epsilon" in best else "")
     axes.set_title(title)
     axes.legend(fontsize="small")
     axes.grid(True, which="both", alpha=0.3)

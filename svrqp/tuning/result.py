@@ -91,11 +91,15 @@ class SearchResult:
     def edge_text(self) -> str:
         """One sentence naming each parameter that ended on an edge (empty when none did)."""
         parts = [f"{name} = {self.best_params[name]:.4g} on the {side} edge of the searched range "
-                 f"[{self.bounds[name][0]:.4g}, {self.bounds[name][1]:.4g}]" for name, side in self.edges().items()]
+                 f"[{self.bounds[name][0]:.4g}, {self.bounds[name][1]:.4g}]"
+                 for name, side in self.edges().items()]
         if not parts:
             return ""
-        return f"the search ended with {'; '.join(parts)}: the optimum may lie beyond it, widen the range"
+        return (f"the search ended with {'; '.join(parts)}: the optimum may lie beyond it, "
+                "widen the range")
 
     def best_estimator(self, **estimator_params: Any) -> EpsilonSVR | LSSVR:
-        """An unfitted estimator with the best parameters (RBF kernel), e.g. to refit on all data."""
-        return registry.spec(self.model).estimator_class()(kernel="rbf", **self.best_params, **estimator_params)
+        """An unfitted estimator with the best parameters
+        (RBF kernel), e.g. to refit on all data."""
+        return registry.spec(self.model).estimator_class()(kernel="rbf", **self.best_params,
+                                                           **estimator_params)
