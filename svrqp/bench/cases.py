@@ -14,7 +14,8 @@ from svrqp.kernels import gram
 
 @dataclass(frozen=True)
 class Profile:
-    """An accuracy profile: the tolerance asked of every method, and the one its certificates must meet."""
+    """An accuracy profile: the tolerance asked of every
+    method, and the one its certificates must meet."""
 
     name: str
     tol: float
@@ -58,9 +59,13 @@ def thermal(n: int, d: int, seed: int) -> tuple[NDArray[np.float64], NDArray[np.
     time_min = rng.uniform(0.0, 250.0, n)
     tau_min = np.geomspace(20.0, 120.0, d)
     rise_C = rng.uniform(4.0, 12.0, d)
-    T_C = 20.0 + rise_C * (1.0 - np.exp(-time_min[:, None] / tau_min)) + rng.normal(0.0, 0.05, (n, d))
+    T_C = (
+        20.0 + rise_C * (1.0 - np.exp(-time_min[:, None] / tau_min)) + rng.normal(0.0, 0.05, (n, d))
+    )
     weights_um_per_C = rng.uniform(-1.0, 4.0, d)
-    error_um = (T_C - 20.0) @ weights_um_per_C + 0.05 * (T_C[:, 0] - 20.0) ** 2 + rng.normal(0.0, 2.0, n)
+    error_um = (
+        (T_C - 20.0) @ weights_um_per_C + 0.05 * (T_C[:, 0] - 20.0) ** 2 + rng.normal(0.0, 2.0, n)
+    )
     return _standardised(T_C, error_um)
 
 
@@ -102,11 +107,13 @@ class BenchCase:
 
     def kernel_times(self, B: NDArray[np.float64], chunk: int = 2048) -> NDArray[np.float64]:
         """:math:`K B` in row blocks, so memory stays O(chunk · n) (n = 20000 would need 3.2 GB)."""
-        return np.concatenate([self.gram(self.X[start:start + chunk]) @ B for start in range(0, self.n, chunk)])
+        return np.concatenate([self.gram(self.X[start:start + chunk]) @ B
+                               for start in range(0, self.n, chunk)])
 
 
 def resolve_gamma(gamma: float | str, X: NDArray[np.float64]) -> float:
-    """``gamma`` as a number; ``"scale"`` is scikit-learn's :math:`1 / (d\\,\\operatorname{Var} X)`."""
+    """``gamma`` as a number; ``"scale"`` is scikit-learn's
+    :math:`1 / (d\\,\\operatorname{Var} X)`."""
     if gamma == "scale":
         variance = float(X.var())
         return 1.0 / (X.shape[1] * variance) if variance > 0 else 1.0
@@ -116,8 +123,8 @@ def resolve_gamma(gamma: float | str, X: NDArray[np.float64]) -> float:
     return value
 
 
-def make_case(dataset: str, n: int, d: int, *, kernel: str = "rbf", C: float = 10.0, epsilon: float = 0.1,
-              gamma: float | str = "scale", seed: int = 0) -> BenchCase:
+def make_case(dataset: str, n: int, d: int, *, kernel: str = "rbf", C: float = 10.0,
+              epsilon: float = 0.1, gamma: float | str = "scale", seed: int = 0) -> BenchCase:
     """Generate ``dataset`` (a name of :data:`GENERATORS`) with ``n`` samples and ``d`` features."""
     if dataset not in GENERATORS:
         raise ProblemError(f"dataset must be one of {sorted(GENERATORS)}, got {dataset!r}")

@@ -25,10 +25,12 @@ from svrqp.bench.runners import REFERENCES
 
 #: Every column of a result row, in order.
 ROW_COLUMNS = (
-    "dataset", "n", "d", "kernel", "C", "epsilon", "gamma", "problem", "formulation", "backend", "method",
-    "profile", "tol", "residual_tol", "status", "success", "build_time_s", "solve_time_s", "total_time_s",
-    "iterations", "primal_residual", "dual_residual", "duality_gap", "objective", "reference_objective",
-    "objective_gap_rel", "prediction_diff_rel", "support_agreement", "n_support", "n_support_reference",
+    "dataset", "n", "d", "kernel", "C", "epsilon", "gamma", "problem", "formulation", "backend",
+    "method", "profile", "tol", "residual_tol", "status", "success", "build_time_s", "solve_time_s",
+    "total_time_s", "iterations", "primal_residual", "dual_residual", "duality_gap", "objective",
+    "reference_objective",
+    "objective_gap_rel", "prediction_diff_rel", "support_agreement", "n_support",
+    "n_support_reference",
     "pd_regularisation", "pd_objective_shift", "approximation_error", "error",
 )
 
@@ -38,7 +40,8 @@ def is_success(outcome: RunOutcome, profile: Profile) -> bool:
     return (
         outcome.status == "optimal"
         and bool(outcome.residuals)
-        and all(math.isfinite(value) and value <= profile.residual_tol for value in outcome.residuals.values())
+        and all(math.isfinite(value) and value <= profile.residual_tol
+                for value in outcome.residuals.values())
     )
 
 
@@ -53,12 +56,15 @@ def evaluate(outcome: RunOutcome, method: Method, case: BenchCase, reference: Ru
 
     Comparisons with the reference: ``objective_gap_rel`` is
     :math:`(J - J_\\text{ref}) / |J_\\text{ref}|` (negative: lower than the reference),
-    ``prediction_diff_rel`` is :math:`\\max_i |f(x_i) - f_\\text{ref}(x_i)| / \\operatorname{std}(y)`
-    on the training inputs, ``support_agreement`` the Jaccard index of the two support sets
-    (:func:`svrqp.formulations.epsilon_svr.support_mask`, threshold relative to C). They are NaN
-    when either run has no model.
+    ``prediction_diff_rel`` is
+    :math:`\\max_i |f(x_i) - f_\\text{ref}(x_i)| / \\operatorname{std}(y)` on the training inputs,
+    ``support_agreement`` the Jaccard index of the two support sets
+    (:func:`svrqp.formulations.epsilon_svr.support_mask`, threshold
+    relative to C). They are NaN when either run has no model.
     """
-    has_reference = reference is not None and reference.decision is not None and outcome.decision is not None
+    has_reference = (
+        reference is not None and reference.decision is not None and outcome.decision is not None
+    )
     compare = (lambda fn: fn()) if has_reference else (lambda fn: math.nan)
     residual = outcome.residuals.get
     return {
@@ -69,7 +75,8 @@ def evaluate(outcome: RunOutcome, method: Method, case: BenchCase, reference: Ru
         "status": outcome.status, "success": is_success(outcome, profile),
         "build_time_s": outcome.build_time_s, "solve_time_s": outcome.solve_time_s,
         "total_time_s": outcome.total_time_s, "iterations": outcome.iterations,
-        "primal_residual": residual("primal_rel", math.nan), "dual_residual": residual("dual_rel", math.nan),
+        "primal_residual": residual("primal_rel", math.nan),
+        "dual_residual": residual("dual_rel", math.nan),
         "duality_gap": residual("gap_rel", math.nan), "objective": outcome.objective,
         "reference_objective": reference.objective if reference is not None else math.nan,
         "objective_gap_rel": compare(
@@ -88,7 +95,8 @@ def evaluate(outcome: RunOutcome, method: Method, case: BenchCase, reference: Ru
 
 
 def shifted_geometric_mean(times_s: Sequence[float], shift_s: float = 1.0) -> float:
-    """:math:`\\exp(\\overline{\\log(t + s)}) - s`: small times count, one slow run does not dominate."""
+    """:math:`\\exp(\\overline{\\log(t + s)}) - s`:
+    small times count, one slow run does not dominate."""
     times = np.asarray(times_s, dtype=float)
     if times.size == 0:
         return math.nan
@@ -96,7 +104,8 @@ def shifted_geometric_mean(times_s: Sequence[float], shift_s: float = 1.0) -> fl
 
 
 def aggregate(rows: pd.DataFrame, time_limit_s: float, shift_s: float = 1.0) -> pd.DataFrame:
-    """Per method: runs, successes, and the shifted geometric mean of total time (failures at the limit).
+    """Per method: runs, successes, and the shifted
+    geometric mean of total time (failures at the limit).
 
     ``sgm_ratio`` divides each method's mean by the smallest one (1.0 is the fastest).
     """
@@ -109,13 +118,16 @@ def aggregate(rows: pd.DataFrame, time_limit_s: float, shift_s: float = 1.0) -> 
         .reset_index()
     )
     table["success_rate"] = table["successes"] / table["runs"]
-    table["sgm_ratio"] = table["sgm_time_s"] / table.groupby("problem")["sgm_time_s"].transform("min")
+    table["sgm_ratio"] = table["sgm_time_s"] / table.groupby("problem")["sgm_time_s"].transform(
+        "min"
+    )
     return table.sort_values(["problem", "sgm_time_s"]).reset_index(drop=True)
 
 
 def ratios_to_reference(rows: pd.DataFrame, objective_gap_max: float = 1e-8,
                         prediction_diff_max: float = 1e-4) -> pd.DataFrame:
-    """Per dataset and n: the reference's time, the fastest *exact* compared method, and their ratio.
+    """Per dataset and n: the reference's time, the
+    fastest *exact* compared method, and their ratio.
 
     Exact means: success, objective at most ``objective_gap_max`` (relative) above the reference's,
     and predictions within ``prediction_diff_max``·std(y) of the reference's (the issue's targets).
@@ -125,11 +137,19 @@ def ratios_to_reference(rows: pd.DataFrame, objective_gap_max: float = 1e-8,
                  & (rows["prediction_diff_rel"] <= prediction_diff_max)]
     table = []
     for (problem, dataset, n), runs in exact.groupby(["problem", "dataset", "n"], sort=True):
-        ref = reference[(reference["problem"] == problem) & (reference["dataset"] == dataset) & (reference["n"] == n)]
+        ref = reference[
+            (reference["problem"] == problem)
+            & (reference["dataset"] == dataset)
+            & (reference["n"] == n)
+        ]
         best = runs.loc[runs["total_time_s"].idxmin()]
         ref_time = float(ref["total_time_s"].iloc[0]) if len(ref) else math.nan
-        table.append({"problem": problem, "dataset": dataset, "n": n, "reference": ref["method"].iloc[0] if len(ref) else "",
+        table.append({"problem": problem, "dataset": dataset, "n": n,
+                      "reference": ref["method"].iloc[0] if len(ref) else "",
                       "reference_time_s": ref_time, "fastest_exact": best["method"],
-                      "fastest_exact_time_s": best["total_time_s"], "ratio": best["total_time_s"] / ref_time})
-    return pd.DataFrame(table, columns=["problem", "dataset", "n", "reference", "reference_time_s", "fastest_exact",
+                      "fastest_exact_time_s": best["total_time_s"],
+                      "ratio": best["total_time_s"] / ref_time})
+    return pd.DataFrame(table,
+                        columns=["problem", "dataset", "n", "reference", "reference_time_s",
+                                 "fastest_exact",
                                         "fastest_exact_time_s", "ratio"])

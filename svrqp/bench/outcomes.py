@@ -12,7 +12,8 @@ and the decomposition and low-rank solvers) are certified on the stacked dual (s
     f = K\beta + b,\quad z_\alpha = f - y - \varepsilon,\quad z_{\alpha^*} = y - f - \varepsilon ,
 
 which zeroes the stationarity residual by construction, so every departure from optimality
-shows in the primal residual :math:`\max(|\mathbf 1^\top\beta|, (|\beta| - C)^+)` and the duality gap
+shows in the primal residual
+:math:`\max(|\mathbf 1^\top\beta|, (|\beta| - C)^+)` and the duality gap
 
 .. math::
 
@@ -73,9 +74,10 @@ class RunOutcome:
     error: str = ""
 
 
-def beta_certificates(Kbeta: NDArray[np.float64], b: float, y: NDArray[np.float64], beta: NDArray[np.float64],
-                      C: float, epsilon: float) -> dict[str, float]:
-    """Relative certificates of a model :math:`(\\beta, b)` on the stacked ε-SVR dual (module docstring).
+def beta_certificates(Kbeta: NDArray[np.float64], b: float, y: NDArray[np.float64],
+                      beta: NDArray[np.float64], C: float, epsilon: float) -> dict[str, float]:
+    """Relative certificates of a model :math:`(\\beta, b)`
+    on the stacked ε-SVR dual (module docstring).
 
     Parameters
     ----------
@@ -108,7 +110,8 @@ def beta_certificates(Kbeta: NDArray[np.float64], b: float, y: NDArray[np.float6
 
 
 def _relative(residuals: dict[str, float]) -> dict[str, float]:
-    return {key: float(residuals[key]) for key in ("primal_rel", "dual_rel", "gap_rel") if key in residuals}
+    return {key: float(residuals[key]) for key in ("primal_rel", "dual_rel", "gap_rel")
+            if key in residuals}
 
 
 def svr_outcome(case: BenchCase, beta: NDArray[np.float64], b: float, Kbeta: NDArray[np.float64],
@@ -139,7 +142,8 @@ class QPPoint:
 
 def qp_outcome(case: BenchCase, point: QPPoint, status: str, K: NDArray[np.float64] | None,
                **fields: Any) -> RunOutcome:
-    """Outcome of a QP formulation: certificates of ``point.problem`` at the point, model read off ``point.x``.
+    """Outcome of a QP formulation: certificates of
+    ``point.problem`` at the point, model read off ``point.x``.
 
     This is the row evaluator's entry for QP solutions, so any ``x`` (including a perturbed one)
     is judged by its own certificates. ``K`` is the Gram matrix (``None`` for the primal form).
@@ -160,9 +164,10 @@ def qp_outcome(case: BenchCase, point: QPPoint, status: str, K: NDArray[np.float
 
 def ls_svr_outcome(case: BenchCase, K: NDArray[np.float64], alpha: NDArray[np.float64], b: float,
                    residual_rel: float, **fields: Any) -> RunOutcome:
-    r"""LS-SVR: objective :math:`\tfrac12\alpha^\top(K + I/C)\alpha - y^\top\alpha` (the minimised dual)."""
+    r"""LS-SVR: objective :math:`\tfrac12\alpha^\top(K + I/C)\alpha - y^\top\alpha`
+    (the minimised dual)."""
     Kalpha = K @ alpha
     objective = float(0.5 * alpha @ Kalpha + 0.5 * alpha @ alpha / case.C - case.y @ alpha)
-    return RunOutcome(residuals={"primal_rel": float(residual_rel)}, objective=objective, decision=Kalpha + b,
-                      support=np.ones(case.n, dtype=bool), **fields)
+    return RunOutcome(residuals={"primal_rel": float(residual_rel)}, objective=objective,
+                      decision=Kalpha + b, support=np.ones(case.n, dtype=bool), **fields)
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+
 # A Figure of its own, never pyplot's global state: the backend of a notebook or GUI stays as it is.
 from matplotlib.figure import Figure
 
@@ -43,7 +44,8 @@ def _cpu_model() -> str:
 
 
 def machine_info() -> dict[str, Any]:
-    """CPU, core counts, BLAS/OpenMP libraries with their kernel and threads, and ``OPENBLAS_CORETYPE``."""
+    """CPU, core counts, BLAS/OpenMP libraries with their
+    kernel and threads, and ``OPENBLAS_CORETYPE``."""
     from threadpoolctl import threadpool_info
 
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
@@ -55,7 +57,8 @@ def machine_info() -> dict[str, Any]:
         "python": platform.python_version(),
         "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE", "unset"),
         "thread_pools": [
-            {key: pool.get(key) for key in ("user_api", "internal_api", "version", "architecture", "num_threads")}
+            {key: pool.get(key)
+             for key in ("user_api", "internal_api", "version", "architecture", "num_threads")}
             | {"library": Path(pool["filepath"]).name}
             for pool in threadpool_info()
         ],
@@ -64,7 +67,8 @@ def machine_info() -> dict[str, Any]:
 
 def package_versions(backends: set[str] | None = None) -> dict[str, str]:
     """Installed versions of the core packages and of the given backends' packages."""
-    names = list(CORE_PACKAGES) + [BACKENDS[name].package for name in sorted(backends or ()) if name in BACKENDS]
+    names = list(CORE_PACKAGES) + [BACKENDS[name].package for name in sorted(backends or ())
+                                   if name in BACKENDS]
     versions = {}
     for name in dict.fromkeys(names):
         try:
@@ -76,12 +80,15 @@ def package_versions(backends: set[str] | None = None) -> dict[str, str]:
 
 def machine_sentence(machine: dict[str, Any], versions: dict[str, str]) -> str:
     """One paragraph for a results file: CPU, usable cores, platform, Python, ``OPENBLAS_CORETYPE``,
-    the BLAS libraries with their kernel and threads (from :func:`machine_info`) and ``versions``."""
-    blas = ", ".join(f"{pool['internal_api']} {pool['version']} ({pool['architecture']}, {pool['num_threads']} "
-                     f"thread(s))" for pool in machine["thread_pools"] if pool["user_api"] == "blas")
-    return (f"Machine: {machine['cpu']}, {machine['cores_usable']} usable cores, {machine['platform']}, Python "
-            f"{machine['python']}, OPENBLAS_CORETYPE = {machine['OPENBLAS_CORETYPE']}. BLAS (threadpoolctl): {blas}. "
-            "Versions: " + ", ".join(f"{name} {value}" for name, value in versions.items()) + ".")
+    the BLAS libraries with their kernel and threads
+    (from :func:`machine_info`) and ``versions``."""
+    blas = ", ".join(f"{pool['internal_api']} {pool['version']} ({pool['architecture']}, "
+                     f"{pool['num_threads']} thread(s))" for pool in machine["thread_pools"]
+                     if pool["user_api"] == "blas")
+    return (f"Machine: {machine['cpu']}, {machine['cores_usable']} usable cores, "
+            f"{machine['platform']}, Python {machine['python']}, OPENBLAS_CORETYPE = "
+            f"{machine['OPENBLAS_CORETYPE']}. BLAS (threadpoolctl): {blas}. Versions: "
+            "" + ", ".join(f"{name} {value}" for name, value in versions.items()) + ".")
 
 
 def markdown_table(table: pd.DataFrame, float_format: str = "{:.3g}") -> str:
@@ -92,7 +99,8 @@ def markdown_table(table: pd.DataFrame, float_format: str = "{:.3g}") -> str:
         return str(value).replace("|", "\\|")
 
     lines = ["| " + " | ".join(map(str, table.columns)) + " |", "|" + "---|" * len(table.columns)]
-    lines += ["| " + " | ".join(cell(value) for value in row) + " |" for row in table.itertuples(index=False)]
+    lines += ["| " + " | ".join(cell(value) for value in row) + " |"
+              for row in table.itertuples(index=False)]
     return "\n".join(lines)
 
 
@@ -102,53 +110,59 @@ LIMITATIONS = (
     "svrqp's own wrapper work: building the Gram matrix and the QP, converting matrices for the "
     "backend (build time), and computing the certificates after the solve (total time). libsvm "
     "computes kernel entries inside its solver, so its build time is zero and its solve time "
-    "includes the kernel. All runs share the same BLAS thread limit, and the machine may be "
-    "shared with other work: compare ratios measured in the same report, not absolute times "
-    "across reports. Success only means that the certificates meet the profile's tolerance; the "
-    "objective gap and prediction difference against the reference (libsvm for epsilon-SVR, "
-    "numpy.linalg.solve for LS-SVR) are reported separately, and the reference itself stops at "
-    "its own tolerance. Failed and skipped runs are charged the time limit in the shifted "
-    "geometric means. Backends that need a positive definite P get a tiny diagonal "
-    "(pd_regularisation) whose effect on the objective is the pd_objective_shift column. "
-    "Methods that return only (beta, b) — libsvm and svrqp's dual_ipm — are certified on the "
-    "stacked dual with multipliers rebuilt from the model (svrqp.bench.outcomes.beta_certificates): this is "
-    "the true primal-dual gap at that b. libsvm stops when its maximal violating pair is below tol, "
-    "which leaves a relative gap of about 1e-6 to 5e-6 at tol = 1e-8 on these problems, so under "
-    "the default profile it is flagged unsuccessful and charged the time limit in the aggregate; "
-    "its measured times are in the ratio table and the full table. Low-rank methods are certified "
-    "on the factored problem they solve; approximation_error (relative trace of K - LL^T) and the "
-    "objective and prediction differences show what the approximation costs."
+    "includes the kernel. All runs share the same BLAS thread limit, and the machine may be shared "
+    "with other work: compare ratios measured in the same report, not absolute times across "
+    "reports. Success only means that the certificates meet the profile's tolerance; the objective "
+    "gap and prediction difference against the reference (libsvm for epsilon-SVR, "
+    "numpy.linalg.solve for LS-SVR) are reported separately, and the reference itself stops at its "
+    "own tolerance. Failed and skipped runs are charged the time limit in the shifted geometric "
+    "means. Backends that need a positive definite P get a tiny diagonal (pd_regularisation) whose "
+    "effect on the objective is the pd_objective_shift column. Methods that return only (beta, b) "
+    "— libsvm and svrqp's dual_ipm — are certified on the stacked dual with multipliers rebuilt "
+    "from the model (svrqp.bench.outcomes.beta_certificates): this is the true primal-dual gap at "
+    "that b. libsvm stops when its maximal violating pair is below tol, which leaves a relative "
+    "gap of about 1e-6 to 5e-6 at tol = 1e-8 on these problems, so under the default profile it is "
+    "flagged unsuccessful and charged the time limit in the aggregate; its measured times are in "
+    "the ratio table and the full table. Low-rank methods are certified on the factored problem "
+    "they solve; approximation_error (relative trace of K - LL^T) and the objective and prediction "
+    "differences show what the approximation costs."
 )
 
 
 def markdown_report(rows: pd.DataFrame, config: BenchConfig, machine: dict[str, Any],
                     versions: dict[str, str], title: str = "svrqp solver comparison",
                     extra_sections: Sequence[str] = ()) -> str:
-    """The full Markdown report of one benchmark run (``extra_sections`` go before the full table)."""
+    """The full Markdown report of one benchmark run
+    (``extra_sections`` go before the full table)."""
     profile = PROFILES[config.profile]
     summary = aggregate(rows, config.time_limit_s, config.shift_s)
     pools = pd.DataFrame(machine["thread_pools"])
-    shown = ["dataset", "n", "method", "status", "success", "build_time_s", "solve_time_s", "total_time_s",
+    shown = ["dataset", "n", "method", "status", "success", "build_time_s", "solve_time_s",
+             "total_time_s",
              "iterations", "primal_residual", "dual_residual", "duality_gap", "objective_gap_rel",
              "prediction_diff_rel", "support_agreement"]
     return "\n\n".join([
         f"# {title}",
         "## Configuration\n\n" + "\n".join([
-            f"- datasets: {', '.join(config.datasets)}; n = {', '.join(map(str, sorted(config.sizes)))}; "
-            f"d = {config.d}; kernel = {config.kernel}; C = {config.C:g}; epsilon = {config.epsilon:g}; "
-            f"gamma = {config.gamma}",
-            f"- profile `{profile.name}`: requested tol = {profile.tol:g}, success when every relative "
-            f"certificate <= {profile.residual_tol:g}",
+            f"- datasets: {', '.join(config.datasets)}; n = "
+            f"{', '.join(map(str, sorted(config.sizes)))}; d = {config.d}; kernel = "
+            f"{config.kernel}; C = {config.C:g}; epsilon = {config.epsilon:g}; gamma = "
+            f"{config.gamma}",
+            f"- profile `{profile.name}`: requested tol = {profile.tol:g}, success when every "
+            f"relative certificate <= {profile.residual_tol:g}",
             f"- time limit {config.time_limit_s:g} s per run; shifted geometric mean with shift "
             f"{config.shift_s:g} s; {config.threads} BLAS/OpenMP thread(s) per run",
         ]),
         "## Machine\n\n" + "\n".join([
-            f"- CPU: {machine['cpu']} ({machine['cores_usable']} usable of {machine['cores_logical']} logical cores)",
+            f"- CPU: {machine['cpu']} ({machine['cores_usable']} usable of "
+            f"{machine['cores_logical']} logical cores)",
             f"- {machine['platform']}, Python {machine['python']}",
             f"- OPENBLAS_CORETYPE: {machine['OPENBLAS_CORETYPE']}",
-        ]) + "\n\nThread pools (threadpoolctl; `architecture` is the BLAS kernel in use; `num_threads` is "
-        "the harness's default, each run is limited to the threads stated above):\n\n" + markdown_table(pools),
-        "## Package versions\n\n" + "\n".join(f"- {name} {value}" for name, value in versions.items()),
+        ]) + "\n\nThread pools (threadpoolctl; `architecture` is the BLAS kernel in use; "
+             "`num_threads` is the harness's default, each run is limited to the threads stated "
+             "above):\n\n" + markdown_table(pools),
+        "## Package versions\n\n"
+        + "\n".join(f"- {name} {value}" for name, value in versions.items()),
         "## Aggregate (shifted geometric mean of total time, failures at the time limit)\n\n"
         + markdown_table(summary),
         "## Fastest exact method against the reference\n\nExact: success, objective at most 1e-8 "
@@ -162,11 +176,12 @@ def markdown_report(rows: pd.DataFrame, config: BenchConfig, machine: dict[str, 
 
 
 def plot_time_vs_n(rows: pd.DataFrame, path: Path) -> None:
-    """Total time against n on log-log axes, one line per method, one panel per dataset (successes only)."""
+    """Total time against n on log-log axes, one line per
+    method, one panel per dataset (successes only)."""
     datasets = list(dict.fromkeys(rows["dataset"]))
     figure = Figure(figsize=(6.5 * len(datasets), 4.8))
     axes = figure.subplots(1, len(datasets), squeeze=False)
-    for axis, dataset in zip(axes[0], datasets):
+    for axis, dataset in zip(axes[0], datasets, strict=False):
         subset = rows[(rows["dataset"] == dataset) & rows["success"]]
         for method, runs in subset.groupby("method", sort=False):
             runs = runs.sort_values("n")
@@ -183,7 +198,8 @@ def plot_time_vs_n(rows: pd.DataFrame, path: Path) -> None:
 
 
 def output_paths(output_dir: Path, stem: str = "results") -> dict[str, Path]:
-    """Where :func:`write_outputs` writes each file: ``stem.csv``, ``stem.md``, ``stem_time_vs_n.png``."""
+    """Where :func:`write_outputs` writes each file:
+    ``stem.csv``, ``stem.md``, ``stem_time_vs_n.png``."""
     return {kind: Path(output_dir) / f"{stem}{suffix}" for kind, suffix in OUTPUT_SUFFIXES.items()}
 
 
@@ -195,17 +211,20 @@ def write_outputs(rows: pd.DataFrame, config: BenchConfig, output_dir: Path, *, 
     Raises
     ------
     FileExistsError
-        When one of the files exists and ``force`` is false (a user's file is never overwritten silently).
+        When one of the files exists and ``force`` is false
+        (a user's file is never overwritten silently).
     ProblemError
         When one of the paths is a FIFO, a folder or a device (:mod:`svrqp.output`).
     """
     paths = output_paths(output_dir, stem)
-    for path in paths.values():  # svrqp.output: links replaced, never written through; FIFOs refused
+    # svrqp.output: links replaced, never written through; FIFOs refused
+    for path in paths.values():
         output.check_target(path, force=force)
     with output.replacing(paths["csv"], force=force) as temporary:
         rows.to_csv(temporary, index=False)
     backends = set(rows["backend"])
-    output.write_text(paths["markdown"], markdown_report(rows, config, machine_info(), package_versions(backends),
+    output.write_text(paths["markdown"],
+                      markdown_report(rows, config, machine_info(), package_versions(backends),
                                                          title, extra_sections), force=force)
     with output.replacing(paths["plot"], force=force) as temporary:
         plot_time_vs_n(rows, temporary)

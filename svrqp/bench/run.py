@@ -87,22 +87,24 @@ def run_benchmark(config: BenchConfig, on_run: Callable[[str], None] | None = No
     for dataset in config.datasets:
         timed_out: set[Method] = set()
         for n in sorted(config.sizes):
-            case = make_case(dataset, n, config.d, kernel=config.kernel, C=config.C, epsilon=config.epsilon,
-                             gamma=config.gamma, seed=config.seed)
+            case = make_case(dataset, n, config.d, kernel=config.kernel, C=config.C,
+                             epsilon=config.epsilon, gamma=config.gamma, seed=config.seed)
             references: dict[str, RunOutcome] = {}
             for method in all_methods:
                 if method in timed_out:
                     outcome = RunOutcome(status="skipped", total_time_s=config.time_limit_s,
                                          error="hit the time limit at a smaller n")
                 else:
-                    outcome = run_isolated(case, method, profile, config.time_limit_s, config.threads)
+                    outcome = run_isolated(case, method, profile, config.time_limit_s,
+                                           config.threads)
                 if outcome.status == "time_limit":
                     timed_out.add(method)
                 if method == REFERENCES[method.problem]:
                     references[method.problem] = outcome  # its own row compares with nothing
                     rows.append(evaluate(outcome, method, case, None, profile))
                 else:
-                    rows.append(evaluate(outcome, method, case, references.get(method.problem), profile))
+                    rows.append(evaluate(outcome, method, case, references.get(method.problem),
+                                         profile))
                 if on_run is not None:
                     on_run(f"{dataset} n={n} {method.label}: {outcome.status}")
     return pd.DataFrame(rows, columns=list(ROW_COLUMNS))

@@ -1,4 +1,5 @@
-"""The per-method runners, the method registry, and a run in a child process killed at its time limit.
+"""The per-method runners, the method registry, and
+a run in a child process killed at its time limit.
 
 A *method* is a (problem, formulation, backend) triple — e.g. the ε-SVR dual in split form
 solved by Clarabel, or libsvm's SMO through :class:`sklearn.svm.SVR`. Each runner builds the
@@ -49,14 +50,15 @@ def _run_qp(case: BenchCase, method: Method, profile: Profile) -> RunOutcome:
     point = QPPoint(method.formulation, problem, solution.x, solution.y, solution.z, solution.z_box)
     return qp_outcome(case, point, solution.status, K, build_time_s=build + solution.build_time,
                       solve_time_s=solution.solve_time, total_time_s=total,
-                      iterations=math.nan if solution.iterations is None else solution.iterations, notes=notes)
+                      iterations=math.nan if solution.iterations is None else solution.iterations,
+                      notes=notes)
 
 
 def _run_libsvm(case: BenchCase, method: Method, profile: Profile) -> RunOutcome:
     from sklearn.svm import SVR
 
-    model = SVR(kernel=case.kernel, C=case.C, epsilon=case.epsilon, gamma=case.gamma, degree=case.degree,
-                coef0=case.coef0, tol=profile.tol, cache_size=1000, max_iter=-1)
+    model = SVR(kernel=case.kernel, C=case.C, epsilon=case.epsilon, gamma=case.gamma,
+                degree=case.degree, coef0=case.coef0, tol=profile.tol, cache_size=1000, max_iter=-1)
     start = time.perf_counter()
     model.fit(case.X, case.y)
     total = time.perf_counter() - start
@@ -64,23 +66,26 @@ def _run_libsvm(case: BenchCase, method: Method, profile: Profile) -> RunOutcome
     beta[model.support_] = model.dual_coef_[0]
     # libsvm stops on its own at tol; it has no "unsolved" status other than hitting max_iter.
     status = "optimal" if model.fit_status_ == 0 else "max_iter"
-    return svr_outcome(case, beta, float(model.intercept_[0]), case.kernel_times(beta), None, status=status,
-                       build_time_s=0.0, solve_time_s=total, total_time_s=total,
+    return svr_outcome(case, beta, float(model.intercept_[0]), case.kernel_times(beta), None,
+                       status=status, build_time_s=0.0, solve_time_s=total, total_time_s=total,
                        iterations=float(np.sum(model.n_iter_)))
 
 
-#: Relative trace error of the pivoted Cholesky factor used by the low-rank methods, and its largest rank (·n).
+#: Relative trace error of the pivoted Cholesky factor
+#: used by the low-rank methods, and its largest rank (·n).
 LOW_RANK_TOL = 1e-6
 LOW_RANK_MAX_FRACTION = 0.25
 
 
 def _run_dual_ipm(case: BenchCase, method: Method, profile: Profile) -> RunOutcome:
-    """svrqp's structure-exploiting interior point (:mod:`svrqp.solvers.dual_ipm`): dense, auto, or low-rank only."""
+    """svrqp's structure-exploiting interior point
+    (:mod:`svrqp.solvers.dual_ipm`): dense, auto, or low-rank only."""
     from svrqp.linalg.kernel_columns import KernelColumns
     from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
     from svrqp.solvers import dual_ipm
 
-    parameters = {"kernel": case.kernel, "gamma": case.gamma, "degree": case.degree, "coef0": case.coef0}
+    parameters = {"kernel": case.kernel, "gamma": case.gamma, "degree": case.degree,
+                  "coef0": case.coef0}
     start = time.perf_counter()
     K, approximation, residuals = None, 0.0, None
     if method.formulation == "dense":
@@ -95,15 +100,17 @@ def _run_dual_ipm(case: BenchCase, method: Method, profile: Profile) -> RunOutco
         beta, b, solved = fit.beta, fit.intercept, fit.crossover.exact or fit.ipm.converged
     else:  # "low_rank": the factored problem only, an approximation whose error is reported
         factor = pivoted_cholesky(KernelColumns(case.X, **parameters),
-                                  max_rank=max(1, int(LOW_RANK_MAX_FRACTION * case.n)), tol=LOW_RANK_TOL)
+                                  max_rank=max(1, int(LOW_RANK_MAX_FRACTION * case.n)),
+                                  tol=LOW_RANK_TOL)
         build = time.perf_counter() - start
-        fit = dual_ipm.interior_point(dual_ipm.FactoredKernel(factor.L), case.y, case.C, case.epsilon,
-                                      tol=profile.tol)
+        fit = dual_ipm.interior_point(dual_ipm.FactoredKernel(factor.L), case.y, case.C,
+                                      case.epsilon, tol=profile.tol)
         beta, b, solved = fit.beta, fit.intercept, fit.converged
         approximation = factor.relative_trace_error
         # Certified on the problem it solved (K = L L^T), like the factored QP; the exact objective
         # and predictions below show what the approximation cost.
-        residuals = beta_certificates(factor.L @ (factor.L.T @ beta), b, case.y, beta, case.C, case.epsilon)
+        residuals = beta_certificates(factor.L @ (factor.L.T @ beta), b, case.y, beta, case.C,
+                                      case.epsilon)
     total = time.perf_counter() - start
     iterations = fit.ipm.iterations if hasattr(fit, "ipm") else fit.iterations
     Kbeta = K @ beta if K is not None else case.kernel_times(beta)
@@ -121,7 +128,8 @@ def _run_low_rank_qp(case: BenchCase, method: Method, profile: Profile) -> RunOu
     from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 
     start = time.perf_counter()
-    columns = KernelColumns(case.X, kernel=case.kernel, gamma=case.gamma, degree=case.degree, coef0=case.coef0)
+    columns = KernelColumns(case.X, kernel=case.kernel, gamma=case.gamma, degree=case.degree,
+                            coef0=case.coef0)
     factor = pivoted_cholesky(columns, max_rank=max(1, int(LOW_RANK_MAX_FRACTION * case.n)),
                                        tol=LOW_RANK_TOL)
     problem = low_rank.dual_low_rank(factor.L, case.y, case.C, case.epsilon)
@@ -135,7 +143,8 @@ def _run_low_rank_qp(case: BenchCase, method: Method, profile: Profile) -> RunOu
     residuals = problem.kkt_residuals(solution.x, solution.y, solution.z, solution.z_box)
     return svr_outcome(case, beta, b, case.kernel_times(beta), residuals, status=solution.status,
                        build_time_s=build + solution.build_time, solve_time_s=solution.solve_time,
-                       total_time_s=total, iterations=math.nan if solution.iterations is None else solution.iterations,
+                       total_time_s=total,
+                       iterations=math.nan if solution.iterations is None else solution.iterations,
                        notes={"approximation_error": factor.relative_trace_error})
 
 
@@ -188,7 +197,8 @@ def runner_for(method: Method) -> Callable[[BenchCase, Method, Profile], RunOutc
         if method.formulation in epsilon_svr.FORMULATIONS and method.backend in BACKENDS:
             return _run_qp
     raise ProblemError(f"no runner for {method}; ε-SVR formulations: "
-                       f"{list(epsilon_svr.FORMULATIONS) + ['low_rank']}, backends: {sorted(BACKENDS)}; "
+                       f"{list(epsilon_svr.FORMULATIONS) + ['low_rank']}, backends: "
+                       f"{sorted(BACKENDS)}; "
                        f"svrqp's own: dual_ipm/{'|'.join(DUAL_IPM_FORMULATIONS)}")
 
 
@@ -197,8 +207,9 @@ def methods(formulations: Sequence[str], backends: Sequence[str], kernel: str,
     """The applicable ε-SVR methods of formulation × backend, plus LS-SVR.
 
     QP backends pair with the QP formulations (``stacked``, ``split``, ``low_rank``, and ``primal``
-    with the linear kernel); the backend ``dual_ipm`` pairs with ``dense``, ``auto`` and ``low_rank``.
-    A name that pairs with nothing is an error. The reference methods are not part of this list.
+    with the linear kernel); the backend ``dual_ipm`` pairs with ``dense``, ``auto`` and
+    ``low_rank``. A name that pairs with nothing is an
+    error. The reference methods are not part of this list.
     """
     chosen = []
     for formulation in formulations:
@@ -211,11 +222,14 @@ def methods(formulations: Sequence[str], backends: Sequence[str], kernel: str,
             except ProblemError:
                 continue
             chosen.append(method)
-    unused = ({*formulations} - {m.formulation for m in chosen}) | ({*backends} - {m.backend for m in chosen})
+    unused = ({*formulations} - {m.formulation for m in chosen}) | (
+        {*backends} - {m.backend for m in chosen}
+    )
     if unused:
         raise ProblemError(f"{sorted(unused)} pair with none of the given backends/formulations "
-                           f"(QP backends: {sorted(BACKENDS)} with {list(epsilon_svr.FORMULATIONS) + ['low_rank']}; "
-                           f"dual_ipm with {list(DUAL_IPM_FORMULATIONS)}; primal needs kernel='linear')")
+                           f"(QP backends: {sorted(BACKENDS)} with "
+                           f"{list(epsilon_svr.FORMULATIONS) + ['low_rank']}; dual_ipm with "
+                           f"{list(DUAL_IPM_FORMULATIONS)}; primal needs kernel='linear')")
     return chosen + (list(LS_SVR_METHODS) if ls_svr_methods else [])
 
 
@@ -243,9 +257,11 @@ def run_isolated(case: BenchCase, method: Method, profile: Profile, time_limit_s
             outcome = RunOutcome(status="time_limit", total_time_s=time_limit_s,
                                  error=f"killed after the {time_limit_s:g} s time limit")
         else:
-            outcome = RunOutcome(status="crashed", error=f"child process exited with code {child.exitcode}")
+            outcome = RunOutcome(status="crashed", error=f"child process exited with code "
+                                                         f"{child.exitcode}")
     except EOFError:
-        outcome = RunOutcome(status="crashed", error=f"child process exited with code {child.exitcode}")
+        outcome = RunOutcome(status="crashed", error=f"child process exited with code "
+                                                     f"{child.exitcode}")
     finally:
         if child.is_alive():
             child.kill()

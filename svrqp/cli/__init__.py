@@ -29,14 +29,17 @@ from svrqp.exceptions import SvrqpError
 
 def _command_name(node: ast.AST) -> str | None:
     """``"name"`` when ``node`` is the call ``<app>.command("name")``, else None."""
-    if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "command"
-            and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+    if (isinstance(node, ast.Call) and isinstance(node.func,
+                                                  ast.Attribute) and node.func.attr == "command"
+            and node.args and isinstance(node.args[0],
+                                         ast.Constant) and isinstance(node.args[0].value, str)):
         return node.args[0].value
     return None
 
 
 def _declared_in(source: str) -> dict[str, str]:
-    """Command name -> docstring of its function, for each command that ``register`` in ``source`` adds.
+    """Command name -> docstring of its function, for
+    each command that ``register`` in ``source`` adds.
 
     Both spellings of the project are read: ``@app.command("name")`` on a function defined in
     ``register``, and ``app.command("name")(function)`` on a module-level function.
@@ -59,7 +62,8 @@ def _declared_in(source: str) -> dict[str, str]:
 
 
 def declared_commands() -> dict[str, tuple[str, str]]:
-    """Command name -> (module of this package, help text), read from the source without importing it."""
+    """Command name -> (module of this package, help
+    text), read from the source without importing it."""
     commands: dict[str, tuple[str, str]] = {}
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
         if info.name.startswith("_"):
@@ -68,13 +72,16 @@ def declared_commands() -> dict[str, tuple[str, str]]:
         source = folder / info.name / "__init__.py" if info.ispkg else folder / f"{info.name}.py"
         declared = _declared_in(source.read_text(encoding="utf-8"))
         if not declared:
-            raise ImportError(f"{__name__}.{info.name}: register(app) adds no app.command(\"name\")")
+            raise ImportError(
+                f"{__name__}.{info.name}: register(app) adds no app.command(\"name\")"
+            )
         commands.update({name: (info.name, help_text) for name, help_text in declared.items()})
     return commands
 
 
 class _Unloaded(click.Command):
-    """A command whose module is not imported yet: its name and help, enough for the group's list."""
+    """A command whose module is not imported yet:
+    its name and help, enough for the group's list."""
 
     def __init__(self, name: str, module: str, help_text: str) -> None:
         super().__init__(name, help=help_text)
@@ -82,7 +89,8 @@ class _Unloaded(click.Command):
 
 
 class _LazyGroup(TyperGroup):
-    """The ``svrqp`` group: each command's module is imported the first time the command is looked up.
+    """The ``svrqp`` group: each command's module is
+    imported the first time the command is looked up.
 
     Only the group's own help keeps the :class:`_Unloaded` summaries; every other look-up (running a
     command, its ``--help``, the generated CLI reference) gets the real command.
@@ -135,7 +143,8 @@ def _root(
     version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
                                  help="Print the version of svrqp and exit."),
     blas_threads: int = typer.Option(_threads.DEFAULT, _threads.OPTION, min=0,
-                                     help="BLAS/OpenMP threads per process (0: the libraries' own default). "
+                                     help="BLAS/OpenMP threads per process (0: the libraries' own "
+                                          "default). "
                                           "One is fastest when a command runs a worker per core."),
 ) -> None:
     """Support vector regression as explicit convex problems."""

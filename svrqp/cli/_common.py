@@ -8,9 +8,9 @@ estimators by :func:`make_estimator` (through :mod:`svrqp.registry`).
 from __future__ import annotations
 
 import csv
-from pathlib import Path
 from collections.abc import Sequence
 from enum import Enum
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
@@ -50,21 +50,24 @@ def model_option(choices: type[Enum], default: str | None, extra_help: str = "")
 
     A wrong name is refused with the list of ``choices``; each name's meaning is in the help.
     """
-    words = "; ".join(f"{model.value}: {MODEL_WORDS.get(model.value, model.value)}" for model in choices)
+    words = "; ".join(f"{model.value}: {MODEL_WORDS.get(model.value, model.value)}"
+                      for model in choices)
     return typer.Option(None if default is None else choices(default), "--model",
                         help=f"{words}.{' ' + extra_help if extra_help else ''}")
 
 
 #: ``--help`` of every ``--solver`` option that picks how an ε-SVR is solved.
-SOLVER_HELP = (f"svr: '{AUTO}' (the default: the fastest certified exact path), '{SMO_CROSSOVER}' (loose SMO, "
-               f"then the exact crossover), '{DUAL_IPM}' (svrqp's interior point with exact crossover) or a QP "
-               f"backend: {', '.join(BACKENDS)}.")
+SOLVER_HELP = (f"svr: '{AUTO}' (the default: the fastest certified exact path), '{SMO_CROSSOVER}' "
+               f"(loose SMO, then the exact crossover), '{DUAL_IPM}' (svrqp's interior point with "
+               f"exact crossover) or a QP backend: {', '.join(BACKENDS)}.")
 #: ``--help`` of ``--coverage``, ``--group`` and ``--interval`` (:mod:`svrqp.cli._guard`).
-COVERAGE_HELP = ("Calibrate a conformal prediction interval of this coverage (e.g. 0.9) and record the "
-                 "training domain (svrqp.Guarded); default: no interval.")
-GROUP_HELP = ("With --coverage: column naming the run/batch/cycle of each row; calibration folds hold out "
-              "whole groups (rows within a run are not exchangeable).")
-INTERVAL_HELP = "With --coverage: absolute or normalized (normalised: wider where the errors are larger)."
+COVERAGE_HELP = ("Calibrate a conformal prediction interval of this coverage (e.g. 0.9) and record "
+                 "the training domain (svrqp.Guarded); default: no interval.")
+GROUP_HELP = ("With --coverage: column naming the run/batch/cycle of each row; calibration folds "
+              "hold out whole groups (rows within a run are not exchangeable).")
+INTERVAL_HELP = (
+    "With --coverage: absolute or normalized (normalised: wider where the errors are larger)."
+)
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
@@ -79,14 +82,17 @@ def read_table(path: str | Path) -> pd.DataFrame:
             table = pd.read_parquet(path)
         except ImportError as err:
             raise BackendNotAvailableError(
-                f"reading {path.name} needs a Parquet engine: pip install 'svrqp[parquet]' (pyarrow)") from err
+                f"reading {path.name} needs a Parquet engine: pip install 'svrqp[parquet]' "
+                f"(pyarrow)") from err
         _refuse_repeated_names(path, [str(name) for name in table.columns])
         return table
     names, has_rows = _csv_header(path)
     _refuse_repeated_names(path, names)
     if names and not has_rows:
-        # Checked before pandas reads it: pandas builds one empty column per name (minutes for 1e5 names).
-        raise ProblemError(f"{path.name}: the file has a header of {len(names)} column(s) but no data rows")
+        # Checked before pandas reads it: pandas builds one
+        # empty column per name (minutes for 1e5 names).
+        raise ProblemError(f"{path.name}: the file has a header of {len(names)} column(s) but no "
+                           f"data rows")
     try:
         table = pd.read_csv(path)
     except pd.errors.EmptyDataError as err:
@@ -95,8 +101,8 @@ def read_table(path: str | Path) -> pd.DataFrame:
     separator = next((sep for sep in (";", "\t", "|") if sep in header), None)
     if table.shape[1] == 1 and separator is not None:
         # Guessing the separator (and then the decimal mark) could misread numbers: say it instead.
-        raise ProblemError(f"{path.name} reads as one column {header!r}: it seems separated by {separator!r}; "
-                           "save it comma-separated, with '.' as the decimal mark")
+        raise ProblemError(f"{path.name} reads as one column {header!r}: it seems separated by "
+                           f"{separator!r}; save it comma-separated, with '.' as the decimal mark")
     return table
 
 
@@ -116,8 +122,10 @@ def _refuse_repeated_names(path: Path, names: list[str]) -> None:
     check_unique_names(names, path.name)
 
 
-def split_columns(text: str | None, table: pd.DataFrame, option: str, numeric: bool = False) -> list[str]:
-    """Split ``"a,b,c"`` into column names and check that each is in ``table`` (and numeric, if asked)."""
+def split_columns(text: str | None, table: pd.DataFrame, option: str,
+                  numeric: bool = False) -> list[str]:
+    """Split ``"a,b,c"`` into column names and check
+    that each is in ``table`` (and numeric, if asked)."""
     if text is None or not text.strip():
         return []
     from svrqp.table_checks import check_numeric, check_present
@@ -136,7 +144,9 @@ def parse_gamma(text: str) -> str | float:
     try:
         value = float(text)
     except ValueError:
-        raise ProblemError(f"--gamma must be 'scale', 'auto' or a positive number, got {text!r}") from None
+        raise ProblemError(
+            f"--gamma must be 'scale', 'auto' or a positive number, got {text!r}"
+        ) from None
     if not value > 0:
         raise ProblemError(f"--gamma must be positive, got {text!r}")
     return value
@@ -144,14 +154,16 @@ def parse_gamma(text: str) -> str | float:
 
 def make_estimator(model: str, *, C: float, epsilon: float, gamma: str | float, degree: int,
                    forgetting: float, solver: str) -> Any:
-    """The unfitted estimator called ``model`` in :mod:`svrqp.registry`, with the options it takes."""
+    """The unfitted estimator called ``model`` in
+    :mod:`svrqp.registry`, with the options it takes."""
     spec = registry.spec(model, "--model")
     if "solver" in spec.parameters:
         from svrqp.estimators.kernel import SOLVERS
 
         if solver not in SOLVERS:
             raise ProblemError(f"--solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
-    return spec.make(C=C, epsilon=epsilon, gamma=gamma, degree=degree, forgetting=forgetting, solver=solver)
+    return spec.make(C=C, epsilon=epsilon, gamma=gamma, degree=degree, forgetting=forgetting,
+                     solver=solver)
 
 
 def select_train_rows(table: pd.DataFrame, query: str | None) -> pd.Series:

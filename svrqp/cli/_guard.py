@@ -1,4 +1,5 @@
-"""``--coverage``, ``--group`` and ``--interval`` of ``svrqp fit`` and ``svrqp export``: wrap in Guarded.
+"""``--coverage``, ``--group`` and ``--interval`` of
+``svrqp fit`` and ``svrqp export``: wrap in Guarded.
 
 The options' help texts are in :mod:`svrqp.cli._common` (this module loads scikit-learn).
 """
@@ -22,8 +23,8 @@ from svrqp.table_checks import check_present
 
 def guarded_or_plain(model: Any, coverage: float | None, group: str | None, method: str, *,
                      standardize: bool = False) -> Any:
-    """``model`` as the commands fit it: after a ``StandardScaler`` with ``--standardize``, wrapped in
-    :class:`Guarded` when ``--coverage`` is given."""
+    """``model`` as the commands fit it: after a ``StandardScaler`` with ``--standardize``, wrapped
+    in :class:`Guarded` when ``--coverage`` is given."""
     if standardize:
         model = make_pipeline(StandardScaler(), model)
     if coverage is None:
@@ -51,18 +52,23 @@ def fit_guarded(model: Any, X: pd.DataFrame, y: pd.Series, groups: pd.Series | N
 
 
 def describe_interval(interval: dict[str, Any]) -> str:
-    """One line from an ``interval`` section: coverage, method, quantile and how it was calibrated."""
+    """One line from an ``interval`` section: coverage,
+    method, quantile and how it was calibrated."""
     calibration = interval["calibration"]
     groups = "" if calibration["groups"] is None else f" over {len(calibration['groups'])} groups"
     return (f"interval: {interval['coverage']:g} conformal ({interval['method']}), quantile q = "
-            f"{interval['quantile']:.4g}; calibrated on out-of-fold residuals, {calibration['folds']}{groups}")
+            f"{interval['quantile']:.4g}; calibrated on out-of-fold residuals, "
+            f"{calibration['folds']}{groups}")
 
 
-def interval_table(model: Guarded, row_sets: list[tuple[str, pd.DataFrame, pd.Series]], unit: str) -> Table:
-    """Per row set: share of measurements inside the interval, mean width, share outside the domain."""
+def interval_table(model: Guarded, row_sets: list[tuple[str, pd.DataFrame, pd.Series]],
+                   unit: str) -> Table:
+    """Per row set: share of measurements inside the
+    interval, mean width, share outside the domain."""
     table = Table(title=f"interval ({model.coverage:g} nominal) and domain",
                   caption="train rows are in-sample (optimistic); other rows test the interval")
-    for column in ("rows", "n", "inside interval", f"mean width ({unit or 'target units'})", "outside domain"):
+    for column in ("rows", "n", "inside interval", f"mean width ({unit or 'target units'})",
+                   "outside domain"):
         table.add_column(column, justify="left" if column == "rows" else "right")
     for label, X, y in row_sets:
         with warnings.catch_warnings():
@@ -71,6 +77,6 @@ def interval_table(model: Guarded, row_sets: list[tuple[str, pd.DataFrame, pd.Se
         y = y.to_numpy(dtype=float)
         inside = np.mean((y >= interval[:, 0]) & (y <= interval[:, 1]))
         outside = model.check_domain(X)["outside"].mean()
-        table.add_row(label, str(len(y)), f"{inside:.3f}", f"{np.mean(interval[:, 1] - interval[:, 0]):.4g}",
-                      f"{outside:.3f}")
+        table.add_row(label, str(len(y)), f"{inside:.3f}",
+                      f"{np.mean(interval[:, 1] - interval[:, 0]):.4g}", f"{outside:.3f}")
     return table

@@ -2,8 +2,9 @@
 
 A command runs one process per worker (the S0 grid of ``svrqp demo``, a ``svrqp tune`` on joblib)
 and each process would start one BLAS thread per core: on a 2-core machine ``svrqp demo --quick``
-took 41 s with the default threads and 10 s with one thread each. So commands cap BLAS at ``--blas-threads`` threads per
-process (default 1); ``--blas-threads 0`` lifts the cap and leaves the libraries' own default.
+took 41 s with the default threads and 10 s with one thread each. So commands cap BLAS at
+``--blas-threads`` threads per process (default 1); ``--blas-threads 0``
+lifts the cap and leaves the libraries' own default.
 
 The cap is set twice: as the usual environment variables, before numpy is imported by a command
 (worker processes inherit them), and through threadpoolctl for libraries already loaded (the

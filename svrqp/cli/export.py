@@ -1,4 +1,5 @@
-"""``svrqp export``: write a model as auditable JSON, the papers' CSV coefficient table, or C source.
+"""``svrqp export``: write a model as auditable
+JSON, the papers' CSV coefficient table, or C source.
 
 Two inputs, told apart by the suffix of INPUT:
 
@@ -30,27 +31,32 @@ DATA_SUFFIXES = {".csv", ".parquet", ".pq"}
 
 
 def export_command(
-    source: Path = typer.Argument(..., help="A model file (.json, svrqp.model/1) to convert, or a data "
+    source: Path = typer.Argument(..., help="A model file (.json, svrqp.model/1) to convert, or a "
+                                            "data "
                                             "table (.csv/.parquet) to fit a model on and export."),
-    out: Path = typer.Option(..., "--out", "-o", help="Output file (.json, .csv, .c) or, for C, a directory "
-                                                       "that receives svrqp_model.c and svrqp_model.h."),
-    format: str = typer.Option(None, "--format", "-f", help=f"One of {FORMAT_CHOICES}; default: from "
-                                                             "the suffix of --out."),
+    out: Path = typer.Option(..., "--out", "-o", help="Output file (.json, .csv, .c) or, for C, a "
+                                                      "directory that receives svrqp_model.c and "
+                                                      "svrqp_model.h."),
+    format: str = typer.Option(None, "--format", "-f", help=f"One of {FORMAT_CHOICES}; default: "
+                                                            "from the suffix of --out."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
-    target: str = typer.Option(None, "--target", help="Data tables: the target column (unit in its name, "
-                                                      "e.g. error_um)."),
-    features: str = typer.Option(None, "--features", help="Data tables: input columns, comma-separated "
-                                                          "(e.g. T7_C,T9_C)."),
+    target: str = typer.Option(None, "--target", help="Data tables: the target column (unit in its "
+                                                      "name, e.g. error_um)."),
+    features: str = typer.Option(None, "--features", help="Data tables: input columns, "
+                                                          "comma-separated (e.g. T7_C,T9_C)."),
     model: FitModel = model_option(FitModel, "svr", "Data tables: the model to fit."),
     C: float = typer.Option(1.0, "--C", help="svr/lssvr: the regularisation weight C."),
-    epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target units."),
-    gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma (scikit-learn convention, "
-                                                       "= S0's g = 1/σ²; S4's σ gives 1/(2σ²)), or "
-                                                       "'scale'/'auto'."),
+    epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target "
+                                                         "units."),
+    gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma (scikit-learn "
+                                                       "convention, = S0's g = 1/σ²; S4's σ gives "
+                                                       "1/(2σ²)), or 'scale'/'auto'."),
     degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (one input)."),
-    forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
+    forgetting: float = typer.Option(1.0, "--forgetting",
+                                     help="rls: forgetting factor λ in (0, 1]."),
     solver: str = typer.Option("auto", "--solver", help=SOLVER_HELP),
-    standardize: bool = typer.Option(False, "--standardize", help="Data tables: standardise the inputs "
+    standardize: bool = typer.Option(False, "--standardize", help="Data tables: standardise the "
+                                                                  "inputs "
                                                                   "first (recorded in the file)."),
     coverage: float = typer.Option(None, "--coverage", help="Data tables: " + COVERAGE_HELP),
     group: str = typer.Option(None, "--group", help="Data tables: " + GROUP_HELP),
@@ -77,12 +83,14 @@ def export_command(
     from svrqp.export import build_document, read_document, write
 
     suffix = source.suffix.lower()
-    data_options = {"--target": target, "--features": features, "--coverage": coverage, "--group": group}
+    data_options = {"--target": target, "--features": features, "--coverage": coverage,
+                    "--group": group}
     console = Console(stderr=True)
     if suffix in MODEL_SUFFIXES:
         given = [name for name, value in data_options.items() if value is not None]
         if given:
-            raise ProblemError(f"{', '.join(given)} only apply when SOURCE is a data table, not a model file")
+            raise ProblemError(f"{', '.join(given)} only apply when SOURCE is a data table, not a "
+                               f"model file")
         document = read_document(source)  # verified: refused unless every check passes
     elif suffix in DATA_SUFFIXES:
         if target is None or features is None:
@@ -90,9 +98,10 @@ def export_command(
         table = read_table(source)
         columns = split_columns(features, table, "--features", numeric=True)
         split_columns(target, table, "--target", numeric=True)
-        estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma), degree=degree,
-                                   forgetting=forgetting, solver=solver)
-        fitted_model = guarded_or_plain(estimator, coverage, group, interval, standardize=standardize)
+        estimator = make_estimator(model, C=C, epsilon=epsilon, gamma=parse_gamma(gamma),
+                                   degree=degree, forgetting=forgetting, solver=solver)
+        fitted_model = guarded_or_plain(estimator, coverage, group, interval,
+                                        standardize=standardize)
         groups = group_labels(table, group)
         X, y = table[columns], table[target]
         with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
@@ -102,7 +111,8 @@ def export_command(
             progress.update(task, description="cross-checking against the reference and hashing")
             document = build_document(fitted_model, X, y)
     else:
-        raise ProblemError(f"SOURCE must be a model file (.json) or a data table (.csv, .parquet), got {source}")
+        raise ProblemError(f"SOURCE must be a model file (.json) or a data table (.csv, .parquet), "
+                           f"got {source}")
     for path in write(document, out, format, force=force):
         typer.echo(f"wrote {path}")
     if "interval" in document:
@@ -110,7 +120,8 @@ def export_command(
     cross_check = document["cross_check"]
     if cross_check is not None:
         typer.echo(f"cross-check vs {cross_check['reference']}: max |Δprediction| = "
-                   f"{cross_check['max_abs_deviation']:.3g} (std of target {cross_check['target_std']:.3g})")
+                   f"{cross_check['max_abs_deviation']:.3g} (std of target "
+                   f"{cross_check['target_std']:.3g})")
 
 
 def register(app: typer.Typer) -> None:

@@ -30,7 +30,6 @@ from svrqp.units import split_unit
 
 if TYPE_CHECKING:
     import numpy as np
-    import pandas as pd
 
 
 def _print_linear(console: Console, estimator) -> None:
@@ -53,7 +52,8 @@ def _print_polynomial(console: Console, estimator, target: str) -> None:
     terms = " ".join(f"{'-' if value < 0 else '+'} {abs(value):.6g}·P{m}(u)"
                      for m, value in enumerate(estimator.legendre_coef_))
     low, high = estimator.domain_
-    typer.echo(f"{target} = {terms.removeprefix('+ ')},  u = (2x - {low:g} - {high:g}) / {high - low:g}")
+    typer.echo(f"{target} = {terms.removeprefix('+ ')},  u = (2x - {low:g} - {high:g}) / "
+               f"{high - low:g}")
 
 
 def _print_model(console: Console, fitted, target: str) -> None:
@@ -64,8 +64,11 @@ def _print_model(console: Console, fitted, target: str) -> None:
     elif hasattr(estimator, "legendre_coef_"):
         _print_polynomial(console, estimator, target)
     else:
-        typer.echo(f"{len(estimator.support_)} support vectors, b = {estimator.intercept_[0]:.6g}, "
-                   f"gamma = {estimator.gamma_:.6g}" + (" (standardised inputs)" if fitted is not estimator else ""))
+        typer.echo(
+            f"{len(estimator.support_)} support vectors, b = {estimator.intercept_[0]:.6g}, "
+            f"gamma = {estimator.gamma_:.6g}"
+            + (" (standardised inputs)" if fitted is not estimator else "")
+        )
 
 
 def _metrics_table(rows: list[tuple[str, np.ndarray]], unit: str) -> Table:
@@ -85,27 +88,34 @@ def _metrics_table(rows: list[tuple[str, np.ndarray]], unit: str) -> Table:
 
 
 def fit_command(
-    data: Path = typer.Argument(..., help="CSV or Parquet table with the target and feature columns."),
-    target: str = typer.Option(..., "--target", help="Column to predict (unit in its name, e.g. error_um)."),
-    features: str = typer.Option(..., "--features", help="Comma-separated input columns (e.g. T7_C,T9_C)."),
+    data: Path = typer.Argument(..., help="CSV or Parquet table with the target and feature "
+                                          "columns."),
+    target: str = typer.Option(..., "--target", help="Column to predict (unit in its name, e.g. "
+                                                     "error_um)."),
+    features: str = typer.Option(..., "--features", help="Comma-separated input columns (e.g. "
+                                                         "T7_C,T9_C)."),
     model: FitModel = model_option(FitModel, "mlr"),
-    train: str = typer.Option(None, "--train", help="Filter selecting the rows to fit (e.g. \"batch == 'x1'\"; "
-                              "comparisons joined by and/or/not, see svrqp.query); the other rows are "
-                              "assessed. Default: all rows."),
+    train: str = typer.Option(None, "--train", help="Filter selecting the rows to fit (e.g. "
+                                                    "\"batch == 'x1'\"; comparisons joined by "
+                                                    "and/or/not, see svrqp.query); the other rows "
+                                                    "are assessed. Default: all rows."),
     C: float = typer.Option(1.0, "--C", help="svr/lssvr: the regularisation weight C."),
-    epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target units."),
+    epsilon: float = typer.Option(0.1, "--epsilon", help="svr: half-width of the ε-tube, in target "
+                                                         "units."),
     gamma: str = typer.Option("scale", "--gamma", help="svr/lssvr: RBF gamma in exp(-γ‖x−x'‖²) "
                               "(S0's g = 1/σ²; S4's σ gives 1/(2σ²)), or 'scale'/'auto'."),
     degree: int = typer.Option(5, "--degree", help="poly: polynomial degree (S2: 5)."),
-    forgetting: float = typer.Option(1.0, "--forgetting", help="rls: forgetting factor λ in (0, 1]."),
+    forgetting: float = typer.Option(1.0, "--forgetting",
+                                     help="rls: forgetting factor λ in (0, 1]."),
     solver: str = typer.Option("auto", "--solver", help=SOLVER_HELP),
-    standardize: bool = typer.Option(False, "--standardize", help="svr/lssvr: standardise the inputs "
-                                     "before the kernel."),
+    standardize: bool = typer.Option(False, "--standardize", help="svr/lssvr: standardise the "
+                                                                  "inputs before the kernel."),
     coverage: float = typer.Option(None, "--coverage", help=COVERAGE_HELP),
     group: str = typer.Option(None, "--group", help=GROUP_HELP),
     interval: str = typer.Option("absolute", "--interval", help=INTERVAL_HELP),
 ) -> None:
-    """Fit a model on the --train rows; print its coefficients and the residuals on every row set."""
+    """Fit a model on the --train rows; print its
+    coefficients and the residuals on every row set."""
     model = model.value
     # Imported when the command runs: `svrqp fit --help` loads no scikit-learn.
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
@@ -160,7 +170,8 @@ def fit_command(
     console.print(_metrics_table(rows, split_unit(target)[1]))
     if guarded is not None:
         typer.echo(describe_interval(sections(guarded)["interval"]))
-        row_sets = [("train", X_train, y_train)] + ([("other", X_other, y_other)] if len(y_other) else [])
+        row_sets = [("train", X_train,
+                     y_train)] + ([("other", X_other, y_other)] if len(y_other) else [])
         console.print(interval_table(guarded, row_sets, split_unit(target)[1]))
 
 

@@ -119,7 +119,8 @@ def plot_table(
     if target is None:
         target = next((c for c in TARGET_COLUMNS if c in table.columns), None)
         if target is None:
-            raise ProblemError(f"plot: no error column {list(TARGET_COLUMNS)}; name one with --target")
+            raise ProblemError(f"plot: no error column {list(TARGET_COLUMNS)}; name one with "
+                               f"--target")
     if temperatures is None:
         temperatures = [c for c in table.columns if c.endswith("_C") and not c.startswith("true_")]
     if group is None and "batch" in table.columns:
@@ -156,7 +157,8 @@ def register(app: typer.Typer) -> None:
 
     @app.command("simulate")
     def simulate_command(
-        kind: Kind = typer.Argument(..., help="Simulator: thermal (machining-centre thermal drift), "
+        kind: Kind = typer.Argument(..., help="Simulator: thermal (machining-centre thermal "
+                                              "drift), "
                                     "axis (linear-axis geometric errors), gantry (2X/Y contour)."),
         out: Path = typer.Option(..., "--out", help="CSV file to write."),
         config: Path = typer.Option(None, "--config", help="TOML file setting fields of the "
@@ -167,7 +169,9 @@ def register(app: typer.Typer) -> None:
         nine_line: NineLineSet = typer.Option(None, "--nine-line", help="axis only: write the "
                                               "interferometer readings of this nine-line set "
                                               "instead of the tool-point error table."),
-        force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic link is replaced, never written through)."),
+        force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic "
+                                                          "link is replaced, never written "
+                                                          "through)."),
     ) -> None:
         """Simulate a machine with switchable physical effects and write the table as CSV."""
         output.check_target(out, force=force)
@@ -195,7 +199,9 @@ def register(app: typer.Typer) -> None:
                                          "columns (default every *_C column)."),
         group: str = typer.Option(None, "--group", help="Column with one panel column per value "
                                   "(default batch when present)."),
-        force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic link is replaced, never written through)."),
+        force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic "
+                                                          "link is replaced, never written "
+                                                          "through)."),
     ) -> None:
         """Plot temperatures and error over time, as the figures of S0 do."""
         output.check_target(out, force=force)
@@ -204,7 +210,8 @@ def register(app: typer.Typer) -> None:
             split_columns(target, table, "--target", numeric=True)
         if group is not None:
             split_columns(group, table, "--group")
-        chosen = split_columns(temperatures, table, "--temperatures", numeric=True) if temperatures else None
+        chosen = split_columns(temperatures, table, "--temperatures",
+                               numeric=True) if temperatures else None
         figure = plot_table(table, target=target, temperatures=chosen, group=group)
         with output.replacing(out, force=force) as temporary:
             figure.savefig(temporary, dpi=120, bbox_inches="tight")

@@ -14,7 +14,8 @@ def register(app: typer.Typer) -> None:
     def verify_command(
         file: Path = typer.Argument(..., help="An exported model, svrqp.model/1 JSON."),
     ) -> None:
-        """Validate the schema, recompute the content hash and re-evaluate the probe points; exit 1 on failure."""
+        """Validate the schema, recompute the content hash and
+        re-evaluate the probe points; exit 1 on failure."""
         from svrqp.export import (
             verify,  # imported when the command runs: `svrqp verify --help` stays quick
         )
@@ -27,5 +28,6 @@ def register(app: typer.Typer) -> None:
         deviation = "n/a" if report.max_deviation is None else f"{report.max_deviation:.3g}"
         typer.echo(f"{'OK' if report.ok else 'FAIL'} {file} (largest probe deviation {deviation})")
         if not report.ok:
-            # SystemExit, not typer.Exit: click returns (drops) typer.Exit's code in standalone_mode=False.
+            # SystemExit, not typer.Exit: click returns (drops)
+            # typer.Exit's code in standalone_mode=False.
             raise SystemExit(1)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import html
 from typing import Any
 
-SIMULATED_NOTE = ("All data in this demo are SIMULATED by svrqp.machine (the embedded datasets), imitating the "
-                  "papers' set-ups; they are not the papers' measurements, so our numbers are not expected to "
-                  "equal the published ones.")
+SIMULATED_NOTE = ("All data in this demo are SIMULATED by svrqp.machine (the embedded datasets), "
+                  "imitating the papers' set-ups; they are not the papers' measurements, so our "
+                  "numbers are not expected to equal the published ones.")
 
 
 def _table(header: list[str], rows: list[list[Any]]) -> str:
@@ -26,12 +26,14 @@ def _link(path: str, text: str | None = None) -> str:
 
 
 def _figure(path: str, caption: str) -> str:
-    return (f'<figure><a href="{html.escape(path)}"><img src="{html.escape(path)}" alt="{html.escape(caption)}" '
+    return (f'<figure><a href="{html.escape(path)}"><img src="{html.escape(path)}" '
+            f'alt="{html.escape(caption)}" '
             f'width="640"></a><figcaption>{html.escape(caption)}</figcaption></figure>')
 
 
 def _s0_table(table: list[dict[str, Any]]) -> str:
-    rows = [[r["model"], r["batch"], r["rms_um"], r["paper_rms_um"], r["std_um"], r["max_abs_um"]] for r in table]
+    rows = [[r["model"], r["batch"], r["rms_um"], r["paper_rms_um"], r["std_um"],
+             r["max_abs_um"]] for r in table]
     return _table(["model", "batch", "RMS of residual (μm)", "S0's published RMS (μm)",
                    "std of residual, mean removed (μm)", "max |residual| (μm)"], rows)
 
@@ -43,40 +45,46 @@ def _paragraphs(sentences: list[str]) -> str:
 def _s0(s0: dict[str, Any]) -> str:
     best = s0["cv"]["best_params"]
     variant = s0["absolute_variant"]
-    return (f"<h2>S0 — spindle thermal error: MLR vs ε-SVR (fit on x1)</h2>"
-            f"<p>Data: <code>{html.escape(s0['dataset'])}</code>, S0's set-up — temperature rises from the start "
-            f"of each run and the probe zeroed at the start; inputs {', '.join(s0['features'])}.</p>"
-            f"<p>ε-SVR: RBF kernel, ε = {s0['epsilon_um']} μm fixed; {s0['cv']['folds']}-fold CV over "
-            f"C ∈ {s0['cv']['grid']['C']}, γ ∈ {s0['cv']['grid']['gamma']} chose C = {best['C']:g}, "
-            f"γ = g = {best['gamma']:g} (CV MSE {s0['cv']['best_mse_um2']:.4g} μm²); {s0['n_support']} support "
-            f"vectors (S0: 56). MLR: {html.escape(s0['mlr_formula'])}.</p>"
-            f"<p>Metric: {html.escape(s0['metric'])}.</p>"
+    return ("<h2>S0 — spindle thermal error: MLR vs ε-SVR (fit on x1)</h2><p>Data: "
+            f"<code>{html.escape(s0['dataset'])}</code>, S0's set-up — temperature rises from the "
+            "start of each run and the probe zeroed at the start; inputs "
+            f"{', '.join(s0['features'])}.</p><p>ε-SVR: RBF kernel, ε = {s0['epsilon_um']} μm "
+            f"fixed; {s0['cv']['folds']}-fold CV over C ∈ {s0['cv']['grid']['C']}, γ ∈ "
+            f"{s0['cv']['grid']['gamma']} chose C = {best['C']:g}, γ = g = {best['gamma']:g} (CV "
+            f"MSE {s0['cv']['best_mse_um2']:.4g} μm²); {s0['n_support']} support vectors (S0: 56). "
+            f"MLR: {html.escape(s0['mlr_formula'])}.</p><p>Metric: {html.escape(s0['metric'])}.</p>"
             + _s0_table(s0["table"])
             + f"<p>{html.escape(s0['sentence'])}</p>" + _paragraphs(s0["extrapolation"])
-            + "".join(_figure(path, f"S0 batch {batch}: measured vs predicted vs residual over time")
+            + "".join(_figure(path,
+                              f"S0 batch {batch}: measured vs predicted vs residual over time")
                       for batch, path in s0["figures"].items())
-            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: {_link(s0['cv_table'])}.</p>"
-            + f"<h3>Variant: absolute temperatures (<code>{html.escape(variant['dataset'])}</code>)</h3>"
-            f"<p>The same pipeline on absolute temperatures {', '.join(variant['features'])}, with the error "
-            "counted from the machine at 20 °C: not S0's set-up, kept to show what extrapolation does. MLR: "
-            f"{html.escape(variant['mlr_formula'])}; ε-SVR C = {variant['best_params']['C']:g}, γ = "
-            f"{variant['best_params']['gamma']:g}.</p>"
+            + f"<p>Per-sample predictions: {_link(s0['predictions'])}; CV grid: "
+              f"{_link(s0['cv_table'])}.</p>"
+            + "<h3>Variant: absolute temperatures "
+              f"(<code>{html.escape(variant['dataset'])}</code>)</h3><p>The same pipeline on "
+              f"absolute temperatures {', '.join(variant['features'])}, with the error counted "
+              "from the machine at 20 °C: not S0's set-up, kept to show what extrapolation does. "
+              f"MLR: {html.escape(variant['mlr_formula'])}; ε-SVR C = "
+              f"{variant['best_params']['C']:g}, γ = {variant['best_params']['gamma']:g}.</p>"
             + _s0_table(variant["table"]) + _paragraphs(variant["extrapolation"]))
 
 
 def _s4(s4: dict[str, Any]) -> str:
     paper = s4["paper"]
     unseen = ", ".join(str(run) for run in s4["test_runs"])
-    rows = [[f"straightness before (μm, mean of runs {unseen})", s4["before_um"], paper["before_um"]],
+    rows = [[f"straightness before (μm, mean of runs {unseen})", s4["before_um"],
+             paper["before_um"]],
             ["after compensation (μm)", s4["after_um"], paper["after_um"]],
             ["improvement (%)", s4["improvement_percent"], paper["improvement_percent"]]]
-    per_run = [[run["run"], "fitted on (in sample)" if run["fitted_on"] else "unseen", run["before_um"],
+    per_run = [[run["run"], "fitted on (in sample)" if run["fitted_on"] else "unseen",
+                run["before_um"],
                 run["after_um"], run["improvement_percent"]] for run in s4["runs"]]
-    return (f"<h2>S4 — LS-SVR straightness compensation (out of sample)</h2>"
-            f"<p>LS-SVR with S4's σ = {s4['sigma_mm']} mm (2σ² convention, γ = {s4['gamma']:.4g}) and "
-            f"C = {s4['C']}, {s4['n_support']} support vectors, fitted on run {s4['train_run']}; output = window "
-            f"mean over the next {s4['feed_forward_mm']} mm with a {s4['dead_band_um']} μm dead band (S4 eq. 8), "
-            f"applied to runs {unseen}, which the model never saw.</p><p>Metric: {html.escape(s4['metric'])}.</p>"
+    return ("<h2>S4 — LS-SVR straightness compensation (out of sample)</h2><p>LS-SVR with S4's σ "
+            f"= {s4['sigma_mm']} mm (2σ² convention, γ = {s4['gamma']:.4g}) and C = {s4['C']}, "
+            f"{s4['n_support']} support vectors, fitted on run {s4['train_run']}; output = window "
+            f"mean over the next {s4['feed_forward_mm']} mm with a {s4['dead_band_um']} μm dead "
+            f"band (S4 eq. 8), applied to runs {unseen}, which the model never saw.</p><p>Metric: "
+            f"{html.escape(s4['metric'])}.</p>"
             + _table(["", "unseen runs", "S4"], rows)
             + _table(["run", "role", "before (μm)", "after (μm)", "improvement (%)"], per_run)
             + _figure(s4["figure"], "S4 straightness of an unseen run before and after"))
@@ -87,11 +95,12 @@ def _s2(s2: dict[str, Any]) -> str:
     rows = [[c, s2["max_error_improved"][c], s2["max_error_original"][c]] for c in components]
     mse = s2["mse_um2"]
     paper = s2["paper"]
-    return ("<h2>S2 — nine-line identification and δx(x) models</h2>"
-            "<p>Largest error of the identified components against the simulator's truth (μm for δ, μrad for θ):</p>"
+    return ("<h2>S2 — nine-line identification and δx(x) models</h2><p>Largest error of the "
+            "identified components against the simulator's truth (μm for δ, μrad for θ):</p>"
             + _table(["component", "improved method", "original method"], rows)
             + f"<p>{html.escape(s2['identification_note'])}</p>"
-            + f"<p>δx(x): ε-SVR (5-fold CV: C = {s2['svr_params']['C']:g}, γ = {s2['svr_params']['gamma']:.4g} "
+            + f"<p>δx(x): ε-SVR (5-fold CV: C = {s2['svr_params']['C']:g}, γ = "
+              f"{s2['svr_params']['gamma']:.4g} "
               f"on u = x/550; {s2['n_support']} SVs) vs 5th-order least-squares polynomial.</p>"
             + _table(["MSE (μm²)", "ε-SVR", "5th-order LSM"],
                      [["fit (as S2 reports)", mse["svr_fit"], mse["lsm_fit"]],
@@ -110,7 +119,8 @@ def _export(export: dict[str, Any]) -> str:
             + f"</p><p>svrqp verify: <b>{'OK' if verify['ok'] else 'FAIL'}</b></p>"
             + _table(["check", "result", "detail"], checks)
             + f"<p>Cross-check against {html.escape(cross['reference'])}: max |Δprediction| = "
-              f"{cross['max_abs_deviation']:.3g} μm (std of the target {cross['target_std']:.3g} μm).</p>")
+              f"{cross['max_abs_deviation']:.3g} μm (std of the target {cross['target_std']:.3g} "
+              f"μm).</p>")
 
 
 def verdict_label(verdict: dict[str, Any]) -> str:
@@ -123,31 +133,34 @@ def verdict_label(verdict: dict[str, Any]) -> str:
 
 
 def _gap(gap: dict[str, Any]) -> str:
-    return ("<h2>Gap diagnosis: why the summer MLR on absolute temperatures misses autumn</h2>"
-            "<p>Run on the absolute variant (<code>miao2013</code>, inputs T7_C and T9_C), where the summer "
-            "model is used far outside its training range in autumn.</p>"
-            f"<p>Verdict: <b>{html.escape(verdict_label(gap['verdict']))}</b>"
+    return ("<h2>Gap diagnosis: why the summer MLR on absolute temperatures misses "
+            "autumn</h2><p>Run on the absolute variant (<code>miao2013</code>, inputs T7_C and "
+            "T9_C), where the summer model is used far outside its training range in "
+            f"autumn.</p><p>Verdict: <b>{html.escape(verdict_label(gap['verdict']))}</b>"
             + f"</p><p>{html.escape(gap['summary'])}</p>"
             + f"<p>Full report: {_link(gap['html'])}; JSON: {_link(gap['json'])}.</p>")
 
 
 def _reproduction(rows: list[dict[str, Any]]) -> str:
-    return ("<h2>Reproduction, seed by seed</h2><p>The papers' numbers against ours on the simulated data, each "
+    return ("<h2>Reproduction, seed by seed</h2><p>The papers' numbers against ours on the "
+            "simulated data, each "
             "with its metric; where ours differs qualitatively, the measured reason.</p>"
             + _table(["seed", "quantity", "metric", "paper", "ours", "qualitatively", "why"],
-                     [[r["seed"], r["quantity"], r["metric"], r["paper"], r["ours"], r["qualitatively"], r["note"]]
+                     [[r["seed"], r["quantity"], r["metric"], r["paper"], r["ours"],
+                       r["qualitatively"], r["note"]]
                       for r in rows]))
 
 
 def report_html(results: dict[str, Any]) -> str:
     """The demo's report page (figures and exported files are linked by relative paths)."""
-    sections = [_reproduction(results["reproduction"]), _s0(results["s0"]), _s4(results["s4"]), _s2(results["s2"]),
-                _export(results["export"])]
+    sections = [_reproduction(results["reproduction"]), _s0(results["s0"]), _s4(results["s4"]),
+                _s2(results["s2"]), _export(results["export"])]
     if results.get("gap") is not None:
         sections.append(_gap(results["gap"]))
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>svrqp demo</title>"
             "<style>body{font-family:sans-serif;max-width:60em;margin:auto}table{border-collapse:collapse}"
-            "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}td:last-child{text-align:left}</style></head><body>"
+            "td,th{border:1px solid #bbb;padding:2px "
+            "8px;text-align:right}td:last-child{text-align:left}</style></head><body>"
             f"<h1>svrqp demo</h1><p><b>{html.escape(SIMULATED_NOTE)}</b></p>"
             f"<p>{'Quick run (--quick): smaller CV grid. ' if results['quick'] else ''}"
             f"Run time {results['runtime_s']:.1f} s; numbers in {_link('results.json')}.</p>"

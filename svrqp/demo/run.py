@@ -23,17 +23,18 @@ import numpy as np
 from svrqp import datasets, output
 from svrqp.demo import figures, steps
 from svrqp.demo.report import SIMULATED_NOTE, report_html
-from svrqp.export import build_document, verify, write
-from svrqp.kernels import gamma_from_sigma_s4
 from svrqp.estimators.linear import LinearLS
+from svrqp.export import build_document, verify, write
 from svrqp.extras import require
+from svrqp.kernels import gamma_from_sigma_s4
 
 Progress = Callable[[str, float], None]
 
 #: Share of the run time each step takes (for the progress bar), in order.
-STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.45, "S0 variant: absolute temperatures": 0.1, "S4: LS-SVR straightness": 0.05,
-                "S2: nine-line and δx models": 0.08, "export and verify": 0.07, "gap diagnosis": 0.2,
-                "figures and report": 0.05}
+STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.45, "S0 variant: absolute temperatures": 0.1,
+                "S4: LS-SVR straightness": 0.05,
+                "S2: nine-line and δx models": 0.08, "export and verify": 0.07,
+                "gap diagnosis": 0.2, "figures and report": 0.05}
 
 
 #: The extra the demo needs, and why (checked before anything is written).
@@ -41,18 +42,21 @@ REQUIRED_EXTRA = ("guard", "svrqp demo (its S0 ε-SVR carries conformal interval
 
 
 def prepare_directory(out: Path, force: bool) -> None:
-    """Create ``out``; refuse a non-empty one unless ``force`` (then the demo's files are replaced)."""
+    """Create ``out``; refuse a non-empty one unless
+    ``force`` (then the demo's files are replaced)."""
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"{out} exists and is not a directory")
     if out.exists() and any(out.iterdir()) and not force:
-        raise FileExistsError(f"{out} exists and is not empty; use --force to overwrite the demo's files in it")
+        raise FileExistsError(f"{out} exists and is not empty; use --force to overwrite the demo's "
+                              f"files in it")
     (out / "export").mkdir(parents=True, exist_ok=True)
     (out / "gap").mkdir(exist_ok=True)
 
 
 def plain_formula(mlr: LinearLS, target: str) -> str:
     """``target = a·x1 − b·x2 + c`` in plain text (the report renders no LaTeX)."""
-    terms = [(float(value), f"·{name}") for value, name in zip(mlr.coef_, mlr.feature_names_in_, strict=True)]
+    terms = [(float(value), f"·{name}")
+             for value, name in zip(mlr.coef_, mlr.feature_names_in_, strict=True)]
     terms.append((float(mlr.intercept_), ""))
     text = f"{terms[0][0]:.4g}{terms[0][1]}"
     for value, name in terms[1:]:
@@ -71,13 +75,14 @@ def extrapolation_notes(ranges: list[dict[str, Any]]) -> list[str]:
         outside = [row for row in ranges if row["batch"] == batch and row["share_outside"] > 0]
         if not outside:
             continue
-        parts = [f"{row['input']} spans {row['low']:.3g} … {row['high']:.3g}{_unit(row['input'])} against "
-                 f"{row['train_low']:.3g} … {row['train_high']:.3g}{_unit(row['input'])} in training "
-                 f"({100 * row['share_outside']:.0f} % of the rows outside)" for row in outside]
-        notes.append(f"On {batch} the models extrapolate: " + "; ".join(parts) + ". What they predict there "
-                     "is not what they learned from data but how their functional form continues: the MLR "
-                     "plane goes on linearly, and the RBF ε-SVR's sum of Gaussians tends to its bias b far "
-                     "from its support vectors.")
+        parts = [f"{row['input']} spans {row['low']:.3g} … {row['high']:.3g}{_unit(row['input'])} "
+                 f"against {row['train_low']:.3g} … {row['train_high']:.3g}{_unit(row['input'])} "
+                 f"in training ({100 * row['share_outside']:.0f} % of the rows "
+                 "outside)" for row in outside]
+        notes.append(f"On {batch} the models extrapolate: " + "; ".join(parts) + ". What they "
+                     "predict there is not what they learned from data but how their functional "
+                     "form continues: the MLR plane goes on linearly, and the RBF ε-SVR's sum of "
+                     "Gaussians tends to its bias b far from its support vectors.")
     return notes
 
 
@@ -92,45 +97,53 @@ def _s0_section(result: steps.S0Result, absolute: steps.S0Result, quick: bool) -
     table, better, worse = _s0_rows(result)
     x3 = {row["model"]: row["rms_um"] for row in table if row["batch"] == "x3"}
     paper = steps.S0_PAPER_RMS_UM
-    sentence = (f"On the autumn batch x3, with S0's temperature rises, the {better} leaves the smaller RMS residual "
-                f"({x3[better]:.3g} μm) and the {worse} the larger ({x3[worse]:.3g} μm); S0 published ε-SVR "
-                f"{paper[('ε-SVR', 'x3')]} vs MLR {paper[('MLR', 'x3')]} μm (RMS). The data here is simulated, so "
-                "the comparison says what this simulated machine does, not what S0's did.")
+    sentence = (f"On the autumn batch x3, with S0's temperature rises, the {better} leaves the "
+                f"smaller RMS residual ({x3[better]:.3g} μm) and the {worse} the larger "
+                f"({x3[worse]:.3g} μm); S0 published ε-SVR {paper[('ε-SVR', 'x3')]} vs MLR "
+                f"{paper[('MLR', 'x3')]} μm (RMS). The data here is simulated, so the comparison "
+                "says what this simulated machine does, not what S0's did.")
     absolute_table, absolute_better, _ = _s0_rows(absolute)
     grid = steps.S0_GRID_QUICK if quick else steps.S0_GRID
     return {
-        "dataset": steps.S0_DATASET, "metric": "RMS of the residuals (μm), S0's 'standard deviation'",
+        "dataset": steps.S0_DATASET, "metric": "RMS of the residuals (μm), S0's 'standard "
+                                               "deviation'",
         "features": result.features, "target": steps.S0_TARGET, "train_batch": steps.S0_TRAIN_BATCH,
         "epsilon_um": steps.S0_EPSILON_UM,
         "cv": {"folds": steps.S0_FOLDS, "grid": {key: list(values) for key, values in grid.items()},
                "best_params": result.search.best_params, "best_mse_um2": result.search.best_mse,
                "n_fits": result.search.n_fits},
         "n_support": int(len(result.svr.support_)),
-        "mlr_formula": plain_formula(result.mlr, steps.S0_TARGET), "mlr_latex": result.mlr.to_latex(),
+        "mlr_formula": plain_formula(result.mlr, steps.S0_TARGET),
+        "mlr_latex": result.mlr.to_latex(),
         "table": table, "x3_better_model": better, "sentence": sentence,
         "input_ranges": result.ranges, "extrapolation": extrapolation_notes(result.ranges),
         "absolute_variant": {
             "dataset": steps.S0_ABSOLUTE_DATASET, "features": absolute.features,
-            "best_params": absolute.search.best_params, "n_support": int(len(absolute.svr.support_)),
+            "best_params": absolute.search.best_params,
+            "n_support": int(len(absolute.svr.support_)),
             "mlr_formula": plain_formula(absolute.mlr, steps.S0_TARGET), "table": absolute_table,
             "x3_better_model": absolute_better, "input_ranges": absolute.ranges,
             "extrapolation": extrapolation_notes(absolute.ranges),
         },
         "predictions": "s0_predictions.csv", "cv_table": "s0_cv_grid.csv",
-        "figures": {batch: f"s0_{batch}.png" for batch in sorted(result.predictions["batch"].unique())},
+        "figures": {batch: f"s0_{batch}.png"
+                    for batch in sorted(result.predictions["batch"].unique())},
     }
 
 
 def _s4_section(result: steps.S4Result) -> dict[str, Any]:
     runs = [{"run": run.run, "fitted_on": run.run == result.train_run, "before_um": run.before_um,
              "after_um": run.after_um, "improvement_percent": run.improvement_percent,
-             "after_without_ripple_noise_um": run.after_without_ripple_noise_um} for run in result.runs]
+             "after_without_ripple_noise_um": run.after_without_ripple_noise_um}
+            for run in result.runs]
     return {
-        "sigma_mm": steps.S4_SIGMA_MM, "gamma": gamma_from_sigma_s4(steps.S4_SIGMA_MM), "C": steps.S4_C,
-        "n_support": result.n_support, "feed_forward_mm": steps.S4_FEED_FORWARD_MM,
+        "sigma_mm": steps.S4_SIGMA_MM, "gamma": gamma_from_sigma_s4(steps.S4_SIGMA_MM),
+        "C": steps.S4_C, "n_support": result.n_support, "feed_forward_mm": steps.S4_FEED_FORWARD_MM,
         "dead_band_um": steps.S4_DEAD_BAND_UM,
-        "metric": "straightness: peak-to-valley of the deviation from the least-squares line (μm), S4 eqs. 2–3",
-        "out_of_sample": True, "train_run": result.train_run, "test_runs": [run.run for run in result.test_runs],
+        "metric": "straightness: peak-to-valley of the deviation from the least-squares line (μm), "
+                  "S4 eqs. 2–3",
+        "out_of_sample": True, "train_run": result.train_run,
+        "test_runs": [run.run for run in result.test_runs],
         "before_um": result.before_um, "after_um": result.after_um,
         "improvement_percent": result.improvement_percent, "runs": runs,
         "paper": steps.S4_PAPER, "figure": "s4_straightness.png",
@@ -138,24 +151,29 @@ def _s4_section(result: steps.S4Result) -> dict[str, Any]:
 
 
 def _s2_section(result: steps.S2Result) -> dict[str, Any]:
-    better = [c for c in result.max_error_improved if result.max_error_improved[c] < result.max_error_original[c]]
+    better = [c for c in result.max_error_improved
+              if result.max_error_improved[c] < result.max_error_original[c]]
     worse = [c for c in result.max_error_improved if c not in better]
     noise_free = max(max(errors.values()) for errors in result.max_error_noise_free.values())
-    identification = (f"The improved method identifies {len(better)} of {len(better) + len(worse)} components more "
-                      f"closely than the original ({', '.join(better) or 'none'})"
+    identification = (f"The improved method identifies {len(better)} of {len(better) + len(worse)} "
+                      f"components more closely than the original ({', '.join(better) or 'none'})"
                       + (f"; not {', '.join(worse)}" if worse else "")
-                      + f". On noise-free readings both are exact (largest error {noise_free:.1g}, the rounding of "
-                      "the truth table): the difference is only what each does with reading noise — nine readings "
-                      "averaged by least squares against six solved exactly — and so depends on the noise draw and "
-                      "on how far apart the measuring lines are.")
-    periodic = (f"The ball-screw periodic error (1 μm, 16 mm lead) sampled every 55 mm is aliased: at the 11 positions "
-                f"its mean square is {result.periodic_ms_um2:.3g} μm², {result.periodic_ms_um2 / steps.S2_PAPER['mse_svr']:.0f}× "
-                f"S2's SVR MSE. No smooth model of 11 samples can follow it, so both MSEs sit near that floor and the "
-                "comparison of fit MSEs mostly measures how closely each model interpolates it; the leave-one-out "
-                "MSE says which model predicts better between the samples.")
+                      + f". On noise-free readings both are exact (largest error {noise_free:.1g}, "
+                        "the rounding of the truth table): the difference is only what each does "
+                        "with reading noise — nine readings averaged by least squares against six "
+                        "solved exactly — and so depends on the noise draw and on how far apart "
+                        "the measuring lines are.")
+    periodic = ("The ball-screw periodic error (1 μm, 16 mm lead) sampled every 55 mm is aliased: "
+                f"at the 11 positions its mean square is {result.periodic_ms_um2:.3g} μm², "
+                f"{result.periodic_ms_um2 / steps.S2_PAPER['mse_svr']:.0f}× S2's SVR MSE. No "
+                "smooth model of 11 samples can follow it, so both MSEs sit near that floor and "
+                "the comparison of fit MSEs mostly measures how closely each model interpolates "
+                "it; the leave-one-out MSE says which model predicts better between the samples.")
     return {
-        "metric": "MSE of the δx(x) model's residuals at the 11 positions (μm²), S2's 'MSE' (in-sample fit)",
-        "max_error_improved": result.max_error_improved, "max_error_original": result.max_error_original,
+        "metric": "MSE of the δx(x) model's residuals at the 11 positions (μm²), S2's 'MSE' "
+                  "(in-sample fit)",
+        "max_error_improved": result.max_error_improved,
+        "max_error_original": result.max_error_original,
         "max_error_noise_free": result.max_error_noise_free, "identification_note": identification,
         "svr_params": result.svr_params, "n_support": result.n_support, "mse_um2": result.mse,
         "periodic_ms_um2": result.periodic_ms_um2, "periodic_note": periodic,
@@ -163,12 +181,14 @@ def _s2_section(result: steps.S2Result) -> dict[str, Any]:
     }
 
 
-def _row(seed: str, quantity: str, metric: str, paper: float, ours: float, agrees: bool, note: str) -> dict[str, Any]:
+def _row(seed: str, quantity: str, metric: str, paper: float, ours: float, agrees: bool,
+         note: str) -> dict[str, Any]:
     return {"seed": seed, "quantity": quantity, "metric": metric, "paper": paper, "ours": ours,
             "qualitatively": "agrees" if agrees else "differs", "note": note}
 
 
-def reproduction_table(s0: dict[str, Any], s4: dict[str, Any], s2: dict[str, Any]) -> list[dict[str, Any]]:
+def reproduction_table(s0: dict[str, Any], s4: dict[str, Any],
+                       s2: dict[str, Any]) -> list[dict[str, Any]]:
     """One row per published number of S0, S4 and S2: the paper's, ours, the metric, and the reason
     where ours differs qualitatively (taken from the measurements above, not written by hand)."""
     rows = []
@@ -177,29 +197,35 @@ def reproduction_table(s0: dict[str, Any], s4: dict[str, Any], s2: dict[str, Any
     for (model, batch), paper in steps.S0_PAPER_RMS_UM.items():
         note = ""
         if batch == "x3":
-            note = ("The ε-SVR degrades less, as in S0; the sizes differ. " if svr_wins else "") + " ".join(
+            note = ("The ε-SVR degrades less, as in S0; the sizes differ. " if svr_wins
+                    else "") + " ".join(
                 s0["extrapolation"])
-        rows.append(_row("S0", f"{model}, batch {batch}", "RMS of residuals (μm)", paper, rms[(model, batch)],
-                         svr_wins, note))
+        rows.append(_row("S0", f"{model}, batch {batch}", "RMS of residuals (μm)", paper,
+                         rms[(model, batch)], svr_wins, note))
     unseen = [run for run in s4["runs"] if not run["fitted_on"]]
     floor = float(np.mean([run["after_without_ripple_noise_um"] for run in unseen]))
-    s4_note = (f"what remains would be {floor:.3g} μm without the force ripple and laser noise (known in the "
-               f"simulation), so about {s4['after_um'] - floor:.2g} μm of the {s4['after_um']:.3g} μm left is what "
-               f"no window mean can follow; the simulated deviation starts smaller ({s4['before_um']:.3g} μm) than "
-               "S4's, so the same floor is a larger share of it")
+    s4_note = (f"what remains would be {floor:.3g} μm without the force ripple and laser noise "
+               f"(known in the simulation), so about {s4['after_um'] - floor:.2g} μm of the "
+               f"{s4['after_um']:.3g} μm left is what no window mean can follow; the simulated "
+               f"deviation starts smaller ({s4['before_um']:.3g} μm) than S4's, so the same floor "
+               "is a larger share of it")
     paper4 = s4["paper"]
     metric4 = "straightness, peak-to-valley from the LS line (μm)"
-    rows += [_row("S4", "before compensation, unseen runs", metric4, paper4["before_um"], s4["before_um"], True, ""),
-             _row("S4", "after compensation, unseen runs", metric4, paper4["after_um"], s4["after_um"], True, s4_note),
-             _row("S4", "improvement, unseen runs", "% of the straightness", paper4["improvement_percent"],
-                  s4["improvement_percent"], True, s4_note)]
+    rows += [_row("S4", "before compensation, unseen runs", metric4, paper4["before_um"],
+                  s4["before_um"], True, ""),
+             _row("S4", "after compensation, unseen runs", metric4, paper4["after_um"],
+                  s4["after_um"], True, s4_note),
+             _row("S4", "improvement, unseen runs", "% of the straightness",
+                  paper4["improvement_percent"], s4["improvement_percent"], True, s4_note)]
     mse, paper2 = s2["mse_um2"], s2["paper"]
     svr_better = mse["svr_fit"] < mse["lsm_fit"]
     s2_note = "" if svr_better else (
-        f"{s2['periodic_note']} Leave-one-out: ε-SVR {mse['svr_loo']:.3g} vs polynomial {mse['lsm_loo']:.3g} μm².")
-    rows += [_row("S2", "δx model, ε-SVR", "MSE of the fit at the 11 positions (μm²)", paper2["mse_svr"],
-                  mse["svr_fit"], svr_better, s2_note),
-             _row("S2", "δx model, 5th-order polynomial", "MSE of the fit at the 11 positions (μm²)",
+        f"{s2['periodic_note']} Leave-one-out: ε-SVR {mse['svr_loo']:.3g} vs polynomial "
+        f"{mse['lsm_loo']:.3g} μm².")
+    rows += [_row("S2", "δx model, ε-SVR", "MSE of the fit at the 11 positions (μm²)",
+                  paper2["mse_svr"], mse["svr_fit"], svr_better, s2_note),
+             _row("S2", "δx model, 5th-order polynomial",
+                  "MSE of the fit at the 11 positions (μm²)",
                   paper2["mse_lsm"], mse["lsm_fit"], svr_better, s2_note)]
     return rows
 
@@ -212,8 +238,10 @@ def _export_section(result: steps.S0Result, out: Path, force: bool) -> dict[str,
     report = verify(out / "export" / "s0_svr.json")
     return {
         "files": [path.relative_to(out).as_posix() for path in written],
-        "verify": {"ok": report.ok, "max_deviation": report.max_deviation, "tolerance": report.tolerance,
-                   "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail} for c in report.checks]},
+        "verify": {"ok": report.ok, "max_deviation": report.max_deviation,
+                   "tolerance": report.tolerance,
+                   "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail}
+                              for c in report.checks]},
         "cross_check": document["cross_check"],
     }
 
@@ -249,7 +277,8 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, force: boo
     created = not out.exists()
     prepare_directory(out, force)
     try:
-        return _run_steps(out, quick=quick, force=force, n_jobs=n_jobs, progress=progress, started=started)
+        return _run_steps(out, quick=quick, force=force, n_jobs=n_jobs, progress=progress,
+                          started=started)
     except BaseException:
         if created:  # nothing left behind: the folder this run made goes with it
             shutil.rmtree(out, ignore_errors=True)
@@ -258,7 +287,8 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, force: boo
 
 def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Progress | None,
                started: float) -> dict[str, Any]:
-    """Every step of :func:`run_demo` into the prepared ``out``; returns ``results.json``'s content."""
+    """Every step of :func:`run_demo` into the prepared
+    ``out``; returns ``results.json``'s content."""
     report = progress or (lambda step, done: None)
     done = 0.0
     names = iter(STEP_WEIGHTS)
@@ -276,7 +306,8 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
                           progress=lambda k, n: report(name, s0_start + STEP_WEIGHTS[name] * k / n))
     step()
     absolute_data = datasets.load(steps.S0_ABSOLUTE_DATASET)
-    s0_absolute = steps.s0_thermal(absolute_data, quick=quick, n_jobs=n_jobs, features=steps.S0_ABSOLUTE_FEATURES)
+    s0_absolute = steps.s0_thermal(absolute_data, quick=quick, n_jobs=n_jobs,
+                                   features=steps.S0_ABSOLUTE_FEATURES)
     step()
     s4 = steps.s4_straightness(datasets.load("lin_gantry"))
     step()
@@ -285,20 +316,22 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
     export = _export_section(s0, out, force)
     name = step()
     gap_start = done - STEP_WEIGHTS[name]
-    gap = steps.gap_autumn(absolute_data, progress=lambda stage, f: report(f"{name}: {stage}",
-                                                                   gap_start + STEP_WEIGHTS[name] * f))
+    gap = steps.gap_autumn(absolute_data, progress=lambda stage, f: report(
+        f"{name}: {stage}", gap_start + STEP_WEIGHTS[name] * f))
     gap.write_json(out / "gap" / "gap.json", force=force)
     gap.to_html(out / "gap" / "gap.html", force=force)
     step()
     # prepare_directory accepted out (fresh, or --force): the demo's own files in it are replaced
     # through svrqp.output, so a link planted there is replaced, never written through.
-    for name, table in (("s0_predictions.csv", s0.predictions), ("s0_cv_grid.csv", s0.search.table)):
+    for name, table in (("s0_predictions.csv", s0.predictions),
+                        ("s0_cv_grid.csv", s0.search.table)):
         with output.replacing(out / name, force=True) as temporary:
             table.to_csv(temporary, index=False)
     results: dict[str, Any] = {
         "note": SIMULATED_NOTE, "quick": quick,
-        "s0": _s0_section(s0, s0_absolute, quick), "s4": _s4_section(s4), "s2": _s2_section(s2), "export": export,
-        "gap": {"verdict": gap.to_dict()["verdict"], "summary": gap.summary.replace("\u00b5m", "μm"), "json": "gap/gap.json",
+        "s0": _s0_section(s0, s0_absolute, quick), "s4": _s4_section(s4), "s2": _s2_section(s2),
+        "export": export, "gap": {"verdict": gap.to_dict()["verdict"],
+                "summary": gap.summary.replace("\u00b5m", "μm"), "json": "gap/gap.json",
                 "html": "gap/gap.html"},
     }
     results["reproduction"] = reproduction_table(results["s0"], results["s4"], results["s2"])
@@ -307,7 +340,8 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
     figures.s4_figure(s4, out / results["s4"]["figure"])
     figures.s2_figure(s2, out / results["s2"]["figure"])
     results["runtime_s"] = time.perf_counter() - started
-    output.write_text(out / "results.json", json.dumps(results, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
+    output.write_text(out / "results.json",
+                      json.dumps(results, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                       force=True)
     output.write_text(out / "report.html", report_html(results), force=True)
     report("done", 1.0)

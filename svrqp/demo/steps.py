@@ -1,4 +1,5 @@
-"""The computations of ``svrqp demo``, one function per source paper, on the embedded (simulated) data.
+"""The computations of ``svrqp demo``, one function
+per source paper, on the embedded (simulated) data.
 
 * :func:`s0_thermal` — S0 (Miao 2013): MLR (eq. 5) and ε-SVR (RBF, 5-fold CV over C and γ, ε
   fixed) fitted on summer batch x1, assessed on x2 and on autumn batch x3 by the RMS of the
@@ -27,8 +28,15 @@ import numpy as np
 import pandas as pd
 from sklearn.model_selection import LeaveOneOut
 
-from svrqp.compensate import CompensatedRun, compensate_recorded_run, improvement_percent, residual_metrics
+from svrqp.compensate import (
+    CompensatedRun,
+    compensate_recorded_run,
+    improvement_percent,
+    residual_metrics,
+)
+from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.estimators.kernel import LSSVR, EpsilonSVR
+from svrqp.estimators.linear import LinearLS, PolynomialLS
 from svrqp.formulations.least_squares import straightness
 from svrqp.formulations.nine_line import COMPONENTS, identify_improved, identify_original
 from svrqp.gap import GapQuestion, diagnose
@@ -36,10 +44,8 @@ from svrqp.gap.words.report import GapReport
 from svrqp.guard import Guarded
 from svrqp.guard.figures import interval_columns
 from svrqp.kernels import gamma_from_sigma_s0, gamma_from_sigma_s4
-from svrqp.solvers.epsilon_svr import DUAL_IPM
-from svrqp.estimators.linear import LinearLS, PolynomialLS
-from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.machine.geometry import effect_components, measure_nine_line
+from svrqp.solvers.epsilon_svr import DUAL_IPM
 from svrqp.tuning import Execution, SearchResult, grid_search
 
 Progress = Callable[[int, int], None]
@@ -68,7 +74,8 @@ S0_PAPER_RMS_UM = {("MLR", "x1"): 1.263, ("MLR", "x2"): 1.295, ("MLR", "x3"): 8.
 
 @dataclass
 class S0Result:
-    """S0's comparison: the table (RMS of the residuals), per-sample predictions, the fitted models."""
+    """S0's comparison: the table (RMS of the residuals),
+    per-sample predictions, the fitted models."""
 
     table: pd.DataFrame
     predictions: pd.DataFrame
@@ -110,8 +117,9 @@ def s0_thermal(data: pd.DataFrame, *, quick: bool, n_jobs: int, features: list[s
     X_train, y_train = train[features], train[S0_TARGET]
     mlr = LinearLS().fit(X_train, y_train)
     grid = S0_GRID_QUICK if quick else S0_GRID
-    search = grid_search(X_train, y_train, C=grid["C"], gamma=grid["gamma"], epsilon=[S0_EPSILON_UM],
-                         model="svr", execution=Execution(cv=S0_FOLDS, n_jobs=n_jobs, progress=progress))
+    search = grid_search(X_train, y_train, C=grid["C"], gamma=grid["gamma"],
+                         epsilon=[S0_EPSILON_UM], model="svr",
+                         execution=Execution(cv=S0_FOLDS, n_jobs=n_jobs, progress=progress))
     svr = search.best_estimator().fit(X_train, y_train)
     # The bands of the figures. The calibration refits on folds of x1 at the tuned (large) C,
     # where the stock interior point can miss the certificate: the exact dual path certifies.
@@ -124,9 +132,11 @@ def s0_thermal(data: pd.DataFrame, *, quick: bool, n_jobs: int, features: list[s
     rows = []
     for batch, rows_of_batch in predictions.groupby("batch", sort=True):
         for model, column in (("MLR", "mlr_um"), ("ε-SVR", "svr_um")):
-            metrics = residual_metrics((rows_of_batch["error_um"] - rows_of_batch[column]).to_numpy())
-            rows.append({"model": model, "batch": batch, "rms_um": metrics.rms_um, "std_um": metrics.std_um,
-                         "max_abs_um": metrics.max_abs_um, "paper_rms_um": S0_PAPER_RMS_UM.get((model, batch))})
+            metrics = residual_metrics(
+                (rows_of_batch["error_um"] - rows_of_batch[column]).to_numpy())
+            rows.append({"model": model, "batch": batch, "rms_um": metrics.rms_um,
+                         "std_um": metrics.std_um, "max_abs_um": metrics.max_abs_um,
+                         "paper_rms_um": S0_PAPER_RMS_UM.get((model, batch))})
     return S0Result(pd.DataFrame(rows), predictions, search, mlr, svr, X_train, y_train, features,
                     input_ranges(data, features, S0_TRAIN_BATCH))
 
@@ -221,21 +231,26 @@ def s4_straightness(runs: pd.DataFrame, train_run: int = S4_TRAIN_RUN) -> S4Resu
     """
     x_mm, deviation_um = s4_deviation(runs[runs["run"] == train_run])
     support = np.linspace(0, len(x_mm) - 1, S4_N_SUPPORT).round().astype(int)
-    model = LSSVR(C=S4_C, gamma=gamma_from_sigma_s4(S4_SIGMA_MM)).fit(x_mm[support, None], deviation_um[support])
+    model = LSSVR(C=S4_C, gamma=gamma_from_sigma_s4(S4_SIGMA_MM)).fit(x_mm[support, None],
+                                                                      deviation_um[support])
     compensated_runs = []
     for run_id, run in runs.groupby("run", sort=True):
         x_run, e_run = s4_deviation(run)
         compensated = compensate_recorded_run(
-            x_run, e_run, lambda x: model.predict(x[:, None]), samples_per_period=S4_SAMPLES_PER_PERIOD,
+            x_run, e_run, lambda x: model.predict(x[:, None]),
+            samples_per_period=S4_SAMPLES_PER_PERIOD,
             feed_forward_mm=S4_FEED_FORWARD_MM, dead_band_um=S4_DEAD_BAND_UM)
         after = straightness(x_run, compensated.residual_um).straightness
-        # e = g(x) − y counts the effects with the opposite sign of deviation_um: adding them removes them.
+        # e = g(x) − y counts the effects with the opposite
+        # sign of deviation_um: adding them removes them.
         moving = run[run["feed_mm_min"] > 0]
         floor = (moving["effect_ripple_um"] + moving["noise_um"]).to_numpy()
         compensated_runs.append(S4Run(int(run_id), x_run, e_run, compensated,
                                       straightness(x_run, e_run).straightness, after,
-                                      straightness(x_run, compensated.residual_um + floor).straightness))
-    return S4Result(x_mm, deviation_um, model.predict(x_mm[:, None]), compensated_runs, len(model.support_),
+                                      straightness(x_run,
+                                                   compensated.residual_um + floor).straightness))
+    return S4Result(x_mm, deviation_um, model.predict(x_mm[:, None]), compensated_runs,
+                    len(model.support_),
                     train_run)
 
 
@@ -245,7 +260,8 @@ S2_TRAVEL_MM = 550.0
 S2_DEGREE = 5
 #: ε of the δx SVR, μm: S2 does not state it; a quarter of the 0.2 μm reading noise level.
 S2_EPSILON_UM = 0.05
-S2_GRID = {"C": (1.0, 11.3137, 100.0, 1000.0), "gamma": tuple(gamma_from_sigma_s0(s) for s in (0.1, 0.2, 0.5946, 1.0))}
+S2_GRID = {"C": (1.0, 11.3137, 100.0, 1000.0),
+           "gamma": tuple(gamma_from_sigma_s0(s) for s in (0.1, 0.2, 0.5946, 1.0))}
 S2_PAPER = {"C": 11.3137, "sigma": 0.5946, "n_support": 10, "mse_svr": 0.0238, "mse_lsm": 0.072}
 
 
@@ -276,14 +292,17 @@ def _original_subset(readings: pd.DataFrame) -> pd.DataFrame:
 
 
 def _loo_mse(make: Callable[[], Any], X: pd.DataFrame, y: pd.Series) -> float:
-    errors = [float(y.iloc[test].to_numpy()[0] - make().fit(X.iloc[train], y.iloc[train]).predict(X.iloc[test])[0])
+    errors = [float(y.iloc[test].to_numpy()[0]
+                    - make().fit(X.iloc[train], y.iloc[train]).predict(X.iloc[test])[0])
               for train, test in LeaveOneOut().split(X)]
     return float(np.mean(np.square(errors)))
 
 
-def _identification_errors(readings: pd.DataFrame, truth: pd.DataFrame) -> dict[str, dict[str, float]]:
+def _identification_errors(readings: pd.DataFrame,
+                           truth: pd.DataFrame) -> dict[str, dict[str, float]]:
     """Largest |identified − true| of each component, for the improved and the original method."""
-    methods = {"improved": identify_improved(readings), "original": identify_original(_original_subset(readings))}
+    methods = {"improved": identify_improved(readings),
+               "original": identify_original(_original_subset(readings))}
     return {name: frame[list(COMPONENTS)].sub(truth[list(COMPONENTS)]).abs().max().to_dict()
             for name, frame in methods.items()}
 
@@ -305,7 +324,8 @@ def s2_nine_line(readings: pd.DataFrame, truth: pd.DataFrame) -> S2Result:
     u = pd.DataFrame({"u": x_mm / S2_TRAVEL_MM})  # S2's SVR works on the scaled position
     x = identified[["x_mm"]]
     delta_x_um = identified["delta_x_um"]
-    search = grid_search(u, delta_x_um, C=S2_GRID["C"], gamma=S2_GRID["gamma"], epsilon=[S2_EPSILON_UM],
+    search = grid_search(u, delta_x_um, C=S2_GRID["C"], gamma=S2_GRID["gamma"],
+                         epsilon=[S2_EPSILON_UM],
                          model="svr", execution=Execution(cv=5, backend="sequential"))
     svr = search.best_estimator().fit(u, delta_x_um)
     lsm = PolynomialLS(degree=S2_DEGREE).fit(x, delta_x_um)
@@ -316,7 +336,8 @@ def s2_nine_line(readings: pd.DataFrame, truth: pd.DataFrame) -> S2Result:
         "lsm_loo": _loo_mse(lambda: PolynomialLS(degree=S2_DEGREE), x, delta_x_um),
     }
     return S2Result(identified, original, truth, error["improved"], error["original"],
-                    _identification_errors(noise_free, truth), search.best_params, len(svr.support_), mse,
+                    _identification_errors(noise_free, truth), search.best_params,
+                    len(svr.support_), mse,
                     float(np.mean(np.square(periodic_um))), svr, lsm)
 
 
@@ -326,9 +347,11 @@ GAP_CANDIDATES = ["T1_C", "T2_C", "T3_C", "T4_C", "T5_C", "T6_C", "T8_C", "T9_C"
 GAP_REAL_BATCH = "x3"
 
 
-def gap_autumn(data: pd.DataFrame, progress: Callable[[str, float], None] | None = None) -> GapReport:
+def gap_autumn(data: pd.DataFrame,
+               progress: Callable[[str, float], None] | None = None) -> GapReport:
     """Why does the summer MLR on absolute temperatures (``miao2013``) fail in autumn? x1 → x3."""
     rows = data[data["batch"].isin([S0_TRAIN_BATCH, GAP_REAL_BATCH])]
-    question = GapQuestion(target=S0_TARGET, train=f"batch == '{S0_TRAIN_BATCH}'", features=S0_ABSOLUTE_FEATURES,
+    question = GapQuestion(target=S0_TARGET, train=f"batch == '{S0_TRAIN_BATCH}'",
+                           features=S0_ABSOLUTE_FEATURES,
                            candidates=GAP_CANDIDATES, order="time_min", group="batch", model="mlr")
     return diagnose(rows, question, seed=0, progress=progress)

@@ -1,11 +1,12 @@
-"""What a model file may ask of ``verify``: counts checked before any schema validation or evaluation.
+"""What a model file may ask of ``verify``: counts
+checked before any schema validation or evaluation.
 
 ``verify`` re-evaluates the model at every stored probe and support vector, so its work grows with
-(probes + support vectors) × support vectors × inputs, and with the polynomial kernel's degree. A file
-can ask for any of these; the limits below are far above any model svrqp fits for a machine tool and
-are checked on the parsed document in microseconds, before the JSON Schema (whose validator walks
-every number) and before a single kernel value is computed. A file over a limit fails the schema
-check with a message naming the field.
+(probes + support vectors) × support vectors × inputs, and with the polynomial kernel's degree. A
+file can ask for any of these; the limits below are far above any model svrqp fits for a machine
+tool and are checked on the parsed document in microseconds, before the JSON Schema (whose validator
+walks every number) and before a single kernel value is computed. A file over a limit fails the
+schema check with a message naming the field.
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ def _length(value: Any) -> int:
 
 def _refuse(field: str, count: int, limit: int, what: str) -> None:
     if count > limit:
-        raise ProblemError(f"{field}: has {count} {what}, more than the {limit} a model file may have")
+        raise ProblemError(f"{field}: has {count} {what}, more than the {limit} a model file may "
+                           f"have")
 
 
 def check_budget(document: Any) -> None:
@@ -55,14 +57,17 @@ def check_budget(document: Any) -> None:
     if isinstance(model, dict):
         for key in ("support_vectors", "dual_coef"):
             _refuse(f"model.{key}", _length(model.get(key)), MAX_SUPPORT_VECTORS, "entries")
-        _refuse("model.coef", _length(model.get("coef")), max(MAX_INPUTS, MAX_DEGREE + 1), "entries")
+        _refuse("model.coef", _length(model.get("coef")), max(MAX_INPUTS, MAX_DEGREE + 1),
+                "entries")
         degree = model.get("degree")
         kernel = model.get("kernel")
         if isinstance(kernel, dict):
             degree = kernel.get("degree") if kernel.get("degree") is not None else None
-        if isinstance(degree, int) and not isinstance(degree, bool) and not 0 <= degree <= MAX_DEGREE:
+        if isinstance(degree, int) and not isinstance(degree,
+                                                      bool) and not 0 <= degree <= MAX_DEGREE:
             field = "model.kernel.degree" if isinstance(kernel, dict) else "model.degree"
-            raise ProblemError(f"{field}: is {degree}; a model file's degree is at most {MAX_DEGREE}")
+            raise ProblemError(f"{field}: is {degree}; a model file's degree is at most "
+                               f"{MAX_DEGREE}")
     interval = document.get("interval")
     if isinstance(interval, dict):
         _refuse("interval.scores", _length(interval.get("scores")), MAX_SCORES, "entries")

@@ -13,9 +13,10 @@ Training-data hash (``training_data.sha256``)
 
 Reading is strict: duplicate keys, ``NaN``/``Infinity`` and numbers that overflow a double are
 rejected, and nothing but ``json`` parsing happens (no pickle, no ``eval``). Hostile text is refused
-before the parser sees it or as it reads it: more than :data:`MAX_BYTES` bytes, arrays/objects nested
-deeper than :data:`MAX_DEPTH`, more than :data:`MAX_ARRAYS` arrays, or a number written with more than :data:`MAX_NUMBER_CHARS`
-characters (an integer with more than :data:`MAX_INTEGER_DIGITS` digits).
+before the parser sees it or as it reads it: more than :data:`MAX_BYTES` bytes, arrays/objects
+nested deeper than :data:`MAX_DEPTH`, more than :data:`MAX_ARRAYS` arrays, or a number written with
+more than :data:`MAX_NUMBER_CHARS` characters (an integer
+with more than :data:`MAX_INTEGER_DIGITS` digits).
 """
 
 from __future__ import annotations
@@ -35,8 +36,9 @@ from svrqp.table_checks import repeated
 
 HASH_FIELD = "content_sha256"
 
-#: Largest model file read (bytes): the largest model file svrqp.export.budget allows (10 000 support
-#: vectors of 20 inputs, ~5 MB) with room to spare; parsing it takes about a second, not minutes.
+#: Largest model file read (bytes): the largest model file svrqp.export.budget allows (10 000
+#: support vectors of 20 inputs, ~5 MB) with room to
+#: spare; parsing it takes about a second, not minutes.
 MAX_BYTES = 16 * 2**20
 
 #: Deepest nesting of arrays and objects; an svrqp.model/1 document needs 5.
@@ -63,7 +65,8 @@ DATA_HASH_DEFINITION = (
 def canonical_bytes(document: dict[str, Any]) -> bytes:
     """The canonical serialisation of ``document`` with its hash field left out."""
     content = {key: value for key, value in document.items() if key != HASH_FIELD}
-    text = json.dumps(content, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                      allow_nan=False)
     try:
         return text.encode("utf-8")
     except UnicodeEncodeError as err:  # JSON's "\ud800" escape reads as a lone surrogate
@@ -86,7 +89,8 @@ def data_sha256(X: ArrayLike, y: ArrayLike) -> str:
 
 
 def _reject_constant(name: str) -> float:
-    raise ProblemError(f"model file holds the non-finite number {name}; JSON models hold finite numbers only")
+    raise ProblemError(f"model file holds the non-finite number {name}; JSON models hold finite "
+                       f"numbers only")
 
 
 def _finite_float(text: str) -> float:
@@ -128,12 +132,15 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def parse_strict(text: str) -> Any:
-    """Parse JSON text, rejecting duplicate keys, non-finite or over-long numbers and deep nesting."""
+    """Parse JSON text, rejecting duplicate keys,
+    non-finite or over-long numbers and deep nesting."""
     depth, arrays = _structure(text)
     if depth > MAX_DEPTH:
         raise ProblemError(f"model file nests arrays/objects {depth} deep (at most {MAX_DEPTH})")
-    if arrays > MAX_ARRAYS:  # before parsing: a million probe rows are refused in a fraction of a second
-        raise ProblemError(f"model file holds {arrays} arrays, more than the {MAX_ARRAYS} a model file may have "
+    # before parsing: a million probe rows are refused in a fraction of a second
+    if arrays > MAX_ARRAYS:
+        raise ProblemError(f"model file holds {arrays} arrays, more than the {MAX_ARRAYS} a model "
+                           f"file may have "
                            "(one per support vector, probe point and input, and a few more)")
     try:
         return json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float,

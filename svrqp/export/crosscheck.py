@@ -4,11 +4,12 @@ References (none shares code with svrqp's solvers):
 
 * ``epsilon_svr`` → scikit-learn's ``SVR`` (libsvm's SMO) with ``tol=1e-8``;
 * ``ls_svr`` without bias → scikit-learn's ``KernelRidge(alpha=1/C)``; with bias → the bordered KKT
-  system of S4 eq. (5), :math:`[[0, 1^\\top], [1, \\Omega + I/C]]\\,[b; \\alpha] = [0; y]`, built from
-  ``sklearn.metrics.pairwise_kernels`` and solved by ``numpy.linalg.solve`` (LU);
+  system of S4 eq. (5), :math:`[[0, 1^\\top], [1, \\Omega + I/C]]\\,[b; \\alpha] = [0; y]`, built
+  from ``sklearn.metrics.pairwise_kernels`` and solved by ``numpy.linalg.solve`` (LU);
 * ``linear_ls`` → scikit-learn's ``LinearRegression``;
 * ``recursive_ls`` → ``LinearRegression`` with sample weights :math:`\\lambda^{n-1-i}`: after all
-  samples, the recursion with forgetting factor :math:`\\lambda` minimises exactly that weighted sum;
+  samples, the recursion with forgetting factor
+  :math:`\\lambda` minimises exactly that weighted sum;
 * ``polynomial_ls`` → ``numpy.polynomial.Polynomial.fit`` (power basis, numpy's own scaling).
 
 The recorded deviation is :math:`\\max_i |f(x_i) - f_\\text{ref}(x_i)|` over the training inputs,
@@ -40,8 +41,8 @@ def _kernel_parameters(kernel: dict[str, Any]) -> dict[str, Any]:
 
 
 def _epsilon_svr(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
-    parameters = {"kernel": model["kernel"]["name"], "C": model["C"], "epsilon": model["epsilon"], "tol": 1e-8,
-                  **_kernel_parameters(model["kernel"])}
+    parameters = {"kernel": model["kernel"]["name"], "C": model["C"], "epsilon": model["epsilon"],
+                  "tol": 1e-8, **_kernel_parameters(model["kernel"])}
     reference = SVR(**parameters).fit(U, y)
     return "sklearn.svm.SVR", version("scikit-learn"), parameters, reference.predict
 
@@ -49,9 +50,13 @@ def _epsilon_svr(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
 def _ls_svr(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
     kernel = {"metric": model["kernel"]["name"], **_kernel_parameters(model["kernel"])}
     if not model["fit_intercept"]:
-        parameters = {"alpha": 1.0 / model["C"], "kernel": kernel["metric"], **_kernel_parameters(model["kernel"])}
+        parameters = {"alpha": 1.0 / model["C"], "kernel": kernel["metric"],
+                      **_kernel_parameters(model["kernel"])}
         reference = KernelRidge(**parameters).fit(U, y)
-        return "sklearn.kernel_ridge.KernelRidge", version("scikit-learn"), parameters, reference.predict
+        return (
+            "sklearn.kernel_ridge.KernelRidge", version("scikit-learn"), parameters,
+            reference.predict,
+        )
     n = len(y)
     Omega = pairwise_kernels(U, **kernel)
     M = np.zeros((n + 1, n + 1))
@@ -60,7 +65,8 @@ def _ls_svr(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
     solution = np.linalg.solve(M, np.concatenate([[0.0], y]))
     b, alpha = solution[0], solution[1:]
     parameters = {"C": model["C"], **kernel}
-    return ("numpy.linalg.solve of the LS-SVR KKT system (S4 eq. 5), Gram by sklearn pairwise_kernels",
+    return ("numpy.linalg.solve of the LS-SVR KKT system (S4 eq. 5), Gram by sklearn "
+            "pairwise_kernels",
             f"numpy {np.__version__}, scikit-learn {version('scikit-learn')}", parameters,
             lambda V: pairwise_kernels(V, U, **kernel) @ alpha + b)
 
@@ -68,15 +74,18 @@ def _ls_svr(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
 def _linear_ls(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
     parameters = {"fit_intercept": model["fit_intercept"]}
     reference = LinearRegression(**parameters).fit(U, y)
-    return "sklearn.linear_model.LinearRegression", version("scikit-learn"), parameters, reference.predict
+    return (
+        "sklearn.linear_model.LinearRegression", version("scikit-learn"),
+        parameters, reference.predict,
+    )
 
 
 def _recursive_ls(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:
     forgetting = model["forgetting"]
     weights = forgetting ** np.arange(len(y) - 1, -1, -1, dtype=float)
     reference = LinearRegression().fit(U, y, sample_weight=weights)
-    return ("sklearn.linear_model.LinearRegression, sample_weight = forgetting^(n-1-i)", version("scikit-learn"),
-            {"forgetting": forgetting}, reference.predict)
+    return ("sklearn.linear_model.LinearRegression, sample_weight = forgetting^(n-1-i)",
+            version("scikit-learn"), {"forgetting": forgetting}, reference.predict)
 
 
 def _polynomial_ls(model: dict[str, Any], U: NDArray, y: NDArray) -> Reference:

@@ -39,7 +39,8 @@ def split_pipeline(model: Any) -> tuple[dict[str, Any] | None, Any]:
     *transforms, estimator = steps
     if len(transforms) > 1 or (transforms and not isinstance(transforms[0], StandardScaler)):
         names = [type(step).__name__ for step in transforms]
-        raise ProblemError(f"model: only a pipeline StandardScaler → estimator can be exported, got steps {names}")
+        raise ProblemError(f"model: only a pipeline StandardScaler → estimator can be exported, "
+                           f"got steps {names}")
     if not transforms:
         return None, estimator
     scaler = transforms[0]
@@ -63,7 +64,8 @@ def with_centre(scaling: dict[str, Any] | None, centre: Any) -> dict[str, Any] |
 
 
 def kind_of(estimator: Any) -> str:
-    """The ``kind`` of an exportable estimator (its ``export_kind``, :class:`~svrqp.description.Describable`)."""
+    """The ``kind`` of an exportable estimator (its
+    ``export_kind``, :class:`~svrqp.description.Describable`)."""
     if not isinstance(estimator, Describable):
         exportable = ", ".join(model.class_name for model in registry.MODELS)
         raise ProblemError(f"model: cannot export a {type(estimator).__name__}; exportable: "

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
@@ -61,20 +61,23 @@ def _as_model_input(model: Any, X: NDArray[np.float64]) -> Any:
 
 def _probe_inputs(document: dict[str, Any], X: NDArray[np.float64] | None) -> NDArray[np.float64]:
     if X is not None:
-        # Enough probes to pin a linear model (d + 1) or a polynomial (degree + 1), at least N_PROBES.
-        count = max(N_PROBES, len(document["inputs"]) + 1, int(document["model"].get("degree") or 0) + 1)
+        # Enough probes to pin a linear model (d + 1) or
+        # a polynomial (degree + 1), at least N_PROBES.
+        count = max(N_PROBES, len(document["inputs"]) + 1,
+                    int(document["model"].get("degree") or 0) + 1)
         rows = np.unique(np.linspace(0, len(X) - 1, min(count, len(X))).round().astype(int))
         return X[rows]
     support_vectors = document["model"].get("support_vectors")
     if support_vectors is None:
-        raise ProblemError("X: training inputs are needed to choose probe points for a model without "
-                           "support vectors (or pass probes=...)")
+        raise ProblemError("X: training inputs are needed to choose probe points for a model "
+                           "without support vectors (or pass probes=...)")
     U = np.asarray(support_vectors)[:N_PROBES]
     scaling = document["scaling"]
     return U if scaling is None else U * np.asarray(scaling["scale"]) + np.asarray(scaling["mean"])
 
 
-def _checked_data(X: ArrayLike | None, y: ArrayLike | None, d: int) -> tuple[NDArray | None, NDArray | None]:
+def _checked_data(X: ArrayLike | None, y: ArrayLike | None,
+                  d: int) -> tuple[NDArray | None, NDArray | None]:
     if (X is None) != (y is None):
         raise ProblemError("X and y: give both (the training data) or neither")
     if X is None:
@@ -112,7 +115,8 @@ def build_document(
         cross-check against an independent reference fitted on them; without them both are null.
     feature_names, feature_units
         Input names and units; by default from ``X``'s columns or the model's
-        ``feature_names_in_`` and the unit suffixes of those names (:func:`svrqp.units.unit_from_name`).
+        ``feature_names_in_`` and the unit suffixes of
+        those names (:func:`svrqp.units.unit_from_name`).
     target_name, target_unit
         Target name (default: ``y.name`` or ``"y"``) and unit (default: from the name).
     probes
@@ -140,9 +144,10 @@ def build_document(
         "schema": SCHEMA_ID,
         "kind": kind,
         "library": {"name": "svrqp", "version": __version__},
-        "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "created_utc": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "inputs": _variables(names, feature_units),
-        "target": {"name": target_name, "unit": target_unit if target_unit is not None else unit_from_name(target_name)},
+        "target": {"name": target_name,
+                   "unit": target_unit if target_unit is not None else unit_from_name(target_name)},
         "scaling": scaling,
         "model": section,
         "training_data": None,
@@ -150,7 +155,8 @@ def build_document(
         "cross_check": None,
     }
     if X_raw is not None:
-        document["training_data"] = {"sha256": canonical.data_sha256(X_raw, y_raw), "n_samples": len(y_raw),
+        document["training_data"] = {"sha256": canonical.data_sha256(X_raw, y_raw),
+                                     "n_samples": len(y_raw),
                                      "n_features": d, "definition": canonical.DATA_HASH_DEFINITION}
         prediction = model.predict(_as_model_input(model, X_raw))
         document["cross_check"] = crosscheck.cross_check(
@@ -175,7 +181,8 @@ def _probes(document: dict[str, Any], model: Any, probe_X: NDArray[np.float64]) 
         support_X = evaluate.support_inputs(document)
         section["support_prediction"] = describe.floats(_predicted(model, support_X))
         checked.append(support_X)
-    magnitude = max(float(evaluate.term_magnitude(document, points).max(initial=0.0)) for points in checked)
+    magnitude = max(float(evaluate.term_magnitude(document, points).max(initial=0.0))
+                    for points in checked)
     section["tolerance"] = PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude)
     return section
 
@@ -184,15 +191,20 @@ def _predicted(model: Any, X: NDArray[np.float64]) -> NDArray[np.float64]:
     """``model.predict(X)`` by row blocks (a kernel model's Gram block stays small)."""
     m = len(getattr(model, "support_", ())) or 1
     blocks = evaluate.row_blocks(len(X), m) or [slice(0, 0)]
-    return np.concatenate([np.asarray(model.predict(_as_model_input(model, X[rows])), dtype=float).ravel()
-                           for rows in blocks])
+    return np.concatenate(
+        [
+            np.asarray(model.predict(_as_model_input(model, X[rows])), dtype=float).ravel()
+            for rows in blocks
+        ]
+    )
 
 
 def _add_guard(document: dict[str, Any], model: Any, probe_X: NDArray[np.float64]) -> None:
     """The interval and domain sections, and the probes' intervals and flags from the live model."""
     document.update(guarded.sections(model))
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ExtrapolationWarning)  # probes may be chosen outside on purpose
+        # probes may be chosen outside on purpose
+        warnings.simplefilter("ignore", ExtrapolationWarning)
         interval = model.predict_interval(_as_model_input(model, probe_X))
     document["probes"]["lower"] = describe.floats(interval[:, 0])
     document["probes"]["upper"] = describe.floats(interval[:, 1])

@@ -8,8 +8,8 @@ The document's numbers are the only model state used: inputs are mapped to the m
     f(x) = \\sum_i \\beta_i\\, k(u, s_i) + b \\quad\\text{(kernel kinds, S0 eq. (7))}, \\qquad
     f(x) = a^\\top u + b \\quad\\text{(linear kinds, S0 eq. (5))},
 
-    f(x) = \\sum_{m=0}^{d} c_m P_m(t),\\ t = \\frac{2u - u_{\\min} - u_{\\max}}{u_{\\max} - u_{\\min}}
-    \\quad\\text{(polynomial, Legendre basis)}.
+    f(x) = \\sum_{m=0}^{d} c_m P_m(t),\\ t = \\frac{2u - u_{\\min} - u_{\\max}}{u_{\\max} -
+    u_{\\min}} \\quad\\text{(polynomial, Legendre basis)}.
 
 The kernel is evaluated by :func:`svrqp.kernels.gram`, the same code the estimators use, so a
 round trip through the file reproduces the estimator's predictions bit for bit.
@@ -33,8 +33,8 @@ def model_coordinates(document: dict[str, Any], X: ArrayLike) -> NDArray[np.floa
     X = np.asarray(X, dtype=float)
     d = len(document["inputs"])
     if X.ndim != 2 or X.shape[1] != d:
-        raise ProblemError(f"X must have shape (n, {d}) for inputs {[v['name'] for v in document['inputs']]}, "
-                           f"got {X.shape}")
+        raise ProblemError(f"X must have shape (n, {d}) for inputs "
+                           f"{[v['name'] for v in document['inputs']]}, got {X.shape}")
     scaling = document["scaling"]
     if scaling is None:
         return X
@@ -44,8 +44,10 @@ def model_coordinates(document: dict[str, Any], X: ArrayLike) -> NDArray[np.floa
 def _kernel_matrix(document: dict[str, Any], U: NDArray[np.float64]) -> NDArray[np.float64]:
     model = document["model"]
     kernel = model["kernel"]
-    parameters = {key: kernel[key] for key in ("gamma", "degree", "coef0") if kernel[key] is not None}
-    return gram(U, np.asarray(model["support_vectors"], dtype=float), kernel=kernel["name"], **parameters)
+    parameters = {key: kernel[key] for key in ("gamma", "degree",
+                                               "coef0") if kernel[key] is not None}
+    return gram(U, np.asarray(model["support_vectors"], dtype=float), kernel=kernel["name"],
+                **parameters)
 
 
 def _terms(document: dict[str, Any], X: ArrayLike) -> tuple[NDArray[np.float64], float]:
@@ -80,10 +82,15 @@ def support_inputs(document: dict[str, Any]) -> NDArray[np.float64]:
 
 
 def predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
-    """Evaluate the model of ``document`` at raw inputs ``X`` of shape (n, d) (kernel models: by row blocks)."""
+    """Evaluate the model of ``document`` at raw inputs
+    ``X`` of shape (n, d) (kernel models: by row blocks)."""
     X = np.asarray(X, dtype=float)
     m = len(document["model"].get("support_vectors", ()))
-    if registry.formula(document["kind"]) == registry.KERNEL and X.ndim == 2 and len(X) * m > BLOCK_ENTRIES:
+    if (
+        registry.formula(document["kind"]) == registry.KERNEL
+        and X.ndim == 2
+        and len(X) * m > BLOCK_ENTRIES
+    ):
         return np.concatenate([_predict(document, X[rows]) for rows in row_blocks(len(X), m)])
     return _predict(document, X)
 
@@ -96,7 +103,8 @@ def _predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
         return _kernel_matrix(document, U) @ np.asarray(model["dual_coef"]) + model["intercept"]
     if formula == registry.LEGENDRE:
         low, high = model["domain"]
-        return legendre.legval((2.0 * U[:, 0] - low - high) / (high - low), np.asarray(model["coef"]))
+        return legendre.legval((2.0 * U[:, 0] - low - high) / (high - low),
+                               np.asarray(model["coef"]))
     return U @ np.asarray(model["coef"]) + model["intercept"]
 
 
@@ -108,7 +116,11 @@ def term_magnitude(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64
     """
     X = np.asarray(X, dtype=float)
     m = len(document["model"].get("support_vectors", ()))
-    if registry.formula(document["kind"]) == registry.KERNEL and X.ndim == 2 and len(X) * m > BLOCK_ENTRIES:
+    if (
+        registry.formula(document["kind"]) == registry.KERNEL
+        and X.ndim == 2
+        and len(X) * m > BLOCK_ENTRIES
+    ):
         return np.concatenate([term_magnitude(document, X[rows]) for rows in row_blocks(len(X), m)])
     terms, constant = _terms(document, X)
     return np.abs(terms).sum(axis=1) + abs(constant)

@@ -34,7 +34,8 @@ from svrqp.guard.domain import outside_rows, standardised
 
 def is_guarded(model: Any) -> bool:
     """True for a fitted :class:`svrqp.Guarded` (or anything with its fitted attributes)."""
-    return hasattr(model, "calibration_") and hasattr(model, "domain_") and hasattr(model, "estimator_")
+    return hasattr(model, "calibration_") and hasattr(model,
+                                                      "domain_") and hasattr(model, "estimator_")
 
 
 def _floats(values: ArrayLike) -> list[float]:
@@ -52,7 +53,8 @@ def sections(guarded: Any) -> dict[str, Any]:
         "calibration": {"folds": calibration.folds, "n_splits": int(calibration.n_splits),
                         "groups": None if calibration.groups is None else list(calibration.groups)},
         "difficulty": None if calibration.difficulty_coef is None else {
-            "coef": _floats(calibration.difficulty_coef), "intercept": float(calibration.difficulty_intercept)},
+            "coef": _floats(calibration.difficulty_coef),
+            "intercept": float(calibration.difficulty_intercept)},
     }
     return {"interval": interval, "domain": {
         "low": _floats(domain.low), "high": _floats(domain.high), "mean": _floats(domain.mean),
@@ -63,7 +65,8 @@ def sections(guarded: Any) -> dict[str, Any]:
 def outside(document: dict[str, Any], X: ArrayLike) -> NDArray[np.bool_]:
     """Rows of raw ``X`` outside the document's domain (NaN inputs count as outside)."""
     domain = document["domain"]
-    arrays = (np.asarray(domain[key], dtype=float) for key in ("low", "high", "mean", "scale", "precision"))
+    arrays = (np.asarray(domain[key],
+                         dtype=float) for key in ("low", "high", "mean", "scale", "precision"))
     return outside_rows(np.asarray(X, dtype=float), *arrays, domain["threshold"])
 
 
@@ -79,7 +82,8 @@ def half_width(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
                                              interval["difficulty"]["intercept"])
 
 
-def predict_guarded(document: dict[str, Any], X: ArrayLike) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+def predict_guarded(document: dict[str, Any],
+                    X: ArrayLike) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """``(prediction, lower, upper, outside)`` at raw ``X`` from the document alone."""
     prediction = evaluate.predict(document, X)
     width = half_width(document, X)
@@ -87,7 +91,8 @@ def predict_guarded(document: dict[str, Any], X: ArrayLike) -> tuple[NDArray, ND
 
 
 def conformal_rank(n: int, coverage: float) -> int:
-    """:math:`\\lceil (n+1)(1-\\alpha) \\rceil` written as :math:`n + 1 - \\lfloor (n+1)\\alpha \\rfloor`."""
+    """:math:`\\lceil (n+1)(1-\\alpha) \\rceil` written
+    as :math:`n + 1 - \\lfloor (n+1)\\alpha \\rfloor`."""
     return n + 1 - math.floor((1.0 - coverage) * (n + 1))
 
 
@@ -100,10 +105,11 @@ def guard_problems(document: dict[str, Any], tolerance: float) -> list[str]:
     if np.any(np.diff(scores) < 0) or np.any(scores < 0):
         problems.append("interval.scores must be non-negative and sorted ascending")
     elif not 1 <= rank <= len(scores):
-        problems.append(f"interval: {len(scores)} scores are too few for coverage {interval['coverage']}")
+        problems.append(f"interval: {len(scores)} scores are too few for coverage "
+                        f"{interval['coverage']}")
     elif scores[rank - 1] != interval["quantile"]:
-        problems.append(f"interval.quantile {interval['quantile']!r} is not the {rank}-th smallest of the "
-                        f"{len(scores)} scores ({scores[rank - 1]!r})")
+        problems.append(f"interval.quantile {interval['quantile']!r} is not the {rank}-th smallest "
+                        f"of the {len(scores)} scores ({scores[rank - 1]!r})")
     precision = np.asarray(domain["precision"])
     if not np.array_equal(precision, precision.T):
         problems.append("domain.precision is not symmetric")
@@ -117,7 +123,8 @@ def guard_problems(document: dict[str, Any], tolerance: float) -> list[str]:
             deviation = max(float(np.max(np.abs(lower - probes["lower"]))),
                             float(np.max(np.abs(upper - probes["upper"]))))
         if not deviation <= tolerance:
-            problems.append(f"probe intervals deviate by {deviation:.3g} > tolerance {tolerance:.3g}")
+            problems.append(f"probe intervals deviate by {deviation:.3g} > tolerance "
+                            f"{tolerance:.3g}")
         if flags.tolist() != probes["outside"]:
             problems.append("probe out-of-domain flags are not reproduced")
     return problems

@@ -46,5 +46,6 @@ def export_model(
     from svrqp.export.document import build_document
     from svrqp.export.writers import resolve_force, write
 
-    return write(build_document(model, **document), path, format, force=resolve_force(force, overwrite))
+    return write(build_document(model, **document), path, format,
+                 force=resolve_force(force, overwrite))
 

@@ -52,8 +52,8 @@ def c_file_name(name: str) -> str:
         When it holds anything but ASCII letters, digits, ``_``, ``.`` and ``-``.
     """
     if not _FILE_NAME.fullmatch(name):
-        raise ProblemError(f"C file name {name!r}: use ASCII letters, digits, '_', '.' and '-' only "
-                           "(it is written into an #include line)")
+        raise ProblemError(f"C file name {name!r}: use ASCII letters, digits, '_', '.' and '-' "
+                           "only (it is written into an #include line)")
     return name
 
 

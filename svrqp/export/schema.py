@@ -1,9 +1,11 @@
-"""The ``svrqp.model/1`` JSON Schema (package data ``model.schema.json``) and the checks on a document.
+"""The ``svrqp.model/1`` JSON Schema (package data
+``model.schema.json``) and the checks on a document.
 
 :func:`validate_document` checks the counts of :mod:`svrqp.export.budget` first, then runs the JSON
-Schema (with the ``jsonschema`` library) and then the cross-field shape checks a schema cannot state (every vector has one entry per input, one
-coefficient per support vector, ...). Every failure raises :class:`~svrqp.exceptions.ProblemError`
-whose message starts with the offending field, e.g. ``model.dual_coef[3]: 'x' is not of type 'number'``.
+Schema (with the ``jsonschema`` library) and then the cross-field shape checks a schema cannot state
+(every vector has one entry per input, one coefficient per support vector, ...). Every failure
+raises :class:`~svrqp.exceptions.ProblemError` whose message starts with the offending field, e.g.
+``model.dual_coef[3]: 'x' is not of type 'number'``.
 """
 
 from __future__ import annotations
@@ -76,7 +78,8 @@ def _check_guard_shapes(document: dict[str, Any], d: int) -> None:
     for key in ("lower", "upper", "outside"):
         if key not in probe_keys:
             _fail("probes", f"a guarded document stores the probes' {key!r}")
-        _check_length(f"probes.{key}", document["probes"][key], len(document["probes"]["X"]), "one per probe input")
+        _check_length(f"probes.{key}", document["probes"][key], len(document["probes"]["X"]),
+                      "one per probe input")
     domain = document["domain"]
     per_input = f"one per input, {d} inputs"
     for key in ("low", "high", "mean", "scale", "precision"):
@@ -84,8 +87,11 @@ def _check_guard_shapes(document: dict[str, Any], d: int) -> None:
     for i, row in enumerate(domain["precision"]):
         _check_length(f"domain.precision[{i}]", row, d, per_input)
     if document["interval"]["difficulty"] is not None:
-        _check_length("interval.difficulty.coef", document["interval"]["difficulty"]["coef"], d, per_input)
-    if (document["interval"]["method"] == "normalized") != (document["interval"]["difficulty"] is not None):
+        _check_length("interval.difficulty.coef", document["interval"]["difficulty"]["coef"], d,
+                      per_input)
+    if (document["interval"]["method"] == "normalized") != (
+        document["interval"]["difficulty"] is not None
+    ):
         _fail("interval.difficulty", "is given exactly when method is 'normalized'")
 
 
@@ -97,7 +103,8 @@ def _check_shapes(document: dict[str, Any]) -> None:
         for key in ("mean", "scale"):
             _check_length(f"scaling.{key}", document["scaling"][key], d, per_input)
     if document["training_data"] is not None and document["training_data"]["n_features"] != d:
-        _fail("training_data.n_features", f"is {document['training_data']['n_features']}, expected {d} ({per_input})")
+        _fail("training_data.n_features", f"is {document['training_data']['n_features']}, expected "
+                                          f"{d} ({per_input})")
     model = document["model"]
     formula = registry.formula(document["kind"])
     if formula == registry.KERNEL:
@@ -108,13 +115,15 @@ def _check_shapes(document: dict[str, Any]) -> None:
         if not model["fit_intercept"] and model["intercept"] != 0.0:
             _fail("model.intercept", "must be 0 when fit_intercept is false")
         if "support_prediction" not in document["probes"]:
-            _fail("probes", "a kernel model stores the prediction at every support vector ('support_prediction')")
+            _fail("probes", "a kernel model stores the prediction at every support vector "
+                            "('support_prediction')")
         _check_length("probes.support_prediction", document["probes"]["support_prediction"],
                       len(model["support_vectors"]), "one per support vector")
     elif formula == registry.LEGENDRE:
         if d != 1:
             _fail("inputs", f"a polynomial model has exactly one input, got {d}")
-        _check_length("model.coef", model["coef"], model["degree"] + 1, "degree + 1 Legendre coefficients")
+        _check_length("model.coef", model["coef"], model["degree"] + 1, "degree + 1 Legendre "
+                                                                        "coefficients")
         low, high = model["domain"]
         if not low < high:
             _fail("model.domain", f"must be increasing, got [{low}, {high}]")
@@ -126,7 +135,8 @@ def _check_shapes(document: dict[str, Any]) -> None:
     probes = document["probes"]
     for i, row in enumerate(probes["X"]):
         _check_length(f"probes.X[{i}]", row, d, per_input)
-    _check_length("probes.prediction", probes["prediction"], len(probes["X"]), "one per probe input")
+    _check_length("probes.prediction", probes["prediction"], len(probes["X"]),
+                  "one per probe input")
 
 
 def validate_document(document: Any) -> None:

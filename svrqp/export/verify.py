@@ -4,8 +4,10 @@
 
 1. **schema** — the file's size (:data:`~svrqp.export.canonical.MAX_BYTES`), strict JSON parsing
    with nesting and number limits (no code is ever executed: no pickle, no ``eval``) and the
-   ``svrqp.model/1`` JSON Schema with its shape checks (:func:`svrqp.export.schema.validate_document`);
-2. **hash** — ``content_sha256`` recomputed from the canonical content (:mod:`svrqp.export.canonical`);
+   ``svrqp.model/1`` JSON Schema with its shape checks
+   (:func:`svrqp.export.schema.validate_document`);
+2. **hash** — ``content_sha256`` recomputed from the
+   canonical content (:mod:`svrqp.export.canonical`);
 3. **probes** — the stored probe inputs re-evaluated from the file's numbers
    (:func:`svrqp.export.evaluate.predict`); the largest deviation from the stored predictions must
    be within the stored tolerance, and that tolerance may not exceed
@@ -80,7 +82,8 @@ def _parse(path: Path) -> dict[str, Any]:
             raise ProblemError("not a regular file")
         size = path.stat().st_size
         if size > canonical.MAX_BYTES:
-            raise ProblemError(f"file has {size} bytes, more than the {canonical.MAX_BYTES} a model file may have")
+            raise ProblemError(f"file has {size} bytes, more than the {canonical.MAX_BYTES} a "
+                               f"model file may have")
         document = canonical.parse_strict(path.read_bytes().decode("utf-8"))
         validate_document(document)
         canonical.canonical_bytes(document)  # every string must be encodable to be hashed
@@ -94,7 +97,8 @@ def _checked_points(document: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarr
     probes = document["probes"]
     points = [(np.asarray(probes["X"], dtype=float), np.asarray(probes["prediction"], dtype=float))]
     if "support_prediction" in probes:
-        points.append((evaluate.support_inputs(document), np.asarray(probes["support_prediction"], dtype=float)))
+        points.append((evaluate.support_inputs(document),
+                       np.asarray(probes["support_prediction"], dtype=float)))
     return points
 
 
@@ -116,7 +120,11 @@ def tolerance_bound(document: dict[str, Any]) -> float:
     with np.errstate(all="ignore"):
         magnitude = max(float(evaluate.term_magnitude(document, X).max(initial=0.0))
                         for X, _ in _checked_points(document))
-    return PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude) * _BOUND_SLACK if np.isfinite(magnitude) else 0.0
+    return (
+        PROBE_RELATIVE_TOLERANCE * max(1.0, magnitude) * _BOUND_SLACK
+        if np.isfinite(magnitude)
+        else 0.0
+    )
 
 
 def _check_hash(document: dict[str, Any], report: VerifyReport) -> Check:
@@ -132,12 +140,13 @@ def _check_probes(document: dict[str, Any], report: VerifyReport) -> Check:
     report.max_deviation = probe_deviation(document)
     passed = report.max_deviation <= tolerance
     support = len(document["probes"].get("support_prediction", ()))
-    detail = (f"{len(document['probes']['X'])} probe points{f' and {support} support vectors' if support else ''}, "
-              "largest deviation "
+    detail = (f"{len(document['probes']['X'])} probe "
+              f"points{f' and {support} support vectors' if support else ''}, largest deviation "
               f"{report.max_deviation:.3g} {'<=' if passed else '>'} tolerance {tolerance:.3g}")
     bound = tolerance_bound(document)
     if not tolerance <= bound:
-        return Check("probes", False, f"{detail}; but the tolerance exceeds {PROBE_RELATIVE_TOLERANCE:g} x the "
+        return Check("probes", False, f"{detail}; but the tolerance exceeds "
+                                      f"{PROBE_RELATIVE_TOLERANCE:g} x the "
                                       f"magnitude of the model's terms at the probes ({bound:.3g})")
     return Check("probes", passed, detail)
 
@@ -150,14 +159,16 @@ def _check_guard(document: dict[str, Any], report: VerifyReport) -> Check:
         return Check("guard", False, "; ".join(problems))
     interval = document["interval"]
     return Check("guard", True, f"{interval['coverage']:g} {interval['method']} interval, quantile "
-                                f"{interval['quantile']:.4g} = conformal order statistic of {len(interval['scores'])} "
+                                f"{interval['quantile']:.4g} = conformal order statistic of "
+                                f"{len(interval['scores'])} "
                                 "scores; domain and probe intervals reproduced")
 
 
 #: The checks, in order; each after the schema sees the parsed document and the report so far.
 CHECKS: tuple[str, ...] = ("schema", "hash", "probes", "guard")
-_DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = (_check_hash, _check_probes,
-                                                                                  _check_guard)
+_DOCUMENT_CHECKS: tuple[Callable[[dict[str, Any], VerifyReport], Check], ...] = (
+    _check_hash, _check_probes, _check_guard,
+)
 
 
 def _verified(path: Path) -> tuple[VerifyReport, dict[str, Any] | None]:
@@ -175,7 +186,8 @@ def _verified(path: Path) -> tuple[VerifyReport, dict[str, Any] | None]:
 
 
 def verify(path: str | Path) -> VerifyReport:
-    """Verify the model file at ``path``: size and schema, content hash, probe predictions, guard."""
+    """Verify the model file at ``path``: size and
+    schema, content hash, probe predictions, guard."""
     return _verified(Path(path))[0]
 
 

@@ -1,4 +1,5 @@
-"""Write an ``svrqp.model/1`` document as JSON, as the papers' coefficient table (CSV) or as C source.
+"""Write an ``svrqp.model/1`` document as JSON, as
+the papers' coefficient table (CSV) or as C source.
 
 * ``json`` — the document itself, indented; numbers as Python's ``repr`` (exact round trip).
 * ``csv``  — S0 Table 1's layout: one row per support vector ``i, sv_coef, <inputs>``, with b,
@@ -22,8 +23,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from svrqp import registry
-from svrqp import output
+from svrqp import output, registry
 from svrqp.exceptions import ProblemError
 from svrqp.export.c_source import c_source, header_source
 from svrqp.export.safe_text import comment_text
@@ -60,8 +60,9 @@ def _comments(document: dict[str, Any]) -> list[str]:
     if kernel is not None:
         lines.append(f"b = {model['intercept']!r}")
         if kernel["name"] == "rbf":
-            lines.append(f"kernel rbf: exp(-gamma |u - SV|^2), gamma = {kernel['gamma']!r}; S0: g = 1/sigma^2 = "
-                         f"{kernel['g']!r}, sigma = {kernel['sigma_s0']!r}; S4 (2 sigma^2): sigma = {kernel['sigma_s4']!r}")
+            lines.append(f"kernel rbf: exp(-gamma |u - SV|^2), gamma = {kernel['gamma']!r}; S0: g "
+                         f"= 1/sigma^2 = {kernel['g']!r}, sigma = {kernel['sigma_s0']!r}; S4 (2 "
+                         f"sigma^2): sigma = {kernel['sigma_s4']!r}")
         elif kernel["name"] == "poly":
             lines.append(f"kernel poly: (gamma u.SV + coef0)^degree, gamma = {kernel['gamma']!r}, "
                          f"coef0 = {kernel['coef0']!r}, degree = {kernel['degree']}")
@@ -72,13 +73,14 @@ def _comments(document: dict[str, Any]) -> list[str]:
                      "sv_coef = alpha_i* - alpha_i")
     scaling = document["scaling"]
     if scaling is not None:
-        lines.append(f"scaling: u = (x - mean) / scale, mean = {scaling['mean']!r}, scale = {scaling['scale']!r}; "
-                     "the input columns below are u")
+        lines.append(f"scaling: u = (x - mean) / scale, mean = {scaling['mean']!r}, scale = "
+                     f"{scaling['scale']!r}; the input columns below are u")
     if "interval" in document:
         interval = document["interval"]
-        lines.append(f"interval: {interval['coverage']!r} conformal ({interval['method']}), prediction +- "
-                     f"{interval['quantile']!r}{' * sigma(x)' if interval['difficulty'] else ''}; training domain "
-                     f"and difficulty model in the JSON document")
+        lines.append(f"interval: {interval['coverage']!r} conformal ({interval['method']}), "
+                     "prediction +- "
+                     f"{interval['quantile']!r}{' * sigma(x)' if interval['difficulty'] else ''}; "
+                     "training domain and difficulty model in the JSON document")
     lines.append(f"content_sha256 of the JSON document: {document['content_sha256']}")
     return [f"# {comment_text(line)}\n" for line in lines]
 
@@ -91,7 +93,8 @@ def _table(document: dict[str, Any]) -> list[list[Any]]:
     if "support_vectors" in model:
         return [["i", "sv_coef", *names]] + [
             [i, repr(beta), *(repr(v) for v in sv)]
-            for i, (beta, sv) in enumerate(zip(model["dual_coef"], model["support_vectors"], strict=True), start=1)]
+            for i, (beta, sv) in enumerate(zip(model["dual_coef"], model["support_vectors"],
+                                               strict=True), start=1)]
     if registry.formula(document["kind"]) == registry.LEGENDRE:
         return [["m", "legendre_coef"]] + [[m, repr(c)] for m, c in enumerate(model["coef"])]
     return [["term", "coef"], ["intercept", repr(model["intercept"])]] + [
@@ -124,7 +127,8 @@ def resolve_force(force: bool, overwrite: bool | None) -> bool:
 
 def write(document: dict[str, Any], path: str | Path, format: str | None = None, *,
           force: bool = False, overwrite: bool | None = None) -> list[Path]:
-    """Write ``document`` to ``path`` in ``format`` (default: from the suffix), by :mod:`svrqp.output`.
+    """Write ``document`` to ``path`` in ``format``
+    (default: from the suffix), by :mod:`svrqp.output`.
 
     Parameters
     ----------
