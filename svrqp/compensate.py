@@ -167,7 +167,8 @@ def windowed_mean_offsets(
     if x_mm.size < 2:
         raise ProblemError("a run needs at least 2 positions")
     if not isinstance(samples_per_period, (int, np.integer)) or samples_per_period < 1:
-        raise ProblemError(f"samples_per_period must be a positive integer, got {samples_per_period!r}")
+        raise ProblemError(f"samples_per_period must be a positive integer, got "
+                           f"{samples_per_period!r}")
     if grid_points < 2:
         raise ProblemError(f"grid_points must be at least 2, got {grid_points}")
     if not (feed_forward_mm >= 0 and dead_band_um >= 0):

@@ -24,12 +24,13 @@ from svrqp.exceptions import ProblemError
 from svrqp.kernels import rbf_conventions
 
 KERNEL_FORMULA = (
-    "f(x) = sum_i dual_coef[i] * k(u, support_vectors[i]) + intercept, u = (x - scaling.mean) / scaling.scale"
+    "f(x) = sum_i dual_coef[i] * k(u, support_vectors[i]) + intercept, u = (x - scaling.mean) / "
+    "scaling.scale"
 )
 LINEAR_FORMULA = "f(x) = sum_j coef[j] * u[j] + intercept, u = (x - scaling.mean) / scaling.scale"
 POLYNOMIAL_FORMULA = (
-    "f(x) = sum_m coef[m] * P_m(t), P_m Legendre, t = (2 u - domain[0] - domain[1]) / (domain[1] - domain[0]), "
-    "u = (x - scaling.mean) / scaling.scale"
+    "f(x) = sum_m coef[m] * P_m(t), P_m Legendre, t = (2 u - domain[0] - domain[1]) / (domain[1] - "
+    "domain[0]), u = (x - scaling.mean) / scaling.scale"
 )
 
 
@@ -47,9 +48,9 @@ class Sections(NamedTuple):
     """How the coefficients were computed and their certificates (the document's ``solver``)."""
     centre: Any = None
     """A linear model's input centre :math:`\bar x`, or None: the model is then written as
-    :math:`f = b + (x - \bar x)^\top a` (``intercept`` is :math:`b`, the value at the centre) and the
-    centre goes into the document's ``scaling`` (:func:`svrqp.export.describe.with_centre`), so that
-    inputs offset far from zero keep their digits in every evaluator of the file."""
+    :math:`f = b + (x - \bar x)^\top a` (``intercept`` is :math:`b`, the value at the centre) and
+    the centre goes into the document's ``scaling`` (:func:`svrqp.export.describe.with_centre`), so
+    that inputs offset far from zero keep their digits in every evaluator of the file."""
 
 
 @runtime_checkable
@@ -70,21 +71,26 @@ class Describable(Protocol):
 
 def kernel_section(name: str, gamma: float, degree: int, coef0: float) -> dict[str, Any]:
     """The kernel with its parameters; the RBF width in every convention of :mod:`svrqp.kernels`."""
-    empty = {"gamma": None, "g": None, "sigma_s0": None, "sigma_s4": None, "degree": None, "coef0": None}
+    empty = {"gamma": None, "g": None, "sigma_s0": None, "sigma_s4": None, "degree": None,
+             "coef0": None}
     if name == "rbf":
-        return {**empty, "name": name, **{key: float(value) for key, value in rbf_conventions(gamma).items()}}
+        return {**empty, "name": name,
+                **{key: float(value) for key, value in rbf_conventions(gamma).items()}}
     if name == "poly":
-        return {**empty, "name": name, "gamma": float(gamma), "degree": int(degree), "coef0": float(coef0)}
+        return {**empty, "name": name, "gamma": float(gamma), "degree": int(degree),
+                "coef0": float(coef0)}
     if name == "linear":
         return {**empty, "name": name}
-    raise ProblemError(f"model: kernel {name!r} cannot be exported (a precomputed kernel has no formula)")
+    raise ProblemError(f"model: kernel {name!r} cannot be exported (a precomputed kernel has no "
+                       f"formula)")
 
 
 def kernel_model(estimator: Any, *, epsilon: float | None, fit_intercept: bool) -> dict[str, Any]:
     """The ``model`` section of a fitted kernel model (:math:`\\beta` of its support vectors, b)."""
     return {
         "formula": KERNEL_FORMULA,
-        "kernel": kernel_section(estimator.kernel, estimator.gamma_, estimator.degree, estimator.coef0),
+        "kernel": kernel_section(estimator.kernel, estimator.gamma_, estimator.degree,
+                                 estimator.coef0),
         "C": float(estimator.C),
         "epsilon": None if epsilon is None else float(epsilon),
         "fit_intercept": bool(fit_intercept),
@@ -106,7 +112,8 @@ def polynomial_model(degree: int, domain: Any, legendre_coef: Any) -> dict[str, 
 
 
 def linear_model(coef: Any, intercept: float, fit_intercept: bool, **extra: Any) -> dict[str, Any]:
-    """The ``model`` section of ``y = intercept + u @ coef``; ``extra`` entries follow (recursive LS)."""
+    """The ``model`` section of ``y = intercept + u @ coef``;
+    ``extra`` entries follow (recursive LS)."""
     return {
         "formula": LINEAR_FORMULA,
         "coef": floats(coef),
@@ -138,13 +145,17 @@ def _json_value(value: Any) -> Any:
     return repr(value)  # an enum or object setting: recorded by its text, never re-evaluated
 
 
-def least_squares_solver(backend: str, settings: dict[str, Any], residuals: dict[str, Any]) -> dict[str, Any]:
-    """The ``solver`` section of a model solved as a linear system (no iterative solver, no certificates
-    of a QP): ``backend`` says how, ``residuals`` its figures (a condition number, a rank, a variance)."""
+def least_squares_solver(backend: str, settings: dict[str, Any],
+                         residuals: dict[str, Any]) -> dict[str, Any]:
+    """The ``solver`` section of a model solved as a linear system (no iterative solver, no
+    certificates of a QP): ``backend`` says how, ``residuals`` its
+    figures (a condition number, a rank, a variance)."""
     return {
-        "backend": backend, "version": f"scipy {version('scipy')}, numpy {np.__version__}", "requested_tol": None,
-        "settings": _json_value(settings), "status": "optimal", "primal_residual": None, "dual_residual": None,
-        "duality_gap": None, "residuals": {key: _json_number(value) for key, value in residuals.items()},
+        "backend": backend, "version": f"scipy {version('scipy')}, numpy {np.__version__}",
+        "requested_tol": None,
+        "settings": _json_value(settings), "status": "optimal", "primal_residual": None,
+        "dual_residual": None, "duality_gap": None,
+        "residuals": {key: _json_number(value) for key, value in residuals.items()},
         "iterations": None,
     }
 
@@ -158,8 +169,10 @@ def solution_solver(solution: Any, requested_tol: float | None) -> dict[str, Any
         "settings": _json_value(dict(solution.settings)),
         "status": solution.status,
         "primal_residual": _json_number(solution.residuals["primal"]),
-        "dual_residual": _json_number(solution.residuals["dual"]) if "dual" in solution.residuals else None,
-        "duality_gap": _json_number(solution.residuals["gap"]) if "gap" in solution.residuals else None,
+        "dual_residual": _json_number(solution.residuals["dual"]) if "dual" in solution.residuals
+        else None,
+        "duality_gap": _json_number(solution.residuals["gap"]) if "gap" in solution.residuals
+        else None,
         "residuals": {key: _json_number(value) for key, value in solution.residuals.items()},
         "iterations": solution.iterations,
     }

@@ -23,7 +23,8 @@ class ProblemError(SvrqpError, ValueError):
 
 
 class InputTypeError(ProblemError, TypeError):
-    """An input holds values of a type that cannot be numbers (also ``TypeError``, Python's convention)."""
+    """An input holds values of a type that cannot be
+    numbers (also ``TypeError``, Python's convention)."""
 
 
 class SolverError(SvrqpError, RuntimeError):

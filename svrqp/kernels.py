@@ -14,7 +14,8 @@ The RBF width is written three ways in the literature:
 * ``gamma`` — scikit-learn/libsvm: :math:`\exp(-\gamma\lVert\cdot\rVert^2)`;
 * S0 (Miao 2013, eq. 4): :math:`\exp(-\lVert\cdot\rVert^2/\sigma^2)` with :math:`g = 1/\sigma^2`,
   so :math:`\gamma = g = 1/\sigma^2`;
-* S4 (Lin 2011, eq. 6): :math:`\exp(-\lVert\cdot\rVert^2/(2\sigma^2))`, so :math:`\gamma = 1/(2\sigma^2)`.
+* S4 (Lin 2011, eq. 6): :math:`\exp(-\lVert\cdot\rVert^2/(2\sigma^2))`,
+  so :math:`\gamma = 1/(2\sigma^2)`.
 
 All Gram matrices are computed with one matrix product per row block (no Python loops over samples).
 """
@@ -67,7 +68,8 @@ def sigma_s4_from_gamma(gamma: float) -> float:
 
 
 def rbf_conventions(gamma: float) -> dict[str, float]:
-    """Every RBF width convention for one ``gamma``: ``gamma``, ``g``, ``sigma_s0``, ``sigma_s4``."""
+    """Every RBF width convention for one ``gamma``:
+    ``gamma``, ``g``, ``sigma_s0``, ``sigma_s4``."""
     gamma = _positive(gamma, "gamma")
     return {
         "gamma": gamma,
@@ -83,7 +85,8 @@ BLOCK_ENTRIES = 2**17
 
 
 def kernel_arguments(kernel_parameters: Mapping[str, Any]) -> dict[str, Any]:
-    """``kernel``, ``gamma``, ``degree`` and ``coef0`` out of a larger settings mapping (as :func:`gram` takes them)."""
+    """``kernel``, ``gamma``, ``degree`` and ``coef0`` out of
+    a larger settings mapping (as :func:`gram` takes them)."""
     return {key: kernel_parameters[key] for key in ("kernel", "gamma", "degree", "coef0")}
 
 
@@ -91,8 +94,9 @@ def kernel_arguments(kernel_parameters: Mapping[str, Any]) -> dict[str, Any]:
 #: ``verify``): far above any error model of a machine tool, and low enough that a kernel value is
 #: never raised to a power a user could not mean (``degree=2**40`` used to hang or overflow).
 MAX_DEGREE = 100
-#: Largest polynomial-kernel value accepted, as for the inputs (:data:`svrqp.table_checks.MAX_MAGNITUDE`):
-#: a sum of products of such values stays finite in float64.
+#: Largest polynomial-kernel value accepted, as for the inputs
+#: (:data:`svrqp.table_checks.MAX_MAGNITUDE`): a sum
+#: of products of such values stays finite in float64.
 MAX_KERNEL_VALUE = 1e150
 
 
@@ -107,7 +111,8 @@ def check_kernel_parameters(kernel: str, gamma: float, degree: int) -> None:
         raise ProblemError(f"degree must be an integer in [1, {MAX_DEGREE}], got {degree!r}")
 
 
-def check_kernel_range(X: NDArray[np.float64], kernel: str, gamma: float, degree: int, coef0: float) -> None:
+def check_kernel_range(X: NDArray[np.float64], kernel: str, gamma: float, degree: int,
+                       coef0: float) -> None:
     r"""Raise :class:`ProblemError` before any work when a polynomial kernel's values on ``X`` can
     exceed :data:`MAX_KERNEL_VALUE`.
 
@@ -119,15 +124,20 @@ def check_kernel_range(X: NDArray[np.float64], kernel: str, gamma: float, degree
         return
     check_kernel_parameters(kernel, gamma, degree)
     base = float(gamma) * float(np.einsum("ij,ij->i", X, X).max()) + abs(float(coef0))
-    if not np.isfinite(base) or (base > 1.0 and int(degree) * np.log10(base) > np.log10(MAX_KERNEL_VALUE)):
-        raise ProblemError(f"the poly kernel reaches values up to ({base:.3g})^{int(degree)} on these inputs "
-                           f"(gamma={gamma:.3g}, coef0={float(coef0):.3g}, degree={int(degree)}); at most "
-                           f"{MAX_KERNEL_VALUE:.0e} is supported: scale the features or lower coef0 / degree")
+    if not np.isfinite(base) or (
+        base > 1.0 and int(degree) * np.log10(base) > np.log10(MAX_KERNEL_VALUE)
+    ):
+        raise ProblemError(f"the poly kernel reaches values up to ({base:.3g})^{int(degree)} on "
+                           f"these inputs (gamma={gamma:.3g}, coef0={float(coef0):.3g}, "
+                           f"degree={int(degree)}); at most {MAX_KERNEL_VALUE:.0e} is supported: "
+                           "scale the features or lower coef0 / degree")
 
 
-def centred(kernel: str, X: NDArray[np.float64],
-            Y: NDArray[np.float64] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-    r"""RBF inputs shifted by one common centre, the mean of ``Y`` (of ``X`` when ``Y`` is ``None``).
+def centred(
+    kernel: str, X: NDArray[np.float64], Y: NDArray[np.float64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    r"""RBF inputs shifted by one common centre, the
+    mean of ``Y`` (of ``X`` when ``Y`` is ``None``).
 
     The RBF kernel depends on :math:`x - y` only, so the shift changes no kernel value, but the
     expansion :math:`\lVert x\rVert^2 + \lVert y\rVert^2 - 2x\cdot y` is then computed on
@@ -142,8 +152,10 @@ def centred(kernel: str, X: NDArray[np.float64],
     return X - centre, (None if Y is None else Y - centre)
 
 
-def left_factor(X: NDArray[np.float64], kernel: str, gamma: float, coef0: float) -> NDArray[np.float64]:
-    r"""Left factor :math:`A(X)` of the kernel's inner matrix :math:`A(X) B(Y)^\top` (see :func:`right_factor`).
+def left_factor(X: NDArray[np.float64], kernel: str, gamma: float,
+                coef0: float) -> NDArray[np.float64]:
+    r"""Left factor :math:`A(X)` of the kernel's inner
+    matrix :math:`A(X) B(Y)^\top` (see :func:`right_factor`).
 
     .. math::
 
@@ -167,7 +179,8 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
         B_\text{rbf} = [Y,\ \mathbf 1,\ -\gamma\lVert y\rVert^2]
         \quad\Rightarrow\quad
         (AB^\top)_{ij} = x_i\cdot y_j,\ \ \gamma\, x_i\cdot y_j + c,\ \
-        -\gamma\bigl(\lVert x_i\rVert^2 - 2x_i\cdot y_j + \lVert y_j\rVert^2\bigr) = -\gamma\lVert x_i - y_j\rVert^2 .
+        -\gamma\bigl(\lVert x_i\rVert^2 - 2x_i\cdot y_j + \lVert
+        y_j\rVert^2\bigr) = -\gamma\lVert x_i - y_j\rVert^2 .
     """
     ones = np.ones((Y.shape[0], 1))
     if kernel == "poly":
@@ -177,7 +190,8 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
     return Y
 
 
-def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, in_product: bool = False) -> None:
+def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *,
+                    in_product: bool = False) -> None:
     """Turn a block of the inner matrix into kernel values, in place (no temporaries).
 
     ``in_product=True`` for values that only enter a product computed by the caller, who checks
@@ -187,7 +201,8 @@ def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, in_
     """
     with np.errstate(over="ignore", invalid="ignore"):
         if kernel == "poly" and int(degree) > 8:
-            np.power(inner, int(degree), out=inner)  # never more than one pass (degree <= MAX_DEGREE)
+            # never more than one pass (degree <= MAX_DEGREE)
+            np.power(inner, int(degree), out=inner)
         elif kernel == "poly":
             # Repeated products: libm's pow per entry is several times slower for small degrees.
             base = inner.copy()  # one cache-sized block
@@ -202,14 +217,16 @@ def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *, in_
 
 
 def require_finite_kernel(values: NDArray[np.float64], kernel: str) -> None:
-    """Raise :class:`ProblemError` when kernel values (or a product they all flow into) overflowed."""
+    """Raise :class:`ProblemError` when kernel values
+    (or a product they all flow into) overflowed."""
     if not np.isfinite(values).all():
         raise ProblemError(f"the {kernel} kernel overflows on these inputs: scale the features")
 
 
-def gram_diagonal(X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0, degree: int = 3,
-                  coef0: float = 0.0) -> NDArray[np.float64]:
-    """:math:`K_{ii}` for every row of ``X``, in closed form (no kernel entry off the diagonal is formed).
+def gram_diagonal(X: NDArray[np.float64], *, kernel: str = "rbf", gamma: float = 1.0,
+                  degree: int = 3, coef0: float = 0.0) -> NDArray[np.float64]:
+    """:math:`K_{ii}` for every row of ``X``, in closed
+    form (no kernel entry off the diagonal is formed).
 
     RBF: :math:`k(x, x) = 1`; linear: :math:`\\lVert x\\rVert^2`; polynomial:
     :math:`(\\gamma\\lVert x\\rVert^2 + c)^d`.
@@ -234,9 +251,10 @@ def gram(
     """Gram matrix :math:`K_{ij} = k(x_i, y_j)`, built in place block by block.
 
     RBF inputs are first shifted to a common centre (:func:`centred`). Each row block is one
-    matrix product of the factors of :func:`left_factor` and :func:`right_factor` written into K, then :func:`finish_in_place` while it is in cache: the
-    only n×m array is K itself. Without ``Y`` only the lower triangle is computed and mirrored,
-    so K is exactly symmetric (and the RBF diagonal exactly 1, the zero self-distance).
+    matrix product of the factors of :func:`left_factor` and :func:`right_factor` written into K,
+    then :func:`finish_in_place` while it is in cache: the only n×m array is K itself. Without ``Y``
+    only the lower triangle is computed and mirrored, so K is exactly
+    symmetric (and the RBF diagonal exactly 1, the zero self-distance).
 
     Parameters
     ----------
@@ -255,14 +273,17 @@ def gram(
     symmetric = Y is None
     Y = X if Y is None else np.asarray(Y, dtype=float)
     if X.ndim != 2 or Y.ndim != 2 or X.shape[1] != Y.shape[1]:
-        raise ProblemError(f"X and Y must be 2-D with the same columns, got {X.shape} and {Y.shape}")
+        raise ProblemError(
+            f"X and Y must be 2-D with the same columns, got {X.shape} and {Y.shape}"
+        )
     check_kernel_parameters(kernel, gamma, degree)
     X, centred_Y = centred(kernel, X, None if symmetric else Y)
     Y = X if symmetric else centred_Y
     n, m = X.shape[0], Y.shape[0]
     K = np.empty((n, m))
     rows = max(8, BLOCK_ENTRIES // max(m, 1))
-    with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked per block, in finish_in_place
+    # overflow is checked per block, in finish_in_place
+    with np.errstate(over="ignore", invalid="ignore"):
         A, B = left_factor(X, kernel, gamma, coef0), right_factor(Y, kernel, gamma)
         try:
             # Bottom-up, so that the rows below a block are done when its upper part is mirrored.
@@ -278,14 +299,16 @@ def gram(
                     diagonal[upper] = diagonal.T[upper]
                     K[start:stop, stop:] = K[stop:, start:stop].T
         except ProblemError:
-            raise ProblemError(f"the {kernel} kernel overflows on these inputs (|X| up to {np.abs(X).max():.3g}, "
+            raise ProblemError(f"the {kernel} kernel overflows on these inputs (|X| up to "
+                               f"{np.abs(X).max():.3g}, "
                                f"|Y| up to {np.abs(Y).max():.3g}): scale the features") from None
     if symmetric and kernel == "rbf":
         np.fill_diagonal(K, 1.0)  # exp(−γ·0): rounding of the expansion leaves ulps off zero
     return K
 
 
-def training_gram(X: NDArray[np.float64], kernel_parameters: Mapping[str, Any]) -> NDArray[np.float64]:
+def training_gram(X: NDArray[np.float64],
+                  kernel_parameters: Mapping[str, Any]) -> NDArray[np.float64]:
     """The training Gram matrix of a kernel model, checked positive semidefinite where the kernel
     does not guarantee it.
 

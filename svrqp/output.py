@@ -1,10 +1,11 @@
-"""The one safe writer behind every file a command writes (``simulate``, ``plot``, ``tune``, ``export``,
-``bench``, ``demo``).
+"""The one safe writer behind every file a command writes (``simulate``, ``plot``, ``tune``,
+``export``, ``bench``, ``demo``).
 
 One rule, one option spelling (``force``, the CLI's ``--force``), for every output path:
 
 * a path that does not exist is written (its parent folders are created);
-* an existing **regular file** is replaced only with ``force``; without it, :class:`FileExistsError`;
+* an existing **regular file** is replaced only with
+  ``force``; without it, :class:`FileExistsError`;
 * a **symbolic link** — dangling or not — is never written through: without ``force`` it is refused
   (:class:`FileExistsError`: a dangling link would otherwise send the output wherever it points);
   with ``force`` the link itself is replaced by a regular file, and its target is left untouched;
@@ -56,7 +57,8 @@ def check_target(path: str | Path, *, force: bool = False) -> Path:
     FileExistsError
         ``path`` is an existing file or symbolic link and ``force`` is false.
     ProblemError
-        ``path`` exists and is neither a regular file nor a symbolic link (a folder, a FIFO, a device).
+        ``path`` exists and is neither a regular file
+        nor a symbolic link (a folder, a FIFO, a device).
     """
     path = Path(path)
     try:
@@ -65,11 +67,13 @@ def check_target(path: str | Path, *, force: bool = False) -> Path:
         return path
     if stat.S_ISLNK(mode):
         if not force:
-            raise FileExistsError(f"{path} is a symbolic link (to {os.readlink(path)!r}); it is never written "
-                                  "through: pass --force (force=True) to replace the link itself by a file")
+            raise FileExistsError(f"{path} is a symbolic link (to {os.readlink(path)!r}); it is "
+                                  "never written through: pass --force (force=True) to replace "
+                                  "the link itself by a file")
         return path
     if not stat.S_ISREG(mode):
-        raise ProblemError(f"{path} exists and is not a regular file ({_kind(mode)}): give the path of a file")
+        raise ProblemError(f"{path} exists and is not a regular file ({_kind(mode)}): give the "
+                           f"path of a file")
     if not force:
         raise FileExistsError(f"{path} exists; pass --force (force=True) to replace it")
     return path
@@ -82,7 +86,8 @@ def _umask() -> int:
 
 
 def _kind(mode: int) -> str:
-    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a device"),
+    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
+                       (stat.S_ISCHR, "a device"),
                        (stat.S_ISBLK, "a device"), (stat.S_ISSOCK, "a socket")):
         if test(mode):
             return name
@@ -98,7 +103,8 @@ def replacing(path: str | Path, *, force: bool = False) -> Iterator[Path]:
     """
     path = check_target(path, force=force)
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix or ".tmp", dir=path.parent)
+    handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix or ".tmp",
+                                    dir=path.parent)
     os.close(handle)
     temporary = Path(name)
     os.chmod(temporary, 0o666 & ~_umask())  # mkstemp's 0600 would outlive the rename
@@ -118,5 +124,6 @@ def write_bytes(path: str | Path, data: bytes, *, force: bool = False) -> Path:
 
 
 def write_text(path: str | Path, text: str, *, force: bool = False) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` under the rules of this module; returns the path written."""
+    """Write ``text`` (UTF-8) to ``path`` under the
+    rules of this module; returns the path written."""
     return write_bytes(path, text.encode("utf-8"), force=force)

@@ -67,7 +67,9 @@ class Number:
         left = "[" if self.closed in ("left", "both") else "("
         right = "]" if self.closed in ("right", "both") else ")"
         kind = "an int" if self.integer else "a float"
-        return f"{kind} in the range {left}{bound(self.low, '-inf')}, {bound(self.high, 'inf')}{right}"
+        return (
+            f"{kind} in the range {left}{bound(self.low, '-inf')}, {bound(self.high, 'inf')}{right}"
+        )
 
 
 @dataclass(frozen=True)
@@ -117,7 +119,8 @@ class HasMethods:
 
 
 def check_parameters(estimator: Any, checks: Mapping[str, Sequence[Constraint]]) -> None:
-    """Raise :class:`ProblemError` for the first parameter of ``estimator`` that fails its ``checks``.
+    """Raise :class:`ProblemError` for the first
+    parameter of ``estimator`` that fails its ``checks``.
 
     Parameters
     ----------
@@ -131,5 +134,5 @@ def check_parameters(estimator: Any, checks: Mapping[str, Sequence[Constraint]])
         if not any(constraint.accepts(value) for constraint in constraints):
             wanted = [str(constraint) for constraint in constraints]
             text = wanted[0] if len(wanted) == 1 else f"{', '.join(wanted[:-1])} or {wanted[-1]}"
-            raise ProblemError(f"The {name!r} parameter of {type(estimator).__name__} must be {text}. "
-                               f"Got {value!r} instead.")
+            raise ProblemError(f"The {name!r} parameter of {type(estimator).__name__} must be "
+                               f"{text}. Got {value!r} instead.")

@@ -22,7 +22,8 @@ active upper bounds. Its certificates:
     r_p &= \max(\lVert Ax - b\rVert_\infty,\ \lVert (Gx - h)^+\rVert_\infty,
              \lVert (lb - x)^+\rVert_\infty,\ \lVert (x - ub)^+\rVert_\infty) \\
     r_d &= \lVert P x + q + A^\top y + G^\top z + z_{box}\rVert_\infty \\
-    r_g &= \lvert x^\top P x + q^\top x + b^\top y + h^\top z + lb^\top z_{box}^- + ub^\top z_{box}^+\rvert
+    r_g &= \lvert x^\top P x + q^\top x + b^\top y +
+    h^\top z + lb^\top z_{box}^- + ub^\top z_{box}^+\rvert
 
 A :class:`LinearSystem` is :math:`M x = \text{rhs}` (the LS-SVR KKT system, normal equations).
 """
@@ -66,7 +67,8 @@ def _as_matrix(M: Any, name: str) -> Matrix | None:
     return M
 
 
-def _as_vector(v: Any, name: str, size: int, *, allow_inf: bool = False) -> NDArray[np.float64] | None:
+def _as_vector(v: Any, name: str, size: int, *,
+               allow_inf: bool = False) -> NDArray[np.float64] | None:
     if v is None:
         return None
     v = np.asarray(v)
@@ -119,7 +121,8 @@ def check_psd(P: Matrix, name: str = "P", tolerance: float = PSD_TOLERANCE) -> N
 
 @dataclass
 class QuadraticProgram:
-    r"""The QP :math:`\min \tfrac12 x^\top P x + q^\top x` s.t. :math:`Gx \le h,\ Ax = b,\ lb \le x \le ub`.
+    r"""The QP :math:`\min \tfrac12 x^\top P x + q^\top x`
+    s.t. :math:`Gx \le h,\ Ax = b,\ lb \le x \le ub`.
 
     Parameters
     ----------
@@ -264,9 +267,11 @@ class QuadraticProgram:
         """The problem as a student writes it: the formulation's own statement, then its QP form."""
         constraints = []
         if self.G is not None:
-            constraints.append(rf"G x \le h, \; G \in \mathbb{{R}}^{{{self.G.shape[0]}\times{self.n}}}")
+            constraints.append(rf"G x \le h, \; G \in "
+                               rf"\mathbb{{R}}^{{{self.G.shape[0]}\times{self.n}}}")
         if self.A is not None:
-            constraints.append(rf"A x = b, \; A \in \mathbb{{R}}^{{{self.A.shape[0]}\times{self.n}}}")
+            constraints.append(rf"A x = b, \; A \in "
+                               rf"\mathbb{{R}}^{{{self.A.shape[0]}\times{self.n}}}")
         if self.lb is not None or self.ub is not None:
             constraints.append(r"lb \le x \le ub")
         generic = (
@@ -310,7 +315,8 @@ class LinearSystem:
         r"""Absolute :math:`\lVert Mx - \text{rhs}\rVert_\infty` and its relative value."""
         Mx = self.M @ np.asarray(x, dtype=float)
         absolute = _inf_norm(Mx - self.rhs)
-        return {"residual": absolute, "residual_rel": absolute / (1.0 + max(_inf_norm(Mx), _inf_norm(self.rhs)))}
+        return {"residual": absolute,
+                "residual_rel": absolute / (1.0 + max(_inf_norm(Mx), _inf_norm(self.rhs)))}
 
     def to_latex(self) -> str:
         """The system as a student writes it."""

@@ -43,16 +43,18 @@ _MEMBERSHIP = (ast.In, ast.NotIn)
 
 #: Words shown for the constructs the language refuses (node type -> what the user wrote).
 _FORBIDDEN = {
-    ast.Attribute: "attribute access '.'", ast.Call: "function call '(...)'", ast.Subscript: "subscript '[...]'",
+    ast.Attribute: "attribute access '.'", ast.Call: "function call '(...)'",
+    ast.Subscript: "subscript '[...]'",
     ast.Lambda: "'lambda'", ast.JoinedStr: "f-string", ast.FormattedValue: "f-string",
     ast.IfExp: "'if ... else'", ast.NamedExpr: "':='", ast.ListComp: "comprehension",
     ast.SetComp: "comprehension", ast.DictComp: "comprehension", ast.GeneratorExp: "comprehension",
     ast.Dict: "dict literal", ast.Set: "set literal", ast.Starred: "'*'", ast.Await: "'await'",
     ast.Yield: "'yield'", ast.YieldFrom: "'yield'", ast.Slice: "slice",
 }
-_OPERATOR_SYMBOLS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//", ast.Mod: "%",
-                     ast.Pow: "**", ast.MatMult: "@", ast.LShift: "<<", ast.RShift: ">>", ast.BitXor: "^",
-                     ast.Is: "is", ast.IsNot: "is not"}
+_OPERATOR_SYMBOLS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//",
+                     ast.Mod: "%",
+                     ast.Pow: "**", ast.MatMult: "@", ast.LShift: "<<", ast.RShift: ">>",
+                     ast.BitXor: "^", ast.Is: "is", ast.IsNot: "is not"}
 
 
 class QueryError(ProblemError):
@@ -85,8 +87,9 @@ def _placeholder_prefix(query: str) -> str:
 
 
 def _backticks_to_names(query: str) -> tuple[str, dict[str, str]]:
-    """Replace each ```name``` outside string literals by a placeholder identifier that occurs nowhere
-    else in the filter; string literals (triple-quoted ones included) are copied untouched; refuse ``@``."""
+    """Replace each ```name``` outside string literals by a placeholder identifier that occurs
+    nowhere else in the filter; string literals (triple-quoted
+    ones included) are copied untouched; refuse ``@``."""
     out: list[str] = []
     names: dict[str, str] = {}
     prefix = _placeholder_prefix(query)
@@ -99,8 +102,8 @@ def _backticks_to_names(query: str) -> tuple[str, dict[str, str]]:
             i = end
             continue
         if char == "@":
-            raise QueryError(f"forbidden token '@' at position {i} in {query!r}: a filter refers to columns "
-                             "only, not to variables")
+            raise QueryError(f"forbidden token '@' at position {i} in {query!r}: a filter refers "
+                             "to columns only, not to variables")
         if char == "`":
             end = query.find("`", i + 1)
             if end < 0:
@@ -137,15 +140,17 @@ def _describe(node: ast.AST) -> str:
 
 def _literal(node: ast.AST) -> bool:
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
-        return isinstance(node.operand, ast.Constant) and isinstance(node.operand.value, int | float)
-    return isinstance(node, ast.Constant) and isinstance(node.value, int | float | str | bool | type(None))
+        return isinstance(node.operand, ast.Constant) and isinstance(node.operand.value,
+                                                                     int | float)
+    return isinstance(node, ast.Constant) and isinstance(node.value,
+                                                         int | float | str | bool | type(None))
 
 
 def _check(node: ast.AST, query: str) -> None:
     """Raise :class:`QueryError` unless every node of the tree is in the allow-list."""
     def refuse(what: str) -> None:
-        raise QueryError(f"forbidden {what} in filter {query!r}: a filter allows column names, literals, "
-                         "comparisons, in / not in a list of literals, and / or / not")
+        raise QueryError(f"forbidden {what} in filter {query!r}: a filter allows column names, "
+                         "literals, comparisons, in / not in a list of literals, and / or / not")
 
     if isinstance(node, ast.Expression):
         _check(node.body, query)
@@ -155,15 +160,17 @@ def _check(node: ast.AST, query: str) -> None:
     elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.BitAnd | ast.BitOr):
         _check(node.left, query)
         _check(node.right, query)
-    elif isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not | ast.Invert | ast.USub | ast.UAdd):
+    elif isinstance(node, ast.UnaryOp) and isinstance(node.op,
+                                                      ast.Not | ast.Invert | ast.USub | ast.UAdd):
         _check(node.operand, query)
     elif isinstance(node, ast.Compare):
         _check(node.left, query)
-        for op, comparator in zip(node.ops, node.comparators):
+        for op, comparator in zip(node.ops, node.comparators, strict=False):
             if isinstance(op, _MEMBERSHIP):
                 if len(node.ops) > 1:
                     refuse("chain with 'in' (put each membership test in its own parentheses)")
-                if not (isinstance(comparator, ast.List | ast.Tuple) and all(map(_literal, comparator.elts))):
+                if not (isinstance(comparator,
+                                   ast.List | ast.Tuple) and all(map(_literal, comparator.elts))):
                     refuse("right-hand side of 'in' (give a list of literals, e.g. ['x1', 'x2'])")
             elif type(op) in _COMPARE:
                 _check(comparator, query)
@@ -187,7 +194,8 @@ def parse(query: str) -> tuple[ast.Expression, dict[str, str]]:
     if not isinstance(query, str):
         raise QueryError(f"a filter must be a string, got {type(query).__name__}")
     if len(query) > MAX_QUERY_LENGTH:
-        raise QueryError(f"filter of {len(query)} characters: at most {MAX_QUERY_LENGTH} are accepted")
+        raise QueryError(f"filter of {len(query)} characters: at most {MAX_QUERY_LENGTH} are "
+                         f"accepted")
     source, names = _backticks_to_names(query)
     source = source.strip()
     try:
@@ -212,7 +220,8 @@ def _evaluate(node: ast.AST, table: pd.DataFrame, names: dict[str, str], query: 
     if isinstance(node, ast.Name):
         column = node.id  # the exact name (see _resolve_names)
         if column not in table.columns:
-            raise QueryError(f"filter {query!r}: unknown column {column!r}; columns: {list(map(str, table.columns))}")
+            raise QueryError(f"filter {query!r}: unknown column {column!r}; columns: "
+                             f"{list(map(str, table.columns))}")
         return table[column]
     if isinstance(node, ast.UnaryOp):
         operand = _evaluate(node.operand, table, names, query)
@@ -230,7 +239,7 @@ def _evaluate(node: ast.AST, table: pd.DataFrame, names: dict[str, str], query: 
     if isinstance(node, ast.Compare):
         left = _evaluate(node.left, table, names, query)
         result: Any = True
-        for op, comparator in zip(node.ops, node.comparators):
+        for op, comparator in zip(node.ops, node.comparators, strict=False):
             if isinstance(op, _MEMBERSHIP):  # never chained (see _check)
                 choices = [ast.literal_eval(element) for element in comparator.elts]
                 inside = left.isin(choices) if isinstance(left, pd.Series) else left in choices
@@ -239,7 +248,8 @@ def _evaluate(node: ast.AST, table: pd.DataFrame, names: dict[str, str], query: 
             result = result & _mask(_COMPARE[type(op)](left, right), query)
             left = right
         return result
-    raise QueryError(f"forbidden {_describe(node)} in filter {query!r}")  # _check refused it already
+    # _check refused it already
+    raise QueryError(f"forbidden {_describe(node)} in filter {query!r}")
 
 
 def _negated(mask: Any) -> Any:
@@ -249,8 +259,10 @@ def _negated(mask: Any) -> Any:
 def _mask(value: Any, query: str) -> Any:
     if isinstance(value, pd.Series):
         if not pd.api.types.is_bool_dtype(value.dtype):
-            raise QueryError(f"query {query!r} must give True/False per row, got values of type {value.dtype}")
-        return value.fillna(False).astype(bool)  # nullable booleans: a missing value counts as False
+            raise QueryError(f"query {query!r} must give True/False per row, got values of type "
+                             f"{value.dtype}")
+        # nullable booleans: a missing value counts as False
+        return value.fillna(False).astype(bool)
     if isinstance(value, bool | np.bool_):
         return bool(value)
     raise QueryError(f"query {query!r} must give True/False per row, got {value!r}")
@@ -274,7 +286,9 @@ def select_rows(table: pd.DataFrame, query: str) -> pd.Series:
     except (TypeError, ValueError) as err:  # e.g. a number compared with a text column
         raise QueryError(f"cannot evaluate query {query!r}: {err}") from None
     except OverflowError as err:  # an integer literal beyond float64 compared with a float column
-        raise QueryError(f"cannot evaluate query {query!r}: a number is out of range ({err})") from None
+        raise QueryError(
+            f"cannot evaluate query {query!r}: a number is out of range ({err})"
+        ) from None
     result = _mask(result, query)
     if isinstance(result, bool):
         return pd.Series(result, index=table.index)

@@ -65,8 +65,10 @@ class ModelSpec:
         return getattr(estimators, self.class_name)
 
     def make(self, **options: Any) -> Any:
-        """An unfitted estimator with ``options`` that are among its :attr:`parameters` (others ignored)."""
-        return self.estimator_class()(**{key: options[key] for key in self.parameters if key in options})
+        """An unfitted estimator with ``options`` that are
+        among its :attr:`parameters` (others ignored)."""
+        return self.estimator_class()(**{key: options[key] for key in self.parameters
+                                         if key in options})
 
 
 #: :attr:`ModelSpec.formula` of a kernel expansion :math:`\sum_i \beta_i k(u, x_i) + b`.
@@ -108,7 +110,8 @@ def tunable() -> tuple[str, ...]:
 
 
 def baselines() -> tuple[str, ...]:
-    """The names of the models ``svrqp gap`` can fit as its baseline, :data:`DEFAULT_BASELINE` first."""
+    """The names of the models ``svrqp gap`` can fit
+    as its baseline, :data:`DEFAULT_BASELINE` first."""
     others = (model.name for model in MODELS if model.baseline and model.name != DEFAULT_BASELINE)
     return (DEFAULT_BASELINE, *others)
 

@@ -135,26 +135,31 @@ class Solution:
                    residuals=residuals, record=record)
 
     @classmethod
-    def of_linear_system(cls, x: NDArray[np.float64], residual: dict[str, float], record: SolverRecord) -> Solution:
+    def of_linear_system(cls, x: NDArray[np.float64], residual: dict[str, float],
+                         record: SolverRecord) -> Solution:
         """The solution ``x`` of a linear system, certified by its residual
-        (``{"residual", "residual_rel"}`` as :meth:`svrqp.problems.LinearSystem.residual` returns)."""
+        (``{"residual", "residual_rel"}`` as
+        :meth:`svrqp.problems.LinearSystem.residual` returns)."""
         return cls(x=x, y=None, z=None, z_box=None, objective=0.0, status="optimal",
-                   residuals={"primal": residual["residual"], "primal_rel": residual["residual_rel"]},
+                   residuals={"primal": residual["residual"],
+                              "primal_rel": residual["residual_rel"]},
                    record=record)
 
 
 def check_limit(tol: float, check_tol: float | None) -> float:
-    """The largest relative certificate accepted: ``check_tol``, or ``DEFAULT_CHECK_FACTOR·tol`` when it is None."""
+    """The largest relative certificate accepted: ``check_tol``,
+    or ``DEFAULT_CHECK_FACTOR·tol`` when it is None."""
     return DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
 
 
 def require_certificates(solution: Solution, problem: QuadraticProgram, check_tol: float) -> None:
     """Raise :class:`SolverError` naming the backend when a relative primal residual, dual
     residual or duality gap of ``solution`` exceeds ``check_tol`` (NaN included)."""
-    failed = [key for key in ("primal_rel", "dual_rel", "gap_rel") if not solution.residuals[key] <= check_tol]
+    failed = [key for key in ("primal_rel", "dual_rel",
+                              "gap_rel") if not solution.residuals[key] <= check_tol]
     if failed:
         worst = failed[0]
-        raise SolverError(f"backend {solution.backend!r} did not solve {problem.name!r}: its {worst[:-4]} "
-                          f"certificate is {solution.residuals[worst]:.2e} (relative) > {check_tol:.1e}",
-                          solution.backend, "inaccurate")
+        raise SolverError(f"backend {solution.backend!r} did not solve {problem.name!r}: its "
+                          f"{worst[:-4]} certificate is {solution.residuals[worst]:.2e} (relative) "
+                          f"> {check_tol:.1e}", solution.backend, "inaccurate")
 

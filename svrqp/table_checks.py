@@ -33,7 +33,8 @@ def check_numeric_array(values: Any, name: str) -> None:
     text = array.dtype.kind in "USa" or (
         array.dtype == object and any(isinstance(value, str | bytes) for value in array.ravel()))
     if text:
-        raise ProblemError(f"{name} holds text, not numbers (dtype {array.dtype}): convert it to numbers first")
+        raise ProblemError(f"{name} holds text, not numbers (dtype {array.dtype}): convert it to "
+                           f"numbers first")
 
 
 def check_magnitude(values: np.ndarray, name: str) -> None:
@@ -41,9 +42,9 @@ def check_magnitude(values: np.ndarray, name: str) -> None:
     in magnitude (non-finite values are left to the finiteness checks, which name them)."""
     finite = np.abs(values[np.isfinite(values)])
     if finite.size and float(finite.max()) > MAX_MAGNITUDE:
-        raise ProblemError(f"{name} has values up to {float(finite.max()):.3g} in magnitude; at most "
-                           f"{MAX_MAGNITUDE:.0e} is supported (its squares must stay finite in float64): "
-                           "express it in a larger unit")
+        raise ProblemError(f"{name} has values up to {float(finite.max()):.3g} in magnitude; at "
+                           f"most {MAX_MAGNITUDE:.0e} is supported (its squares must stay finite "
+                           "in float64): express it in a larger unit")
 
 
 def repeated(names: Iterable[str]) -> list[str]:
@@ -84,11 +85,13 @@ def check_present(table: pd.DataFrame, names: list[str], option: str) -> None:
     """
     missing = [name for name in names if name not in table.columns]
     if missing:
-        raise ProblemError(f"{option}: unknown column(s) {missing}; available: {list(table.columns)}")
+        raise ProblemError(f"{option}: unknown column(s) {missing}; available: "
+                           f"{list(table.columns)}")
 
 
 def check_numeric(table: pd.DataFrame, names: list[str], option: str) -> None:
-    """Raise :class:`ProblemError` naming the columns of ``names`` that are neither numeric nor boolean.
+    """Raise :class:`ProblemError` naming the columns
+    of ``names`` that are neither numeric nor boolean.
 
     Parameters
     ----------
@@ -99,18 +102,19 @@ def check_numeric(table: pd.DataFrame, names: list[str], option: str) -> None:
     option : str
         The option or argument that named them, for the message (e.g. ``"--features"``).
     """
-    bad = [n for n in names if not (pd.api.types.is_numeric_dtype(table[n]) or pd.api.types.is_bool_dtype(table[n]))]
+    bad = [n for n in names if not (pd.api.types.is_numeric_dtype(table[n])
+                                    or pd.api.types.is_bool_dtype(table[n]))]
     if not bad:
         return
     dates = [n for n in bad if _holds_dates(table[n])]
-    hint = (f"; {dates} hold dates or durations: give the elapsed time as a number with its unit in the name "
-            "(e.g. time_min)") if dates else ""
+    hint = (f"; {dates} hold dates or durations: give the elapsed time as a number with its unit "
+            "in the name (e.g. time_min)") if dates else ""
     raise ProblemError(f"{option}: column(s) {bad} are not numeric{hint}")
 
 
 def _holds_dates(column: pd.Series) -> bool:
-    """Whether a column holds dates or durations: typed so, or text that reads as ISO 8601 timestamps
-    (a CSV file gives ``2026-01-01 08:00:00`` as text)."""
+    """Whether a column holds dates or durations: typed so, or text that reads as ISO 8601
+    timestamps (a CSV file gives ``2026-01-01 08:00:00`` as text)."""
     if pd.api.types.is_datetime64_any_dtype(column) or pd.api.types.is_timedelta64_dtype(column):
         return True
     values = column.dropna()

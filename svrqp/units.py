@@ -24,8 +24,8 @@ UNIT_SUFFIXES: dict[str, str] = {
     "rpm": "rpm", "urad": f"{MICRO}rad", "arcsec": "arcsec", "deg": "°",
 }
 
-#: Further ``_suffix`` spellings measured tables bring (``Fehler_μm``, ``t_degC``, ``duty_pct``), read by
-#: :func:`unit_of` besides :data:`UNIT_SUFFIXES`.
+#: Further ``_suffix`` spellings measured tables bring (``Fehler_μm``, ``t_degC``, ``duty_pct``),
+#: read by :func:`unit_of` besides :data:`UNIT_SUFFIXES`.
 MEASURED_SUFFIXES: dict[str, str] = {f"{MICRO}m": f"{MICRO}m", "°C": "°C", "degC": "°C", "pct": "%"}
 
 #: Axis names that count positions rather than measure a quantity (the gap diagnosis orders the rows
@@ -77,24 +77,28 @@ def latex_symbol(name: str) -> str:
     match = _INDEXED_SYMBOL.match(base)
     if match:
         index = match["index"]
-        return f"{match['letters']}_{index}" if len(index) == 1 else f"{match['letters']}_{{{index}}}"
+        return (
+            f"{match['letters']}_{index}" if len(index) == 1 else f"{match['letters']}_{{{index}}}"
+        )
     if len(base) == 1 and base.isalpha():
         return base
     return r"\mathrm{" + base.replace("_", r"\_") + "}"
 
 
 def axis_label(name: str) -> str:
-    """A column as an axis label: ``"time_min"`` → ``"time (min)"``; a name without a unit suffix as is."""
+    """A column as an axis label: ``"time_min"`` →
+    ``"time (min)"``; a name without a unit suffix as is."""
     base, _, suffix = name.rpartition("_")
     return f"{base} ({UNIT_SUFFIXES[suffix]})" if base and suffix in UNIT_SUFFIXES else name
 
 
 def unit_of(name: str) -> str | None:
-    """The unit of a column from its name's ``_suffix`` (``"error_um"`` → ``"μm"``), None when there is none.
+    """The unit of a column from its name's ``_suffix``
+    (``"error_um"`` → ``"μm"``), None when there is none.
 
-    Reads :data:`UNIT_SUFFIXES` and the measured spellings of :data:`MEASURED_SUFFIXES`, a MICRO SIGN
-    (U+00B5) in the suffix as μ; a count axis of :data:`COUNT_AXES` (``"row"``) has its own unit.
-    Unlike :func:`unit_from_name`, a parenthesised unit (``ch1(um)``) is not read.
+    Reads :data:`UNIT_SUFFIXES` and the measured spellings of :data:`MEASURED_SUFFIXES`, a MICRO
+    SIGN (U+00B5) in the suffix as μ; a count axis of :data:`COUNT_AXES` (``"row"``) has its own
+    unit. Unlike :func:`unit_from_name`, a parenthesised unit (``ch1(um)``) is not read.
     """
     if name in COUNT_AXES:
         return COUNT_AXES[name]
@@ -104,13 +108,14 @@ def unit_of(name: str) -> str | None:
 
 
 def quantity(value: float, unit: str | None) -> str:
-    """A number to three significant digits with its unit (``4.09 μm``), or bare when ``unit`` is None."""
+    """A number to three significant digits with its
+    unit (``4.09 μm``), or bare when ``unit`` is None."""
     return f"{value:.3g} {unit}" if unit else f"{value:.3g}"
 
 
 P_FLOOR = 1e-10
-"""Below this a p- or q-value is written "< 1e-10": its digits say nothing a reader can use, and past
-double precision's tail (5.3e-195) they are rounding."""
+"""Below this a p- or q-value is written "< 1e-10": its digits say nothing a reader can use, and
+past double precision's tail (5.3e-195) they are rounding."""
 
 
 def probability(p: float) -> str:
@@ -119,6 +124,7 @@ def probability(p: float) -> str:
 
 
 def probability_relation(p: float) -> str:
-    """``= 0.012`` or ``< 1e-10``: a p- or q-value after its symbol (``q = 0.012``, ``q < 1e-10``)."""
+    """``= 0.012`` or ``< 1e-10``: a p- or q-value
+    after its symbol (``q = 0.012``, ``q < 1e-10``)."""
     text = probability(p)
     return text if text.startswith("<") else f"= {text}"

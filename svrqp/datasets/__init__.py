@@ -7,7 +7,8 @@ imitates, which effects are on, the columns and their units. Column names carry 
 
 >>> from svrqp import datasets
 >>> datasets.names()
-('chen2012', 'lin_gantry', 'miao2013', 'miao2013_rise', 'yang_turning', 'zhou_axis_x', 'zhou_axis_x_true')
+('chen2012', 'lin_gantry', 'miao2013', 'miao2013_rise',
+'yang_turning', 'zhou_axis_x', 'zhou_axis_x_true')
 >>> datasets.load("miao2013").query("batch == 'x1'").shape
 (251, 19)
 
@@ -31,7 +32,8 @@ from svrqp.exceptions import ProblemError
 _DATA = resources.files("svrqp.datasets") / "data"
 _FL_THERMAL = resources.files("svrqp.datasets") / "fl_thermal"
 FL_THERMAL_SHA256 = "4a29ddd6d25cbfc0237fe90c2714e329afb633ede988065b2baace53eedbaaf8"
-"""SHA-256 of the shipped ``data.csv``, as converted from the source workbook (see the data card)."""
+"""SHA-256 of the shipped ``data.csv``, as converted
+from the source workbook (see the data card)."""
 FL_TIME_COLUMN = "時間(s)"  # the file's header carries a trailing space, stripped on reading
 FL_CHANNELS = 5
 FL_TEMPERATURES = 16

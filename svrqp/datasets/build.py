@@ -21,8 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from svrqp.machine.contour import EFFECTS as GANTRY_EFFECTS
-from svrqp.machine.contour import GantryConfig, simulate_gantry
+from svrqp.machine.contour import EFFECTS as GANTRY_EFFECTS, GantryConfig, simulate_gantry
 from svrqp.machine.cycles import CycleSegment
 from svrqp.machine.geometry import AxisConfig, measure_nine_line, true_components
 from svrqp.machine.thermal import (
@@ -44,7 +43,8 @@ DECIMALS = 3  # 0.001 °C and 0.001 μm: the resolution of the instruments imita
 MIAO_SENSORS = tuple(s for s in DEFAULT_SENSORS if s.name in {f"T{i}" for i in range(1, 10)})
 MIAO_DURATION_MIN = 250.0
 # (batch, day of year, daily amplitude °C, clock hour at t = 0, seed)
-MIAO_BATCHES = (("x1", 185.0, 0.8, 12.0, 1), ("x2", 205.0, 0.8, 12.5, 2), ("x3", 290.0, 3.5, 9.0, 3))
+MIAO_BATCHES = (("x1", 185.0, 0.8, 12.0, 1), ("x2", 205.0, 0.8, 12.5, 2),
+                ("x3", 290.0, 3.5, 9.0, 3))
 
 
 def miao2013_config(day_of_year: float, daily_amplitude_C: float, start_hour: float, *,
@@ -67,7 +67,8 @@ def miao2013_config(day_of_year: float, daily_amplitude_C: float, start_hour: fl
 
 
 def _miao_batches(zero_at_start: bool) -> list[tuple[str, pd.DataFrame]]:
-    """Each batch's simulated run, 0–250 min; the seeds make the temperatures identical either way."""
+    """Each batch's simulated run, 0–250 min; the seeds
+    make the temperatures identical either way."""
     runs = []
     for batch, day, amplitude, start, seed in MIAO_BATCHES:
         config = miao2013_config(day, amplitude, start, zero_at_start=zero_at_start)
@@ -122,7 +123,8 @@ CHEN_CYCLE = (
 
 
 def chen2012() -> pd.DataFrame:
-    """100 samples every 5 min: coolant, X-nut, spindle-bearing and bed temperatures, radial error."""
+    """100 samples every 5 min: coolant, X-nut,
+    spindle-bearing and bed temperatures, radial error."""
     config = ThermalConfig(
         cycle=CHEN_CYCLE, sensors=CHEN_SENSORS, structure=RADIAL_STRUCTURE, sample_min=5.0,
         ambient=Ambient(day_of_year=120.0, daily_amplitude_C=1.5, start_hour=8.0),

@@ -13,23 +13,18 @@ scale (0 turns it off) and returns a table with one ``effect_<name>_um`` column 
 so that the target equals the sum of the effect columns plus ``noise_um``.
 """
 
-from svrqp.machine.contour import EFFECTS as GANTRY_EFFECTS
-from svrqp.machine.contour import GantryConfig, simulate_gantry
-from svrqp.machine.geometry import EFFECTS as AXIS_EFFECTS
-from svrqp.machine.geometry import AxisConfig, measure_nine_line, simulate_axis, true_components
-from svrqp.machine.thermal import EFFECTS as THERMAL_EFFECTS
-from svrqp.machine.thermal import ThermalConfig, simulate_thermal
+from svrqp.machine.contour import EFFECTS as GANTRY_EFFECTS, GantryConfig, simulate_gantry
+from svrqp.machine.geometry import (
+    EFFECTS as AXIS_EFFECTS,
+    AxisConfig,
+    measure_nine_line,
+    simulate_axis,
+    true_components,
+)
+from svrqp.machine.thermal import EFFECTS as THERMAL_EFFECTS, ThermalConfig, simulate_thermal
 
 __all__ = [
-    "AXIS_EFFECTS",
-    "GANTRY_EFFECTS",
-    "THERMAL_EFFECTS",
-    "AxisConfig",
-    "GantryConfig",
-    "ThermalConfig",
-    "measure_nine_line",
-    "simulate_axis",
-    "simulate_gantry",
-    "simulate_thermal",
+    "AXIS_EFFECTS", "GANTRY_EFFECTS", "THERMAL_EFFECTS", "AxisConfig", "GantryConfig",
+    "ThermalConfig", "measure_nine_line", "simulate_axis", "simulate_gantry", "simulate_thermal",
     "true_components",
 ]

@@ -130,7 +130,8 @@ class GantryConfig:
             raise ProblemError("dwell_s, laser_noise_um and motor_noise_C must be >= 0")
 
 
-def path_profile(config: GantryConfig, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def path_profile(config: GantryConfig,
+                 t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Commanded path length (mm), speed (mm/s) and acceleration (mm/s²) at times ``t_s``.
 
     A trapezoidal (or, for short strokes, triangular) speed profile starting after the dwell.

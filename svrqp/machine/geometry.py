@@ -168,7 +168,8 @@ load_deflection
             raise ProblemError(f"travel_mm must be > 0, got {self.travel_mm}")
         positions = np.asarray(self.positions_mm, dtype=float)
         if positions.size == 0 or np.any(positions < 0) or np.any(positions > self.travel_mm):
-            raise ProblemError(f"positions_mm must be non-empty and lie within [0, {self.travel_mm}]")
+            raise ProblemError(f"positions_mm must be non-empty and lie within [0, "
+                               f"{self.travel_mm}]")
         if len(self.lines) != 3:
             raise ProblemError(
                 f"lines: the nine-line method needs exactly 3 lines, got {len(self.lines)}"
@@ -216,7 +217,8 @@ def effect_components(config: AxisConfig, x_mm: np.ndarray) -> dict[str, np.ndar
     load[:, 4] = 1e3 * sag_um * np.pi / config.travel_mm * np.sin(2 * np.pi * u)
     contributions = {
         "positioning": only(
-            0, config.positioning_slope_um_per_m * x / 1000.0 + config.positioning_shape_um * shape[0]
+            0,
+            config.positioning_slope_um_per_m * x / 1000.0 + config.positioning_shape_um * shape[0],
         ),
         "periodic": only(
             0, config.periodic_amplitude_um * np.sin(2 * np.pi * x / config.periodic_period_mm)
@@ -228,14 +230,18 @@ def effect_components(config: AxisConfig, x_mm: np.ndarray) -> dict[str, np.ndar
         "yaw": only(5, config.yaw_arcsec * URAD_PER_ARCSEC * shape[5]),
         "scale_thermal": only(
             0,
-            1e3 * config.scale_expansion_per_K * (config.axis_temperature_C - config.reference_C) * x,
+            1e3
+            * config.scale_expansion_per_K
+            * (config.axis_temperature_C - config.reference_C)
+            * x,
         ),
         "load_deflection": load,
     }
     return {name: getattr(config, name) * contributions[name] for name in EFFECTS}
 
 
-def true_components(config: AxisConfig | None = None, x_mm: np.ndarray | None = None) -> pd.DataFrame:
+def true_components(config: AxisConfig | None = None,
+                    x_mm: np.ndarray | None = None) -> pd.DataFrame:
     """The six error components, ``x_mm`` plus :data:`COMPONENTS`, at ``x_mm``.
 
     ``x_mm`` defaults to the configured measuring positions.

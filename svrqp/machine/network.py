@@ -7,7 +7,8 @@ deviations :math:`\theta = T - T_\mathrm{ref}` the energy balance of node :math:
 
 .. math::
 
-   C_i \dot\theta_i = Q_i(t) - \sum_j G_{ij}(\theta_i - \theta_j) - \sum_b G_{ib}(\theta_i - \theta_b(t)),
+   C_i \dot\theta_i = Q_i(t) - \sum_j G_{ij}(\theta_i
+   - \theta_j) - \sum_b G_{ib}(\theta_i - \theta_b(t)),
 
 or, in matrix form with the weighted Laplacian
 :math:`\mathcal{L} = \operatorname{diag}(G\mathbf{1} + G_b\mathbf{1}) - G`,
@@ -128,7 +129,8 @@ class LumpedNetwork:
         return scipy.linalg.cho_solve(factor, rhs)
 
     def time_constants_min(self) -> np.ndarray:
-        """Time constants of the network's modes, :math:`-1/\\lambda_k(A)`, in minutes, ascending."""
+        """Time constants of the network's modes,
+        :math:`-1/\\lambda_k(A)`, in minutes, ascending."""
         A, _ = self.state_matrices()
         # A is similar to the symmetric -C^{-1/2} L C^{-1/2}, so its eigenvalues are real.
         s = np.sqrt(SECONDS_PER_MIN / self.capacity_J_K)
@@ -189,9 +191,11 @@ class LumpedNetwork:
         return theta
 
     def boundary_heat_flow_W(self, theta: np.ndarray, boundary_K: np.ndarray) -> np.ndarray:
-        r"""Heat flowing from the nodes into each boundary, :math:`\sum_i G_{ib}(\theta_i-\theta_b)`.
+        r"""Heat flowing from the nodes into each
+        boundary, :math:`\sum_i G_{ib}(\theta_i-\theta_b)`.
 
-        ``theta`` has shape ``(..., n)`` and ``boundary_K`` shape ``(..., m)``; returns ``(..., m)``.
+        ``theta`` has shape ``(..., n)`` and ``boundary_K``
+        shape ``(..., m)``; returns ``(..., m)``.
         """
         G_b = self.boundary_conductance_W_K
         return np.asarray(theta) @ G_b - np.asarray(boundary_K) * G_b.sum(axis=0)

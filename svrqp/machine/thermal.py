@@ -62,7 +62,8 @@ from svrqp.machine.signals import first_order_lag
 
 NODES = ("spindle", "headstock", "column", "nut", "coolant")
 BOUNDARIES = ("ambient",)
-EFFECTS = ("spindle_heating", "headstock_heating", "nut_heating", "coolant_chiller", "ambient_drift")
+EFFECTS = ("spindle_heating", "headstock_heating", "nut_heating", "coolant_chiller",
+           "ambient_drift")
 MINUTES_PER_DAY = 1440.0
 DAYS_PER_YEAR = 365.0
 
@@ -320,7 +321,8 @@ class ThermalConfig:
         ratio = self.sample_min / self.dt_min
         if abs(ratio - round(ratio)) > 1e-9:
             raise ProblemError(
-                f"sample_min ({self.sample_min}) must be an integer multiple of dt_min ({self.dt_min})"
+                f"sample_min ({self.sample_min}) must be an integer multiple of dt_min "
+                f"({self.dt_min})"
             )
         if not self.cycle:
             raise ProblemError("cycle: at least one segment is required")
@@ -418,7 +420,9 @@ def simulate_thermal(
     total_theta = theta.sum(axis=2)
     total_ambient = ambient_K.sum(axis=1)
     readings = _sensor_readings(config, total_theta, total_ambient, out, rng)
-    noise_um = rng.standard_normal(out.size) * config.measurement_noise_um * config.measurement_noise
+    noise_um = (
+        rng.standard_normal(out.size) * config.measurement_noise_um * config.measurement_noise
+    )
 
     speed_rpm, duty_pct = operation_at(config.cycle, t_out)
     table = {"time_min": t_out, "speed_rpm": speed_rpm, "axis_duty_pct": duty_pct}
@@ -448,7 +452,9 @@ def _sensor_readings(
     for s, sensor in enumerate(config.sensors):
         blend = sum(weight * locations[where] for where, weight in sensor.weights.items())
         lagged = first_order_lag(blend, config.dt_min, sensor.lag_min * config.sensor_lag)
-        reading = config.reference_C + lagged[out] + noise[:, s] * sensor.noise_C * config.sensor_noise
+        reading = (
+            config.reference_C + lagged[out] + noise[:, s] * sensor.noise_C * config.sensor_noise
+        )
         readings[f"{sensor.name}_C"] = reading
     return readings
 
