@@ -82,8 +82,8 @@ def _fold_chain(
     for index, C in enumerate(Cs):
         try:
             if fit.model == "svr":
-                coef, b, previous = fit_on_gram(
-                    K_train, y_train, C, epsilon, fit.solver, fit.tol, previous if fit.warm_start else None)  # noqa: E501 (docs/tuning.md quotes this line)
+                coef, b, previous = fit_on_gram(K_train, y_train, C, epsilon, fit.solver, fit.tol,
+                                                previous if fit.warm_start else None)
             else:
                 coef, b, _ = ls_svr.solve_cholesky_schur(K_train, y_train, C)
         except SolverError:
