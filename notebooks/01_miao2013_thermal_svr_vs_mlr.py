@@ -41,6 +41,7 @@ from sklearn.svm import SVR
 from svrqp import EpsilonSVR, datasets, tuning
 from svrqp.compensate import residual_metrics
 from svrqp.formulations import epsilon_svr, least_squares
+from svrqp.kernels import gram
 from svrqp.estimators import LinearLS
 from svrqp.problems import LinearSystem
 from svrqp.solvers import solve_linear_system
@@ -101,7 +102,7 @@ print(f"{svr_paper.problem_.n} variables; {svr_paper.support_.size} support vect
       f"b = {svr_paper.intercept_[0]:.3f} μm (S0: 4.296)")
 
 # %%
-K = svr_paper._training_gram(X1)
+K = gram(X1, kernel="rbf", gamma=svr_paper.gamma_)
 reference = SVR(kernel="rbf", C=24833.5, epsilon=epsilon, gamma=0.125, tol=1e-8).fit(X1, y1)
 beta_reference = np.zeros(len(y1))
 beta_reference[reference.support_] = reference.dual_coef_[0]

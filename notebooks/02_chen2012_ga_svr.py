@@ -39,6 +39,7 @@ from sklearn.svm import SVR
 
 from svrqp import EpsilonSVR, datasets, tuning
 from svrqp.formulations import epsilon_svr
+from svrqp.kernels import gram
 
 data = datasets.load("chen2012")
 features, target = ["coolant_C", "nut_C", "spindle_C", "bed_C"], "error_um"
@@ -74,7 +75,7 @@ fig
 # %%
 tuned = ga.best_estimator().fit(X_train, y_train)
 display(Math(tuned.problem_.to_latex()))
-K = tuned._training_gram(X_train)
+K = gram(X_train, kernel="rbf", gamma=tuned.gamma_)
 reference = SVR(kernel="rbf", tol=1e-8, **ga.best_params).fit(X_train, y_train)
 rows = []
 for solver in ("clarabel", "piqp", "dual_ipm"):

@@ -42,7 +42,7 @@ from sklearn.svm import SVR
 
 from svrqp import EpsilonSVR, datasets, tuning
 from svrqp.formulations import epsilon_svr, least_squares, nine_line
-from svrqp.kernels import gamma_from_sigma_s0
+from svrqp.kernels import gamma_from_sigma_s0, gram
 from svrqp.estimators import PolynomialLS
 from svrqp.datasets.build import ZHOU_AXIS
 from svrqp.machine.geometry import effect_components, measure_nine_line
@@ -136,7 +136,7 @@ print(f"S2's parameters: {svr_paper.support_.size} support vectors (S2: 10), b =
       f"(S2: −0.118); CV choice: {search.best_params} (CV MSE {search.best_mse:.4f} μm²)")
 
 # %%
-K = svr_paper._training_gram(u)
+K = gram(u, kernel="rbf", gamma=svr_paper.gamma_)
 reference = SVR(kernel="rbf", C=11.3137, epsilon=epsilon, gamma=gamma_from_sigma_s0(0.5946), tol=1e-10).fit(u, delta_x)
 fine_u = np.linspace(0.0, 1.0, 551)[:, None]
 rows = []

@@ -28,6 +28,7 @@
 
 # %%
 import importlib.util
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
