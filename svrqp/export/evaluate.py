@@ -17,6 +17,7 @@ round trip through the file reproduces the estimator's predictions bit for bit.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -84,15 +85,22 @@ def support_inputs(document: dict[str, Any]) -> NDArray[np.float64]:
 def predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
     """Evaluate the model of ``document`` at raw inputs
     ``X`` of shape (n, d) (kernel models: by row blocks)."""
-    X = np.asarray(X, dtype=float)
+    return _by_row_blocks(document, np.asarray(X, dtype=float), _predict)
+
+
+def _by_row_blocks(document: dict[str, Any], X: NDArray[np.float64],
+                   evaluate: Callable[[dict[str, Any], NDArray[np.float64]], NDArray[np.float64]]
+                   ) -> NDArray[np.float64]:
+    """``evaluate(document, X)``, by row blocks for a kernel model whose kernel matrix with ``X``
+    would pass :data:`BLOCK_ENTRIES` entries."""
     m = len(document["model"].get("support_vectors", ()))
     if (
         registry.formula(document["kind"]) == registry.KERNEL
         and X.ndim == 2
         and len(X) * m > BLOCK_ENTRIES
     ):
-        return np.concatenate([_predict(document, X[rows]) for rows in row_blocks(len(X), m)])
-    return _predict(document, X)
+        return np.concatenate([evaluate(document, X[rows]) for rows in row_blocks(len(X), m)])
+    return evaluate(document, X)
 
 
 def _predict(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64]:
@@ -114,13 +122,9 @@ def term_magnitude(document: dict[str, Any], X: ArrayLike) -> NDArray[np.float64
     Summing the terms in another order (another BLAS, the C evaluator) changes ``f`` by a few
     units in the last place of this magnitude, not of ``f`` itself, which may be much smaller.
     """
-    X = np.asarray(X, dtype=float)
-    m = len(document["model"].get("support_vectors", ()))
-    if (
-        registry.formula(document["kind"]) == registry.KERNEL
-        and X.ndim == 2
-        and len(X) * m > BLOCK_ENTRIES
-    ):
-        return np.concatenate([term_magnitude(document, X[rows]) for rows in row_blocks(len(X), m)])
+    return _by_row_blocks(document, np.asarray(X, dtype=float), _term_magnitude)
+
+
+def _term_magnitude(document: dict[str, Any], X: NDArray[np.float64]) -> NDArray[np.float64]:
     terms, constant = _terms(document, X)
     return np.abs(terms).sum(axis=1) + abs(constant)
