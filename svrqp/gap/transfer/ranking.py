@@ -528,7 +528,7 @@ class TransferRanker:
         if orders is None:
             return
         column = best.effect.column
-        p_min = self.surrogates.smallest_p(best.effect, orders)
+        p_min = self.surrogates.smallest_p(best.effect)
         p = [p_min if r.effect.column == column else r.p_raw for r in ranked]
         q_min = float(min(q for q, r in zip(false_discovery_control(p, method="bh"), ranked,
                                             strict=False) if r.effect.column == column))

@@ -39,6 +39,7 @@ from svrqp.gap.data import (
     wrapped_part,
 )
 from svrqp.gap.data.transforms import RISE
+from svrqp.gap.transfer.between import permutation_floor
 
 
 class Effect(Protocol):
@@ -140,20 +141,12 @@ class TransferSurrogates:
             return np.delete(A, 1 + features.index(column), axis=1)
         return A
 
-    def smallest_p(self, effect: Effect, orders: list[np.ndarray]) -> float:
+    def smallest_p(self, effect: Effect) -> float:
         """The smallest p-value an exact test
         (:meth:`svrqp.gap.transfer.ranking.TransferRanker.exact_p`)
-        can give: the orderings that leave the run levels unchanged."""
-        levels = self.run_levels(effect)
-        same = sum(
-            bool(
-                np.allclose(
-                    levels[order], levels, rtol=0.0, atol=1e-12 * (1.0 + np.abs(levels).max())
-                )
-            )
-            for order in orders
-        )
-        return same / len(orders)
+        can give: the orderings that leave the run levels unchanged
+        (:func:`svrqp.gap.transfer.between.permutation_floor`)."""
+        return permutation_floor(self.run_levels(effect))
 
 
 def exchange_run_levels(x: np.ndarray, groups: np.ndarray, order: np.ndarray) -> np.ndarray:
