@@ -49,7 +49,9 @@ DECOYS_FEATURES = {
 NODE_OF_SENSOR = {"T1_C": "spindle", "T4_C": "headstock", "bed_C": "column", "nut_C": "nut"}
 NODE_LENGTH_MM = {"spindle": 200.0, "headstock": 250.0, "column": -350.0, "nut": 120.0}
 EXPANSION_PER_K = 11.5e-6
-NULL_FEATURES_POOL = ("T5_C", "T9_C", "speed_rpm", "axis_duty_pct", "T8_C")
+NULL_FEATURES_POOL = ("speed_rpm", "axis_duty_pct", "cabinet_C", "humidity_pct")
+"""Candidates of a features-mode null: the drivers and two readings of nothing the model's nodes feel (every
+thermal sensor reads a model node, and a second reading of one is no decoy: DESIGN §4's nulls)."""
 NULL_PREDICTION_POOL = ("T1_C", "T4_C", "nut_C", "coolant_C", "ambient_C", "bed_C", "speed_rpm", "axis_duty_pct")
 
 ORDER = {"thermal": "time_min", "gantry": "time_s", "axis": "x_mm"}
@@ -64,6 +66,14 @@ GANTRY_TRUTH = {"servo_lag": ("feed_mm_min",), "sync_error": ("accel_mm_s2",), "
 GANTRY_UNMEASURED = ("ripple", "guideway_straightness")
 GANTRY_CANDIDATES = ("feed_mm_min", "accel_mm_s2", "motor_C")
 GANTRY_CANDIDATES_FOR = {"sync_error": ("accel_mm_s2", "motor_C")}
+
+RUN_LEVEL_EFFECTS = ("motor_heating", "scale_thermal", "load_deflection", "zone", "patch", "load")
+"""Effects whose driver holds one level per run by the simulator's own definition (the gantry motor's
+temperature through a short pass, the axis temperature, table load and room through a laser pass, the
+commanded acceleration of a pass)."""
+
+MIN_RUN_LEVEL_RUNS = 6
+"""Fewest runs of a scenario whose truth is run-level (DESIGN §4: six runs, the driver at two levels or more)."""
 
 
 @dataclass(frozen=True)
@@ -165,6 +175,20 @@ def _simulate_runs(configs: list[ThermalConfig], seeds: list[int], run_min: floa
     return pd.concat(tables, ignore_index=True)
 
 
+def _unrelated_readings(df: pd.DataFrame, rng: np.random.Generator) -> pd.DataFrame:
+    """Two readings no node of the machine feels: an electrical cabinet's temperature (a slow random walk
+    about a level of its own per run, °C) and the shop's relative humidity (a daily cycle, %)."""
+    cabinet, humidity = np.empty(len(df)), np.empty(len(df))
+    for run in df["run"].unique():
+        rows = np.flatnonzero(df["run"].to_numpy() == run)
+        walk = np.cumsum(rng.normal(0.0, 0.03, rows.size))
+        cabinet[rows] = rng.uniform(26.0, 34.0) + walk
+        phase = rng.uniform(0.0, 2 * np.pi)
+        minutes = df["time_min"].to_numpy()[rows]
+        humidity[rows] = rng.uniform(35.0, 55.0) + 6.0 * np.sin(2 * np.pi * minutes / 1440.0 + phase)
+    return df.assign(cabinet_C=cabinet, humidity_pct=humidity + rng.normal(0.0, 0.3, len(df)))
+
+
 def label_columns(effect: str, full: pd.DataFrame, alone: pd.DataFrame, same_driver: pd.DataFrame,
                   real: np.ndarray) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """Truth and decoy columns of a withheld thermal effect from within-run variance shares on the real rows."""
@@ -189,7 +213,11 @@ def thermal_case(s: Scenario) -> Case:
     rng = np.random.default_rng(s.seed)
     configs = _thermal_configs(s, rng)
     seeds = [int(rng.integers(1 << 31)) for _ in configs]
-    df = _simulate_runs(configs, seeds, s.run_min)
+    features_null = s.family == "thermal/features" and s.effect is None
+    # A null's model inputs are noise-free: a noisy input leaves error that a second reading removes.
+    df = _simulate_runs(configs, seeds, s.run_min, **({"sensor_noise": 0.0} if features_null else {}))
+    if features_null:
+        df = _unrelated_readings(df, np.random.default_rng(s.seed + 2))
     real = (df["run"] >= _n_train(s)).to_numpy()
     clean = df[[f"effect_{e}_um" for e in THERMAL_EFFECTS]].sum(axis=1).to_numpy()
     if s.family == "thermal/prediction":
@@ -442,7 +470,12 @@ CONFIRM = {"seed": 90000, "snr": (1.25, 2.5, 0.75, 4.0, 1.5), "runs": (5, 3, 4),
 """A fourth grid, generated after the rise and the between-run t-test were settled on the development grid:
 run once and committed as it came (the fresh grid had been run seven times and was no longer fresh)."""
 
-GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH, "confirm": CONFIRM}
+BLIND = {"seed": 150000, "snr": (2.0, 0.75, 3.0, 1.25, 5.0), "runs": (4, 5, 3), "run_min": (330.0, 240.0, 450.0),
+         "ar": 1}
+"""A fifth grid, generated with the suite's hygiene of DESIGN §4 (the denominator set by the simulator and a
+generating-form oracle, noise-free nulls, six runs for a run-level truth): run once, committed as it came."""
+
+GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH, "confirm": CONFIRM, "blind": BLIND}
 """Every grid by name."""
 
 ORACLE_BLOCKS = 8
@@ -509,6 +542,9 @@ def scenarios(quick: bool = False, grid: str = "development") -> list[Scenario]:
     for i in range(6, CONTINUOUS_NULLS):
         out.append(Scenario(f"tc-null-{i}", "thermal/features", "null", None, n_decoys=4, continuous=True,
                             **design(i) | {"null_noise_um": (0.1, 0.3, 1.0)[i % 3]}))
+    # A run-level truth needs six runs (DESIGN §4); the seeds stay as they were.
+    out = [dataclasses.replace(s, runs=max(s.runs, MIN_RUN_LEVEL_RUNS)) if s.effect in RUN_LEVEL_EFFECTS else s
+           for s in out]
     return out[::10] if quick else out
 
 

@@ -16,9 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from svrqp.gap.data.prepare import prepare
 from svrqp.gap.diagnose import diagnose
-from svrqp.gap.model import LSSVR_C, fit_baseline
 from svrqp.gap.question import GapQuestion
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -27,6 +25,7 @@ from gap_suite_cases import (
     LOCAL_KINDS,
     NODE_SENSORS,
     ORACLE_BLOCKS,
+    RUN_LEVEL_EFFECTS,
     ORACLE_TRANSFORMS,
     ORDER,
     Case,
@@ -37,6 +36,8 @@ from gap_suite_cases import (
     train_query,
     window_bounds,
 )
+from gap_suite_denominator import best_candidate, exclusion, local_gain, noise_free_gap, run_levels, truth_gain
+from generating_oracle import NAMEABLE_GAIN
 from local_oracle import stretch_rmse, told_test, told_verdict
 from transfer_oracle import (
     AS_WELL,
@@ -47,6 +48,9 @@ from transfer_oracle import (
     logo_rmse,
     lstsq_predict,
 )
+
+LSSVR_C = 10.0
+"""The LS-SVR baseline's C as the gap baseline documents it (``C = 10``, ``gamma="scale"``), written here."""
 
 
 # ----------------------------------------------------------------------- evaluation
@@ -98,7 +102,32 @@ def evaluate(s: Scenario, surrogates: str = "rotation", local_everywhere: bool =
     if s.kind == "local" and report.gap_detected:  # without a gap the real rows may carry no error at all
         row["truth_transfers"] = _local_truth_transfers(s, case)
         row["truth_q"], row["told_verdict"] = _told_test(s, case)
-    return row
+    return row | _denominator(s, case)
+
+
+def _denominator(s: Scenario, case: Case) -> dict:
+    """What the simulator says of the scenario before the engine runs (:mod:`gap_suite_denominator`): the
+    noise-free gap, for a withheld or localised truth the best generating-form gain and why it leaves the
+    denominator (None: it stays), for a record with nothing withheld the best-transferring offered column."""
+    order, table, real, family = _oracle_rows(s, case)
+    _, own, predict, _ = family
+    out = {"gap_true": noise_free_gap(table, own, predict, real, s.family.endswith("prediction"))}
+    kernel = s.model != "mlr" and s.family == "thermal/features"  # reported apart: no refit sweep
+    offered = tuple(c for c in case.truth if c in case.candidates)
+    if s.kind in ("withheld", "local") and not kernel:
+        if s.kind == "local":
+            gain, form = local_gain(table, family, offered, _true_profile(table, s), real), "true profile"
+        else:
+            gain, _, form = truth_gain(table, family, offered, order, real)
+        levels = run_levels(table, offered) if s.effect in RUN_LEVEL_EFFECTS else None
+        out |= {"truth_gain": gain, "truth_form": form, "excluded": exclusion(s, out["gap_true"], gain, levels)}
+    elif s.kind in ("withheld", "local"):
+        out["excluded"] = exclusion(s, out["gap_true"], float("nan"), None)
+    elif s.kind in ("null", "unmeasured", "extrapolation") and not kernel:
+        gain, column = best_candidate(table, family, tuple(case.candidates), order, real)
+        out |= {"candidate_gain": gain, "best_candidate": column,
+                "proxy": s.kind == "unmeasured" and gain >= NAMEABLE_GAIN}
+    return out
 
 
 def _region_iou(report, case: Case, s: Scenario) -> tuple[float | None, str | None]:
@@ -184,14 +213,11 @@ def _oracle_family(s: Scenario, table: pd.DataFrame) -> tuple[np.ndarray, np.nda
         own, before = np.ones((len(table), 1)), y[real]
     else:
         y = table["error_um"].to_numpy()
-        names = [c for c in NODE_SENSORS if c != s.effect]
-        features = table[names].to_numpy()
+        features = table[[c for c in NODE_SENSORS if c != s.effect]].to_numpy()
         own = features if kernel else np.column_stack([np.ones(len(table)), features])
-        question = GapQuestion(target="error_um", train=train_query(s), candidates=["true_effect_um"], group="run",
-                               order=ORDER[s.family.split("/")[0]], features=names)
-        data = prepare(table, question)
-        before = fit_baseline(data, s.model).residual[data.is_real]
     predict = functools.partial(_lssvr_predict, gamma=_scale_gamma(own[~real])) if kernel else lstsq_predict
+    if not s.family.endswith("prediction"):  # the given model: the family fitted on the train rows, written here
+        before = y[real] - predict(own[~real], y[~real], own[real])
     return y, own, predict, float(np.sqrt(np.mean(before**2)))
 
 
