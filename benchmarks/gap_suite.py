@@ -236,6 +236,9 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
         "top-1 accuracy, truth named, withheld counted": (withheld[counted].top1.astype(bool).mean(), ""),
         "unmeasured with an offered proxy (generating-form oracle), named (scored apart)":
             (nulls[proxies].named.mean() if proxies.any() else float("nan"), ""),
+        "withheld where the engine's gate and the noise-free gap disagree (reference)":
+            (withheld.gap_detected.astype(bool).ne(withheld.get("gap_true", withheld.gap_detected).astype(bool))
+             .mean(), ""),
         "withheld with no gap (real rows no worse than train rows by the engine's gate; reference)":
             ((~withheld.gap_detected.astype(bool)).mean(), ""),
         "top-1 accuracy, DESIGN §4 rule (withheld with a gap by the engine's gate; reference)":

