@@ -84,7 +84,8 @@ def _s1(s1: dict[str, Any]) -> str:
     size = (f"population {genetic['population']}, {genetic['generations']} generations, "
             f"Pc = {genetic['crossover_probability']}, Pm = {genetic['mutation_probability']}")
     quick = " This quick run shrinks S1's GA (100 × 50)." if s1["quick"] else ""
-    edge = f" The {s1['edge_text']}." if s1["edge_text"] else " No parameter ended on a bound."
+    edge = (f" {s1['edge_text'][:1].upper()}{s1['edge_text'][1:]}." if s1["edge_text"]
+            else " No parameter ended on a bound.")
     return ("<h2>S1 — GA-tuned ε-SVR (Chen &amp; Gong 2012)</h2><p>Data: "
             f"<code>{html.escape(s1['dataset'])}</code>, inputs {', '.join(s1['features'])} "
             f"(standardised). GA over log C ∈ {s1['ranges']['C']}, log ε ∈ "

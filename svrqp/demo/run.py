@@ -121,7 +121,8 @@ def _s0_section(result: steps.S0Result, absolute: steps.S0Result, contiguous: st
         "cv": {"folds": steps.S0_FOLDS, "fold_split": f"random, seed {steps.S0_FOLD_SEED} (as S0)",
                "grid": {key: list(values) for key, values in grid.items()},
                "best_params": result.search.best_params, "best_mse_um2": result.search.best_mse,
-               "edges": result.search.edges(), "n_fits": result.search.n_fits},
+               "edges": result.search.edges(), "edge_text": result.search.edge_text(),
+               "n_fits": result.search.n_fits},
         "contiguous_folds_variant": _contiguous_section(contiguous),
         "n_support": int(len(result.svr.support_)),
         "mlr_formula": plain_formula(result.mlr, steps.S0_TARGET),
@@ -184,7 +185,7 @@ def _s2_section(result: steps.S2Result) -> dict[str, Any]:
         "max_error_original": result.max_error_original,
         "max_error_noise_free": result.max_error_noise_free, "identification_note": identification,
         "svr_params": result.svr_params, "n_support": result.n_support, "mse_um2": result.mse,
-        "dataset": "zhou_axis_x", "variant_note": (
+        "edge_text": result.edge_text, "dataset": "zhou_axis_x", "variant_note": (
             "The default data have no ball-screw periodic error: S2's MSEs leave no room for one. "
             "The variant zhou_axis_x_periodic adds a 1 μm, 16 mm-lead periodic error, aliased "
             "at the 55 mm spacing (see its data card)."),

@@ -20,6 +20,7 @@ only to be printed next to ours.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -46,7 +47,7 @@ from svrqp.guard.figures import interval_columns
 from svrqp.kernels import gamma_from_sigma_s0, gamma_from_sigma_s4
 from svrqp.machine.geometry import measure_nine_line
 from svrqp.solvers.epsilon_svr import DUAL_IPM
-from svrqp.tuning import Execution, SearchResult, grid_search
+from svrqp.tuning import Execution, SearchEdgeWarning, SearchResult, grid_search
 
 Progress = Callable[[int, int], None]
 
@@ -128,10 +129,12 @@ def s0_thermal(data: pd.DataFrame, *, quick: bool, n_jobs: int, features: list[s
     X_train, y_train = train[features], train[S0_TARGET]
     mlr = LinearLS().fit(X_train, y_train)
     grid = S0_GRID_QUICK if quick else S0_GRID
-    search = grid_search(X_train, y_train, C=grid["C"], gamma=grid["gamma"],
-                         epsilon=[S0_EPSILON_UM], model="svr",
-                         execution=Execution(cv=s0_folds(contiguous), n_jobs=n_jobs,
-                                             progress=progress))
+    with warnings.catch_warnings():  # an edge is reported in the rows (edge_text), not warned
+        warnings.simplefilter("ignore", SearchEdgeWarning)
+        search = grid_search(X_train, y_train, C=grid["C"], gamma=grid["gamma"],
+                             epsilon=[S0_EPSILON_UM], model="svr",
+                             execution=Execution(cv=s0_folds(contiguous), n_jobs=n_jobs,
+                                                 progress=progress))
     svr = search.best_estimator().fit(X_train, y_train)
     # The bands of the figures. The calibration refits on folds of x1 at the tuned (large) C,
     # where the stock interior point can miss the certificate: the exact dual path certifies.
@@ -299,6 +302,7 @@ class S2Result:
     svr_params: dict[str, float]
     n_support: int
     mse: dict[str, float]
+    edge_text: str
     svr: EpsilonSVR
     lsm: PolynomialLS
 
@@ -343,9 +347,11 @@ def s2_nine_line(readings: pd.DataFrame, truth: pd.DataFrame) -> S2Result:
     u = pd.DataFrame({"u": x_mm / S2_TRAVEL_MM})  # S2's SVR works on the scaled position
     x = identified[["x_mm"]]
     delta_x_um = identified["delta_x_um"]
-    search = grid_search(u, delta_x_um, C=S2_GRID["C"], gamma=S2_GRID["gamma"],
-                         epsilon=[S2_EPSILON_UM],
-                         model="svr", execution=Execution(cv=5, backend="sequential"))
+    with warnings.catch_warnings():  # an edge is reported in the rows (edge_text), not warned
+        warnings.simplefilter("ignore", SearchEdgeWarning)
+        search = grid_search(u, delta_x_um, C=S2_GRID["C"], gamma=S2_GRID["gamma"],
+                             epsilon=[S2_EPSILON_UM], model="svr",
+                             execution=Execution(cv=5, backend="sequential"))
     svr = search.best_estimator().fit(u, delta_x_um)
     lsm = PolynomialLS(degree=S2_DEGREE).fit(x, delta_x_um)
     true_dx = truth["delta_x_um"].to_numpy()
@@ -362,7 +368,7 @@ def s2_nine_line(readings: pd.DataFrame, truth: pd.DataFrame) -> S2Result:
     }
     return S2Result(identified, original, truth, error["improved"], error["original"],
                     _identification_errors(noise_free, truth), search.best_params,
-                    len(svr.support_), mse, svr, lsm)
+                    len(svr.support_), mse, search.edge_text(), svr, lsm)
 
 
 # ------------------------------------------------------------------------------ gap
