@@ -19,7 +19,6 @@ from typing import Any
 from svrqp.demo.vocabulary import markdown_table, rule_text
 from svrqp.exceptions import ProblemError
 
-
 #: The recorded rows of the last full ``svrqp demo`` (not ``--quick``), from which the table of
 #: ``docs/reproduction.md`` is generated; both are rewritten by :func:`main`.
 RECORDED = Path("benchmarks") / "results" / "demo_reproduction.json"

@@ -12,6 +12,9 @@ SIMULATED_NOTE = ("All data in this demo are SIMULATED by svrqp.machine (the emb
                   "numbers are not expected to equal the published ones.")
 
 
+QUICK_NOTE = "Quick run (--quick): smaller S0 CV grid and S1 GA. "
+
+
 def _table(header: list[str], rows: list[list[Any]]) -> str:
     def cell(value: Any) -> str:
         if value is None:
@@ -201,6 +204,6 @@ def report_html(results: dict[str, Any]) -> str:
             "td,th{border:1px solid #bbb;padding:2px "
             "8px;text-align:right}td:last-child{text-align:left}</style></head><body>"
             f"<h1>svrqp demo</h1><p><b>{html.escape(SIMULATED_NOTE)}</b></p>"
-            f"<p>{'Quick run (--quick): smaller S0 CV grid and S1 GA. ' if results['quick'] else ''}"
+            f"<p>{QUICK_NOTE if results['quick'] else ''}"
             f"Run time {results['runtime_s']:.1f} s; numbers in {_link('results.json')}.</p>"
             + "".join(sections) + "</body></html>\n")
