@@ -123,7 +123,7 @@ pd.DataFrame(rows).set_index("solver")
 # %% [markdown]
 # The three backends agree to their tolerance. libsvm stops at a slightly lower dual objective (the
 # dual is maximised: higher is better); with $C$ this large its $b$ differs from ours by about
-# 0.4 μm, its predictions by about 0.01 μm.
+# 0.14 μm, its predictions by about 0.01 μm.
 #
 # ## Our own 5-fold CV
 #
@@ -203,8 +203,9 @@ plt.tight_layout()
 # ## The lesson of the absolute variant
 #
 # `miao2013` holds the same runs with absolute temperatures and the error counted from the machine
-# at 20 °C — not S0's set-up. There autumn's T9 lies below the whole summer range (and most of its
-# T7 too), and the RBF model, far from its support vectors, does no better than the plane:
+# at 20 °C — not S0's set-up, and its own runs: summer afternoons whose air hardly moved (its data
+# card says why it keeps them). There every autumn input lies below the whole summer range, and the
+# RBF model, far from all its support vectors, fails worse than the plane:
 
 # %%
 absolute = datasets.load("miao2013")
@@ -219,9 +220,10 @@ pd.DataFrame({name: {batch: residual_metrics(rows_b[target].to_numpy()
 
 # %% [markdown]
 # On S0's representation, with summer rises spanning S0's Table 1, S0's finding comes out in
-# direction: the ε-SVR degrades less in autumn than the MLR, and stays under S0's 2 μm in both
-# seasons (the table above). The MLR's autumn error is much smaller than S0's 8.467 μm: the
-# autumn rises lie inside the summer range, and what the plane misses there is mostly an offset.
+# direction: the ε-SVR of our CV degrades less in autumn than the MLR, and stays under S0's 2 μm in
+# both seasons (the table above; with S0's own C and g it would leave 2.6 μm on x3). The MLR's
+# autumn error is much smaller than S0's 8.467 μm: the autumn rises lie inside the summer range,
+# and what the plane misses there is mostly an offset.
 # On absolute temperatures the comparison does not hold. Neither says that an RBF model is robust
 # in general: it is as good as the range its training data covered. Notebook 06 diagnoses what the
 # summer data never showed.

@@ -227,8 +227,9 @@ ax.legend(fontsize="small");
 
 # %% [markdown]
 # With 11 points, a "fit MSE" says little: a flexible enough model passes near every point. On this
-# axis S2's in-sample ranking does not carry over — the polynomial, which follows the simulated δx
-# exactly, is left with only the share of the reading noise it cannot absorb. S2's result needs
-# structure in δx that a 5th-order polynomial cannot follow; S2 does not describe any, and none is
-# invented here. A measurement that must capture a periodic lead error needs a pitch finer than the
-# screw lead, or one not commensurate with it.
+# axis S2's in-sample ranking does not carry over: the polynomial, which follows the simulated δx
+# exactly, is left with only the share of the reading noise it cannot absorb, while the CV-tuned SVR
+# predicts better between the samples (leave-one-out) and comes closer to the true δx. S2's result
+# needs structure in δx that a 5th-order polynomial cannot follow; S2 does not describe any, and none
+# is invented here. A measurement that must capture a periodic lead error needs a pitch finer than
+# the screw lead, or one not commensurate with it.
