@@ -91,8 +91,8 @@ def _s1(s1: dict[str, Any]) -> str:
             else " No parameter ended on a bound.")
     return ("<h2>S1 — GA-tuned ε-SVR (Chen &amp; Gong 2012)</h2><p>Data: "
             f"<code>{html.escape(s1['dataset'])}</code>, inputs {', '.join(s1['features'])} "
-            f"(standardised). GA over log C ∈ {s1['ranges']['C']}, log ε ∈ "
-            f"{s1['ranges']['epsilon']} μm, γ fixed: {size}.{quick} It chose C = {best['C']:.4g}, "
+            f"(standardised). GA over C ∈ {s1['ranges']['C']} and ε ∈ {s1['ranges']['epsilon']} μm "
+            f"(genes: their logarithms), γ fixed: {size}.{quick} It chose C = {best['C']:.4g}, "
             f"ε = {best['epsilon']:.3g} μm (S1: {paper['C']}, {paper['epsilon']}); "
             f"{s1['n_support']} of {s1['n_train']} training samples are support vectors.{edge}</p>"
             + _table(["", "Σ|r| on test (μm)", "S1"],
