@@ -8,7 +8,8 @@ imitates, which effects are on, the columns and their units. Column names carry 
 >>> from svrqp import datasets
 >>> datasets.names()
 ('chen2012', 'lin_gantry', 'miao2013', 'miao2013_rise',
-'yang_turning', 'zhou_axis_x', 'zhou_axis_x_true')
+'yang_turning', 'zhou_axis_x', 'zhou_axis_x_periodic',
+'zhou_axis_x_periodic_true', 'zhou_axis_x_true')
 >>> datasets.load("miao2013").query("batch == 'x1'").shape
 (251, 19)
 

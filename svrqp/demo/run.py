@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 
 from svrqp import datasets, output
-from svrqp.demo import figures, steps
+from svrqp.demo import figures, online_seeds, steps
 from svrqp.demo.report import SIMULATED_NOTE, report_html
+from svrqp.demo.reproduction import reproduction_table
 from svrqp.estimators.linear import LinearLS
 from svrqp.export import build_document, verify, write
 from svrqp.extras import require
@@ -31,10 +32,10 @@ from svrqp.kernels import gamma_from_sigma_s4
 Progress = Callable[[str, float], None]
 
 #: Share of the run time each step takes (for the progress bar), in order.
-STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.45, "S0 variant: absolute temperatures": 0.1,
-                "S4: LS-SVR straightness": 0.05,
-                "S2: nine-line and δx models": 0.08, "export and verify": 0.07,
-                "gap diagnosis": 0.2, "figures and report": 0.05}
+STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.25, "S0 variants": 0.15,
+                "S1: GA-tuned ε-SVR": 0.3, "S4: LS-SVR straightness": 0.03,
+                "S2: nine-line and δx models": 0.04, "S3: recursive least squares": 0.01,
+                "export and verify": 0.05, "gap diagnosis": 0.14, "figures and report": 0.03}
 
 
 #: The extra the demo needs, and why (checked before anything is written).
@@ -93,7 +94,15 @@ def _s0_rows(result: steps.S0Result) -> tuple[list[dict[str, Any]], str, str]:
     return table, better, worse
 
 
-def _s0_section(result: steps.S0Result, absolute: steps.S0Result, quick: bool) -> dict[str, Any]:
+def _contiguous_section(result: steps.S0Result) -> dict[str, Any]:
+    """The labelled variant of S0's CV with contiguous folds (blocks of time) instead of random."""
+    return {"folds": "contiguous (KFold without shuffling: five blocks of time)",
+            "best_params": result.search.best_params, "edges": result.search.edges(),
+            "n_support": int(len(result.svr.support_)), "table": result.table.to_dict("records")}
+
+
+def _s0_section(result: steps.S0Result, absolute: steps.S0Result, contiguous: steps.S0Result,
+                quick: bool) -> dict[str, Any]:
     table, better, worse = _s0_rows(result)
     x3 = {row["model"]: row["rms_um"] for row in table if row["batch"] == "x3"}
     paper = steps.S0_PAPER_RMS_UM
@@ -109,9 +118,12 @@ def _s0_section(result: steps.S0Result, absolute: steps.S0Result, quick: bool) -
                                                "deviation'",
         "features": result.features, "target": steps.S0_TARGET, "train_batch": steps.S0_TRAIN_BATCH,
         "epsilon_um": steps.S0_EPSILON_UM,
-        "cv": {"folds": steps.S0_FOLDS, "grid": {key: list(values) for key, values in grid.items()},
+        "cv": {"folds": steps.S0_FOLDS, "fold_split": f"random, seed {steps.S0_FOLD_SEED} (as S0)",
+               "grid": {key: list(values) for key, values in grid.items()},
                "best_params": result.search.best_params, "best_mse_um2": result.search.best_mse,
+               "edges": result.search.edges(), "edge_text": result.search.edge_text(),
                "n_fits": result.search.n_fits},
+        "contiguous_folds_variant": _contiguous_section(contiguous),
         "n_support": int(len(result.svr.support_)),
         "mlr_formula": plain_formula(result.mlr, steps.S0_TARGET),
         "mlr_latex": result.mlr.to_latex(),
@@ -146,6 +158,9 @@ def _s4_section(result: steps.S4Result) -> dict[str, Any]:
         "test_runs": [run.run for run in result.test_runs],
         "before_um": result.before_um, "after_um": result.after_um,
         "improvement_percent": result.improvement_percent, "runs": runs,
+        "model_slope": result.model_slope,
+        "after_without_ripple_noise_um": float(np.mean(
+            [run.after_without_ripple_noise_um for run in result.test_runs])),
         "paper": steps.S4_PAPER, "figure": "s4_straightness.png",
     }
 
@@ -163,12 +178,6 @@ def _s2_section(result: steps.S2Result) -> dict[str, Any]:
                         "with reading noise — nine readings averaged by least squares against six "
                         "solved exactly — and so depends on the noise draw and on how far apart "
                         "the measuring lines are.")
-    periodic = ("The ball-screw periodic error (1 μm, 16 mm lead) sampled every 55 mm is aliased: "
-                f"at the 11 positions its mean square is {result.periodic_ms_um2:.3g} μm², "
-                f"{result.periodic_ms_um2 / steps.S2_PAPER['mse_svr']:.0f}× S2's SVR MSE. No "
-                "smooth model of 11 samples can follow it, so both MSEs sit near that floor and "
-                "the comparison of fit MSEs mostly measures how closely each model interpolates "
-                "it; the leave-one-out MSE says which model predicts better between the samples.")
     return {
         "metric": "MSE of the δx(x) model's residuals at the 11 positions (μm²), S2's 'MSE' "
                   "(in-sample fit)",
@@ -176,58 +185,36 @@ def _s2_section(result: steps.S2Result) -> dict[str, Any]:
         "max_error_original": result.max_error_original,
         "max_error_noise_free": result.max_error_noise_free, "identification_note": identification,
         "svr_params": result.svr_params, "n_support": result.n_support, "mse_um2": result.mse,
-        "periodic_ms_um2": result.periodic_ms_um2, "periodic_note": periodic,
+        "edge_text": result.edge_text, "dataset": "zhou_axis_x", "variant_note": (
+            "The default data have no ball-screw periodic error: S2's MSEs leave no room for one. "
+            "The variant zhou_axis_x_periodic adds a 1 μm, 16 mm-lead periodic error, aliased "
+            "at the 55 mm spacing (see its data card)."),
         "paper": steps.S2_PAPER, "figure": "s2_delta_x.png",
     }
 
 
-def _row(seed: str, quantity: str, metric: str, paper: float, ours: float, agrees: bool,
-         note: str) -> dict[str, Any]:
-    return {"seed": seed, "quantity": quantity, "metric": metric, "paper": paper, "ours": ours,
-            "qualitatively": "agrees" if agrees else "differs", "note": note}
+def _s1_section(result: online_seeds.S1Result, quick: bool) -> dict[str, Any]:
+    genetic = result.genetic
+    return {
+        "dataset": online_seeds.S1_DATASET, "features": online_seeds.S1_FEATURES,
+        "metric": "sum of |residuals| on the 20 test samples (μm), S1's", "quick": quick,
+        "genetic": {"population": genetic.population, "generations": genetic.generations,
+                    "crossover_probability": genetic.crossover_probability,
+                    "mutation_probability": genetic.mutation_probability, "seed": genetic.seed},
+        "ranges": {"C": list(online_seeds.S1_C_RANGE),
+                   "epsilon": list(online_seeds.S1_EPSILON_RANGE)},
+        "best_params": result.search.best_params, "best_mse_um2": result.search.best_mse,
+        "n_fits": result.search.n_fits, "edges": result.search.edges(),
+        "edge_text": result.edge_text, "n_support": result.n_support, "n_train": result.n_train,
+        "sum_abs_um": {"ga": result.sum_abs_ga_um, "untuned": result.sum_abs_untuned_um},
+        "paper": online_seeds.S1_PAPER,
+    }
 
 
-def reproduction_table(s0: dict[str, Any], s4: dict[str, Any],
-                       s2: dict[str, Any]) -> list[dict[str, Any]]:
-    """One row per published number of S0, S4 and S2: the paper's, ours, the metric, and the reason
-    where ours differs qualitatively (taken from the measurements above, not written by hand)."""
-    rows = []
-    rms = {(r["model"], r["batch"]): r["rms_um"] for r in s0["table"]}
-    svr_wins = rms[("ε-SVR", "x3")] < rms[("MLR", "x3")]
-    for (model, batch), paper in steps.S0_PAPER_RMS_UM.items():
-        note = ""
-        if batch == "x3":
-            note = ("The ε-SVR degrades less, as in S0; the sizes differ. " if svr_wins
-                    else "") + " ".join(
-                s0["extrapolation"])
-        rows.append(_row("S0", f"{model}, batch {batch}", "RMS of residuals (μm)", paper,
-                         rms[(model, batch)], svr_wins, note))
-    unseen = [run for run in s4["runs"] if not run["fitted_on"]]
-    floor = float(np.mean([run["after_without_ripple_noise_um"] for run in unseen]))
-    s4_note = (f"what remains would be {floor:.3g} μm without the force ripple and laser noise "
-               f"(known in the simulation), so about {s4['after_um'] - floor:.2g} μm of the "
-               f"{s4['after_um']:.3g} μm left is what no window mean can follow; the simulated "
-               f"deviation starts smaller ({s4['before_um']:.3g} μm) than S4's, so the same floor "
-               "is a larger share of it")
-    paper4 = s4["paper"]
-    metric4 = "straightness, peak-to-valley from the LS line (μm)"
-    rows += [_row("S4", "before compensation, unseen runs", metric4, paper4["before_um"],
-                  s4["before_um"], True, ""),
-             _row("S4", "after compensation, unseen runs", metric4, paper4["after_um"],
-                  s4["after_um"], True, s4_note),
-             _row("S4", "improvement, unseen runs", "% of the straightness",
-                  paper4["improvement_percent"], s4["improvement_percent"], True, s4_note)]
-    mse, paper2 = s2["mse_um2"], s2["paper"]
-    svr_better = mse["svr_fit"] < mse["lsm_fit"]
-    s2_note = "" if svr_better else (
-        f"{s2['periodic_note']} Leave-one-out: ε-SVR {mse['svr_loo']:.3g} vs polynomial "
-        f"{mse['lsm_loo']:.3g} μm².")
-    rows += [_row("S2", "δx model, ε-SVR", "MSE of the fit at the 11 positions (μm²)",
-                  paper2["mse_svr"], mse["svr_fit"], svr_better, s2_note),
-             _row("S2", "δx model, 5th-order polynomial",
-                  "MSE of the fit at the 11 positions (μm²)",
-                  paper2["mse_lsm"], mse["lsm_fit"], svr_better, s2_note)]
-    return rows
+def _s3_section(ours: dict[str, float]) -> dict[str, Any]:
+    return {"dataset": online_seeds.S3_DATASET, "features": online_seeds.S3_FEATURES,
+            "start_workpieces": online_seeds.S3_START, "ours": ours,
+            "paper": online_seeds.S3_PAPER}
 
 
 def _export_section(result: steps.S0Result, out: Path, force: bool) -> dict[str, Any]:
@@ -255,7 +242,8 @@ def run_demo(out: str | Path = "demo-output", *, quick: bool = False, force: boo
     out
         Output directory, created fresh (a non-empty one needs ``force``).
     quick
-        Smaller S0 CV grid (for tests and a first look).
+        Smaller S0 CV grid and a smaller S1 GA (population 10 for 5 generations; S1's, run
+        otherwise, is 100 for 50), for tests and a first look; the S1 rows say so.
     force
         Overwrite the demo's own files in an existing, non-empty ``out``.
     n_jobs
@@ -308,10 +296,16 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
     absolute_data = datasets.load(steps.S0_ABSOLUTE_DATASET)
     s0_absolute = steps.s0_thermal(absolute_data, quick=quick, n_jobs=n_jobs,
                                    features=steps.S0_ABSOLUTE_FEATURES)
+    s0_contiguous = steps.s0_thermal(datasets.load(steps.S0_DATASET), quick=quick, n_jobs=n_jobs,
+                                     contiguous=True)
+    step()
+    s1 = online_seeds.s1_ga(datasets.load(online_seeds.S1_DATASET), quick=quick)
     step()
     s4 = steps.s4_straightness(datasets.load("lin_gantry"))
     step()
     s2 = steps.s2_nine_line(datasets.load("zhou_axis_x"), datasets.load("zhou_axis_x_true"))
+    step()
+    s3 = online_seeds.s3_recursive(datasets.load(online_seeds.S3_DATASET))
     step()
     export = _export_section(s0, out, force)
     name = step()
@@ -329,12 +323,14 @@ def _run_steps(out: Path, *, quick: bool, force: bool, n_jobs: int, progress: Pr
             table.to_csv(temporary, index=False)
     results: dict[str, Any] = {
         "note": SIMULATED_NOTE, "quick": quick,
-        "s0": _s0_section(s0, s0_absolute, quick), "s4": _s4_section(s4), "s2": _s2_section(s2),
+        "s0": _s0_section(s0, s0_absolute, s0_contiguous, quick),
+        "s1": _s1_section(s1, quick), "s4": _s4_section(s4), "s2": _s2_section(s2),
+        "s3": _s3_section(s3),
         "export": export, "gap": {"verdict": gap.to_dict()["verdict"],
                 "summary": gap.summary.replace("\u00b5m", "μm"), "json": "gap/gap.json",
                 "html": "gap/gap.html"},
     }
-    results["reproduction"] = reproduction_table(results["s0"], results["s4"], results["s2"])
+    results["reproduction"] = reproduction_table(results)
     for batch, path in results["s0"]["figures"].items():
         figures.s0_batch_figure(s0.predictions, batch, out / path)
     figures.s4_figure(s4, out / results["s4"]["figure"])

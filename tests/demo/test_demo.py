@@ -3,18 +3,23 @@ agrees with the per-sample outputs it was computed from (read back, not hard-cod
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import re
 import sys
 from html import escape as html_escape
+from html import unescape as html_unescape
 
 import numpy as np
 import pandas as pd
 import pytest
+from rich.console import Console
 
 from svrqp import datasets
 from svrqp.cli import main
+from svrqp.cli.demo import print_summary
+from svrqp.demo.vocabulary import LABELS, cells, label_for, rule_text
 from svrqp.demo.report import verdict_label
 from svrqp.demo.run import prepare_directory
 from svrqp.export import predict, read_document, verify
@@ -83,13 +88,18 @@ def test_s0_table_is_what_the_predictions_say(demo):
 def test_s0_says_where_the_models_extrapolate(demo):
     _, results = demo
     data = datasets.load("miao2013_rise")
-    x1, x3 = (data[data["batch"] == batch] for batch in ("x1", "x3"))
-    outside = ((x3["T9_rise_C"] < x1["T9_rise_C"].min()) | (x3["T9_rise_C"] > x1["T9_rise_C"].max())).mean()
-    row = next(r for r in results["s0"]["input_ranges"] if r["batch"] == "x3" and r["input"] == "T9_rise_C")
-    assert row["share_outside"] == pytest.approx(outside)
-    assert outside > 0.5
-    assert any(note.startswith("On x3 the models extrapolate") and "T9_rise_C" in note
-               for note in results["s0"]["extrapolation"])
+    x1 = data[data["batch"] == "x1"]
+    for batch in ("x2", "x3"):
+        rows = data[data["batch"] == batch]
+        shares = {}
+        for feature in results["s0"]["features"]:
+            low, high = x1[feature].min(), x1[feature].max()
+            shares[feature] = ((rows[feature] < low) | (rows[feature] > high)).mean()
+            row = next(r for r in results["s0"]["input_ranges"] if r["batch"] == batch and r["input"] == feature)
+            assert row["share_outside"] == pytest.approx(shares[feature])
+        noted = any(note.startswith(f"On {batch} the models extrapolate") for note in results["s0"]["extrapolation"])
+        assert noted == (max(shares.values()) > 0)
+    assert not any(note.startswith("On x3") for note in results["s0"]["extrapolation"])  # autumn inside summer
     variant = results["s0"]["absolute_variant"]
     assert variant["dataset"] == "miao2013" and variant["features"] == ["T7_C", "T9_C"]
     assert any("100 % of the rows outside" in note for note in variant["extrapolation"])
@@ -134,26 +144,78 @@ def test_s4_and_s2_numbers_are_consistent(demo):
     assert f"identifies {len(better)} of 6 components more closely than the original ({', '.join(better)})" in \
         s2["identification_note"]
     assert max(max(errors.values()) for errors in s2["max_error_noise_free"].values()) < 1e-5
-    assert s2["periodic_ms_um2"] > 10 * s2["paper"]["mse_svr"]  # the aliased floor the note describes
+    assert s2["dataset"] == "zhou_axis_x" and "zhou_axis_x_periodic" in s2["variant_note"]
+    assert s2["mse_um2"]["lsm_fit_truth"] < 1e-6  # the simulated δx is a polynomial at the 11 points
+    assert s4["model_slope"] < 1  # C = 0.5 shrinks what the model reproduces
 
 
 def test_reproduction_table_repeats_the_sections_numbers(demo):
-    out, results = demo
+    _, results = demo
     rows = results["reproduction"]
-    assert {row["seed"] for row in rows} == {"S0", "S4", "S2"}
+    assert {row["seed"] for row in rows} == {"S0", "S1", "S2", "S3", "S4"}
     s0 = {(r["model"], r["batch"]): (r["paper_rms_um"], r["rms_um"]) for r in results["s0"]["table"]}
     for row in rows:
-        assert row["metric"] and row["qualitatively"] in {"agrees", "differs"}
+        assert row["metric"] and row["reproduction"] in LABELS
+        expected = label_for(row["paper"], row["ours"], row["tolerance"], row["comparison_holds"])
+        assert row["reproduction"] == expected.value
         if row["seed"] == "S0":
             model, batch = row["quantity"].split(", batch ")
             assert (row["paper"], row["ours"]) == s0[(model, batch)]
-        if row["qualitatively"] == "differs":
-            assert row["note"]  # a qualitative difference always comes with its measured reason
+        if row["reproduction"] != "reproduced":
+            assert row["note"]  # a difference always comes with its measured reason
     s2_rows = [row for row in rows if row["seed"] == "S2"]
     svr_better = results["s2"]["mse_um2"]["svr_fit"] < results["s2"]["mse_um2"]["lsm_fit"]
-    assert all(row["qualitatively"] == ("agrees" if svr_better else "differs") for row in s2_rows)
+    assert all(row["comparison_holds"] is svr_better for row in s2_rows)
+    s1 = {row["quantity"]: row["ours"] for row in rows if row["seed"] == "S1"}
+    assert s1["GA-SVR"] == results["s1"]["sum_abs_um"]["ga"]
+    s4 = {row["quantity"]: row for row in rows if row["seed"] == "S4"}
+    assert s4["improvement, unseen runs"]["paper"] == 53.0
+    assert s4["improvement, unseen runs"]["tolerance"] == 10.0
+
+
+def test_results_terminal_and_report_carry_the_same_labels(demo):
+    """The rows of results.json, the terminal table and report.html: the same cells, one vocabulary."""
+    out, results = demo
     page = (out / "report.html").read_text(encoding="utf-8")
-    assert "Reproduction, seed by seed" in page
+    assert "Reproduction, seed by seed" in page and rule_text() in html_unescape(page)
+    console = Console(width=1000, record=True, file=io.StringIO())
+    print_summary(console, results, out)
+    terminal = console.export_text()
+    lines = terminal.splitlines()
+    for row in results["reproduction"]:
+        expected = cells(row)
+        html_row = "".join(f"<td>{html_escape(cell)}</td>" for cell in expected)
+        assert html_row in page, row["quantity"]
+        assert any(all(cell in line for cell in expected) for line in lines), row["quantity"]
+    for text in (page, terminal):
+        assert "agrees" not in text and "qualitatively" not in text
+
+
+def test_s0_folds_are_random_and_seeded_as_s0s_with_contiguous_as_a_variant(demo):
+    _, results = demo
+    assert results["s0"]["cv"]["fold_split"].startswith("random, seed ")
+    variant = results["s0"]["contiguous_folds_variant"]
+    assert variant["folds"].startswith("contiguous") and len(variant["table"]) == 6
+    claim = next(row for row in results["reproduction"] if row["quantity"] == "ε-SVR, batch x3")
+    under = claim["ours"] < 2.0
+    assert ("holds here" if under else "does not hold here") in claim["note"]
+
+
+def test_s1_states_the_ga_size_and_that_quick_shrinks_it(demo):
+    _, results = demo
+    s1 = results["s1"]
+    assert s1["quick"] is True and s1["genetic"]["population"] < 100
+    assert (s1["genetic"]["crossover_probability"], s1["genetic"]["mutation_probability"]) == (0.85, 0.02)
+    note = next(row for row in results["reproduction"] if row["seed"] == "S1")["note"]
+    assert "quick run: S1 ran 100 × 50" in note
+    assert (s1["edge_text"][1:] in note) if s1["edges"] else "No parameter ended on a bound" in note
+
+
+def test_full_run_uses_s1s_ga():
+    from svrqp.demo.online_seeds import S1_GENETIC
+
+    assert (S1_GENETIC.population, S1_GENETIC.generations) == (100, 50)
+    assert (S1_GENETIC.crossover_probability, S1_GENETIC.mutation_probability) == (0.85, 0.02)
 
 
 def test_gap_report_is_schema_valid_and_matches(demo):
