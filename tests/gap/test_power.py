@@ -46,9 +46,9 @@ def test_the_lag_of_a_reading_nearly_constant_within_runs_is_named(suite, name, 
 
 def test_a_reading_that_moves_within_runs_beyond_its_noise_is_rotated_not_permuted(suite):
     """tf-bed_C-3: bed_C varies within runs by under 5 % of its variance, but by far more than its
-    reading noise: it is not one level per run, so its level is rotated within runs — not left to the
-    6 orderings of three run levels, which no permutation test could resolve — and it is named."""
-    from svrqp.gap.transfer.between import is_run_level, noise_variance, within_share
+    reading noise: its level is rotated within runs — not left to the 6 orderings of three run levels,
+    which no permutation test could resolve — and it is named."""
+    from svrqp.gap.transfer.between import is_run_level, moves_beyond_noise, noise_variance, within_share
 
     scenario = _scenario(suite, "tf-bed_C-3")
     case = suite.case_for(scenario)
@@ -57,7 +57,7 @@ def test_a_reading_that_moves_within_runs_beyond_its_noise_is_rotated_not_permut
     x, groups = rows["bed_C"].to_numpy(), pd.factorize(rows["run"])[0]
     within = sum(np.sum((x[groups == g] - x[groups == g].mean()) ** 2) for g in np.unique(groups)) / x.size
     assert within_share(x, groups) <= 0.05 and within > 4 * noise_variance(x, groups)
-    assert not is_run_level(x, groups)
+    assert is_run_level(x, groups) and moves_beyond_noise(x, groups)
     report = suite.diagnose_case(scenario, case)
     assert report.verdict.column == "bed_C" and report.verdict.transform == "level"
     assert report.causes[0].significant and report.verdict.untestable is None

@@ -10,12 +10,13 @@ evidence there is lies in how the runs differ.
 
 Run-level candidates
     A candidate is *run-level* when its variance within runs is at most
-    :data:`RUN_LEVEL_SHARE` of its variance on the real rows and no more than its reading noise
-    explains (:func:`is_run_level`): at most :data:`NOISE_RATIO` times the noise variance that its
-    successive differences within runs give (:func:`noise_variance`). A reading that moves within
-    runs by more than its noise — a temperature that drifts slowly through each run while its level
-    differs far more between runs — is not run-level, however small its share: its level is rotated
-    within runs like any other candidate's, which is the test its within-run movement allows. With at
+    :data:`RUN_LEVEL_SHARE` of its variance on the real rows (:func:`is_run_level`). Whether its
+    plain level is tested by permuting the run levels or by rotating it within runs is decided by
+    its within-run movement against its reading noise (:func:`moves_beyond_noise`): a reading whose
+    variance within runs exceeds :data:`NOISE_RATIO` times the noise variance its successive
+    differences give — a temperature that drifts slowly through each run while its level differs
+    far more between runs — is rotated within runs like any other candidate, which is the test its
+    within-run movement allows; its block below is still tested between runs. With at
     least :data:`MIN_RUNS` real runs its ``level`` is tested between runs (its transforms
     are still tested within runs too: a temperature whose level differs by season from run
     to run may carry an effect's dynamics within each), through the block
@@ -119,7 +120,8 @@ def within_share(x: np.ndarray, groups: np.ndarray) -> float:
 
 
 NOISE_RATIO = 4.0
-"""A reading whose variance within runs exceeds this multiple of its noise variance moves within runs."""
+"""A reading whose variance within runs exceeds this multiple of its noise variance moves within
+runs."""
 
 
 def noise_variance(x: np.ndarray, groups: np.ndarray) -> float:
@@ -137,11 +139,16 @@ def noise_variance(x: np.ndarray, groups: np.ndarray) -> float:
 
 
 def is_run_level(x: np.ndarray, groups: np.ndarray) -> bool:
-    """Whether ``x`` varies between runs but, within them, no more than its reading noise (module docstring)."""
-    if within_share(x, groups) > RUN_LEVEL_SHARE:
-        return False
-    within = sum(float(np.sum((x[rows] - x[rows].mean()) ** 2)) for rows in group_slices(groups)) / x.size
-    return within <= NOISE_RATIO * noise_variance(x, groups)
+    """Whether ``x`` varies between runs but hardly within them (see the module docstring)."""
+    return within_share(x, groups) <= RUN_LEVEL_SHARE
+
+
+def moves_beyond_noise(x: np.ndarray, groups: np.ndarray) -> bool:
+    """Whether ``x`` varies within runs by more than :data:`NOISE_RATIO` times its noise variance
+    (:func:`noise_variance`): then its level is rotated within runs, not permuted between them."""
+    within = sum(float(np.sum((x[rows] - x[rows].mean()) ** 2))
+                 for rows in group_slices(groups)) / x.size
+    return within > NOISE_RATIO * noise_variance(x, groups)
 
 
 def varies_within(x: np.ndarray, groups: np.ndarray) -> bool:
