@@ -29,9 +29,10 @@ MIN_BLOCKS = 5
 MAX_BLOCKS = 10
 """Most contiguous blocks (longer blocks are safer against interpolation)."""
 
-THIN_UNITS = 4
-"""With fewer held-out units than this, the transfer
-evidence is thin (said in the reason and summary)."""
+THIN_UNITS = 5
+"""With fewer held-out units than this, the transfer evidence is thin: no bootstrap interval is
+given (a resample of so few units has too few distinct outcomes to mean anything), and the reason
+and summary say the runs are too few for one."""
 
 N_BOOTSTRAP = 1000
 """Bootstrap resamples of the units (or blocks) for the intervals."""

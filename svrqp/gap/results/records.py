@@ -153,7 +153,7 @@ class Cause:
     rmse_before: float
     rmse_after: float
     shrink: float
-    shrink_ci: tuple[float, float]
+    shrink_ci: tuple[float, float] | None
     note: str | None = None
     ambiguous: bool = False
     shrink_beyond_base: float | None = None

@@ -10,7 +10,13 @@ evidence there is lies in how the runs differ.
 
 Run-level candidates
     A candidate is *run-level* when its variance within runs is at most
-    :data:`RUN_LEVEL_SHARE` of its variance on the real rows (:func:`is_run_level`). With at
+    :data:`RUN_LEVEL_SHARE` of its variance on the real rows (:func:`is_run_level`). Whether its
+    plain level is tested by permuting the run levels or by rotating it within runs is decided by
+    its within-run movement against its reading noise (:func:`moves_beyond_noise`): a reading whose
+    variance within runs exceeds :data:`NOISE_RATIO` times the noise variance its successive
+    differences give — a temperature that drifts slowly through each run while its level differs
+    far more between runs — is rotated within runs like any other candidate, which is the test its
+    within-run movement allows; its block below is still tested between runs. With at
     least :data:`MIN_RUNS` real runs its ``level`` is tested between runs (its transforms
     are still tested within runs too: a temperature whose level differs by season from run
     to run may carry an effect's dynamics within each), through the block
@@ -113,9 +119,36 @@ def within_share(x: np.ndarray, groups: np.ndarray) -> float:
     return within / total
 
 
+NOISE_RATIO = 4.0
+"""A reading whose variance within runs exceeds this multiple of its noise variance moves within
+runs."""
+
+
+def noise_variance(x: np.ndarray, groups: np.ndarray) -> float:
+    r"""The variance of a reading's noise, from its successive differences within runs.
+
+    For white noise of variance :math:`\sigma^2` on a signal that changes little from one row to
+    the next, :math:`\mathrm{E}[(\Delta x)^2] = 2\sigma^2`; the estimate is
+    :math:`\overline{(\Delta x)^2}/2` over every pair of successive rows of a run.
+    """
+    steps = [np.diff(x[rows]) for rows in group_slices(groups) if rows.stop - rows.start > 1]
+    if not steps:
+        return 0.0
+    d = np.concatenate(steps)
+    return 0.5 * float(np.mean(d**2))
+
+
 def is_run_level(x: np.ndarray, groups: np.ndarray) -> bool:
     """Whether ``x`` varies between runs but hardly within them (see the module docstring)."""
     return within_share(x, groups) <= RUN_LEVEL_SHARE
+
+
+def moves_beyond_noise(x: np.ndarray, groups: np.ndarray) -> bool:
+    """Whether ``x`` varies within runs by more than :data:`NOISE_RATIO` times its noise variance
+    (:func:`noise_variance`): then its level is rotated within runs, not permuted between them."""
+    within = sum(float(np.sum((x[rows] - x[rows].mean()) ** 2))
+                 for rows in group_slices(groups)) / x.size
+    return within > NOISE_RATIO * noise_variance(x, groups)
 
 
 def varies_within(x: np.ndarray, groups: np.ndarray) -> bool:

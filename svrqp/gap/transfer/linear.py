@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from svrqp.gap.contract import MAX_BLOCKS, MIN_BLOCKS, N_BOOTSTRAP
+from svrqp.gap.contract import MAX_BLOCKS, MIN_BLOCKS, N_BOOTSTRAP, THIN_UNITS
 from svrqp.gap.data import group_slices
 from svrqp.gap.results.records import TransferFit, Units
 from svrqp.metrics import rms
@@ -260,8 +260,9 @@ class TransferShrink:
         refit with the effect.
     shrink, shrink_beyond_refit : float
         ``1 - rmse_after / rmse_before`` and ``1 - rmse_after / rmse_refit``.
-    shrink_ci, shrink_beyond_refit_ci : tuple of float
-        95 % bootstrap intervals over the units.
+    shrink_ci, shrink_beyond_refit_ci : tuple of float or None
+        95 % bootstrap intervals over the units; None with fewer than
+        :data:`svrqp.gap.contract.THIN_UNITS` units.
     """
 
     rmse_before: float
@@ -269,8 +270,8 @@ class TransferShrink:
     rmse_after: float
     shrink: float
     shrink_beyond_refit: float
-    shrink_ci: tuple[float, float]
-    shrink_beyond_refit_ci: tuple[float, float]
+    shrink_ci: tuple[float, float] | None
+    shrink_beyond_refit_ci: tuple[float, float] | None
 
 
 def unit_sums(errors: np.ndarray, real_units: np.ndarray, n_units: int) -> np.ndarray:
@@ -318,5 +319,7 @@ def transfer_shrink(before: np.ndarray, refit: np.ndarray, after: np.ndarray,
     ss = [unit_sums(e, real_units, n_units) for e in (before, refit, after)]
     shrink = 1 - rmse[2] / rmse[0] if rmse[0] > 0 else 0.0
     beyond = 1 - rmse[2] / rmse[1] if rmse[1] > 0 else 0.0
+    if n_units < THIN_UNITS:  # too few units for a bootstrap over them to mean anything
+        return TransferShrink(rmse[0], rmse[1], rmse[2], shrink, beyond, None, None)
     return TransferShrink(rmse[0], rmse[1], rmse[2], shrink, beyond,
                           ratio_interval(ss[2], ss[0], index), ratio_interval(ss[2], ss[1], index))

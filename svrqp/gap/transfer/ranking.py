@@ -116,6 +116,7 @@ from svrqp.gap.transfer.between import (
     PARAMETRIC_MIN_RUNS,
     between_run_test,
     is_run_level,
+    moves_beyond_noise,
     permutation_floor,
     run_level_bank,
     run_level_columns,
@@ -218,6 +219,7 @@ class TransferRanker:
             run_level = (len(group_slices(data.groups[real])) >= 2
                          and is_run_level(data.C[real, j], data.groups[real]))
             moves = varies_within(data.C[:, j], data.groups)
+            drifts = run_level and moves_beyond_noise(data.C[real, j], data.groups[real])
             for transform in TRANSFORMS:
                 if transform in ("level", RISE) and column in data.features:
                     continue
@@ -231,7 +233,10 @@ class TransferRanker:
                 # a level scaling a profile along each run, or an offset
                 if run_level and transform == "level":
                     out.append(Effect(column, transform, None, run_level, block=True))
-                within = transform in WITHIN_RUN  # rotated within runs whatever its run levels do
+                # Rotated within runs whatever its run levels do: the dynamics, and a level that
+                # moves within runs beyond its reading noise (the block's test still exchanges its
+                # run levels).
+                within = transform in WITHIN_RUN or (transform == "level" and drifts)
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None,
                                   run_level and not within))
         return out

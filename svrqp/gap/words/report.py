@@ -20,7 +20,7 @@ from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.document import GapResult
 from svrqp.gap.results.records import Verdict
 from svrqp.gap.words.figures import before_after_figure, gap_figure
-from svrqp.gap.words.verdict import RISE_WORDS
+from svrqp.gap.words.verdict import RISE_WORDS, interval_text
 from svrqp.units import probability, unit_of
 
 BOUND_DIGITS = 4
@@ -99,7 +99,7 @@ class GapReport(GapResult):
                    "shrink (95 % CI)", "beyond the refit", "per-run recalibration", "note"],
                   [[str(i + 1), c.column, c.transform, _num(c.tau), probability(c.p_value),
                     _num(c.rmse_after),
-                    f"{c.shrink:.0%} ({c.shrink_ci[0]:.0%} … {c.shrink_ci[1]:.0%})",
+                    f"{c.shrink:.0%}{interval_text(c.shrink_ci, ' (', ')')}",
                     "–" if c.shrink_beyond_refit is None else f"{c.shrink_beyond_refit:.0%}",
                     "–" if c.within_shrink is None else f"{c.within_shrink:.0%}",
                     c.note or ("significant" if c.significant else "")]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from svrqp.exceptions import SolverError
-from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN
+from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN, THIN_UNITS
 from svrqp.gap.data import GapData
 from svrqp.gap.data.transforms import RISE
 from svrqp.gap.detect import gate, noise_pvalue
@@ -179,17 +179,16 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"against {cause.rmse_before:.3g}); no cause is "
                   f"named.{family_text(cause, context)}{thin}{recalibration}")
         return no_cause(reason)
-    if cause.shrink_beyond_refit <= 0.0 or (cause.shrink_beyond_refit_ci[0] <= 0.0
-                                            and not units.thin):
+    if cause.shrink_beyond_refit <= 0.0 or (cause.shrink_beyond_refit_ci is not None
+                                            and cause.shrink_beyond_refit_ci[0] <= 0.0):
         # Thin evidence excuses the interval, never an
         # effect that leaves the same-input refit no better.
         where = ("" if cause.shrink_beyond_refit <= 0.0
                  else f" on every resample of the held-out {unit_word(units)}s")
         reason = (f"The {effect_text(cause, data.order_name)} passes the transfer test (q "
                   f"{probability_relation(cause.p_value)}), but what it adds to a refit is not "
-                  f"above zero{where}: {cause.shrink_beyond_refit:.0%} (95 % CI "
-                  f"{cause.shrink_beyond_refit_ci[0]:.0%} … "
-                  f"{cause.shrink_beyond_refit_ci[1]:.0%}); no cause is "
+                  f"above zero{where}: {cause.shrink_beyond_refit:.0%}"
+                  f"{interval_text(cause.shrink_beyond_refit_ci, ' (95 % CI ', ')')}; no cause is "
                   f"named.{family_text(cause, context)}{thin}{recalibration}")
         return no_cause(reason)
     train_refit, train_refit_text = _train_refit(data, context.baseline, cause)
@@ -198,11 +197,11 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                          data.groups[data.is_train])
     reason = (f"The {effect_text(cause, data.order_name)} transfers: refitting the model with it, "
               f"leave-one-{unit_word(units)}-out over all rows, shrinks the real-row RMSE from "
-              f"{cause.rmse_before:.3g} to {cause.rmse_after:.3g} ({cause.shrink:.0%}, 95 % CI "
-              f"{cause.shrink_ci[0]:.0%} … {cause.shrink_ci[1]:.0%}), "
+              f"{cause.rmse_before:.3g} to {cause.rmse_after:.3g} ({cause.shrink:.0%}"
+              f"{interval_text(cause.shrink_ci, ', 95 % CI ', '')}), "
               f"{cause.shrink_beyond_refit:.0%} beyond the same refit without it "
-              f"({cause.rmse_refit:.3g}; CI {cause.shrink_beyond_refit_ci[0]:.0%} … "
-              f"{cause.shrink_beyond_refit_ci[1]:.0%}); transfer test q "
+              f"({cause.rmse_refit:.3g}{interval_text(cause.shrink_beyond_refit_ci, '; CI ', '')})"
+              "; transfer test q "
               f"{probability_relation(cause.p_value)}. "
               + capitalised(train_refit_text) + family_text(cause, context) + thin + recalibration)
     # a level too few runs can permute, tested through its dynamics within runs
@@ -277,6 +276,14 @@ def unit_word(units: Units) -> str:
     return "block" if units.kind == "blocks" else "run"
 
 
+def interval_text(interval: tuple[float, float] | None, before: str, after: str) -> str:
+    """``before`` + "low … high" + ``after`` for a 95 % interval; empty where there is none (too few
+    units: the thin-evidence sentence says so)."""
+    if interval is None:
+        return ""
+    return f"{before}{interval[0]:.0%} … {interval[1]:.0%}{after}"
+
+
 def thin_text(units: Units) -> str:
     """The sentence on thin or short transfer evidence (empty when there is none to make)."""
     if units.kind == "blocks" and units.short:
@@ -285,7 +292,8 @@ def thin_text(units: Units) -> str:
                 "shorter blocks, so the transfer numbers are optimistic.")
     if units.thin:
         return (f" Only {units.n_units} held-out {unit_word(units)}s carry the transfer evidence: "
-                "it is thin, and one more run could change it.")
+                f"too few for an interval ({THIN_UNITS} or more give one), and one more run could "
+                "change it.")
     return ""
 
 

@@ -14,6 +14,8 @@ from svrqp.gap.data.runs import blocked_folds
 from svrqp.gap.transfer.between import (
     between_run_test,
     is_run_level,
+    moves_beyond_noise,
+    noise_variance,
     profile_columns,
     run_level_bank,
     within_share,
@@ -182,3 +184,16 @@ def test_a_true_relation_survives_without_its_most_extreme_run():
     r = 0.4 * (c - 20.0) * 4 * t * (1 - t) + rng.normal(scale=0.05, size=k * m)
     result = between_run_test(r, np.ones((k * m, 1)), groups, run_level_bank("c", c, t, groups))
     assert result.p_value < 1e-3 and result.robust
+
+
+def test_a_reading_drifting_within_runs_beyond_its_noise_is_told_from_one_at_its_noise():
+    """Both hold their run levels (under 5 % of the variance within runs); one also drifts slowly
+    through each run, far beyond its 0.01 °C reading noise, the other only jitters by that noise."""
+    rng = np.random.default_rng(5)
+    groups = np.repeat(np.arange(4), 60)
+    levels = np.repeat([20.0, 26.0, 23.0, 29.0], 60)
+    jitter = 0.01 * rng.normal(size=240)
+    drift = np.tile(np.linspace(0.0, 0.6, 60), 4)
+    assert noise_variance(levels + jitter, groups) == pytest.approx(1e-4, rel=0.3)
+    assert is_run_level(levels + drift + jitter, groups) and moves_beyond_noise(levels + drift + jitter, groups)
+    assert is_run_level(levels + jitter, groups) and not moves_beyond_noise(levels + jitter, groups)

@@ -71,8 +71,8 @@ def test_lag_shrink_chooses_tau_inside_each_fit_as_an_independent_refit_does(air
     after = _logo_rmse(df, variants, real)
     assert verdict.rmse_after == pytest.approx(after, rel=1e-9)
     assert abs(verdict.shrink - (1 - after / verdict.rmse_before)) < 1e-9
-    low, high = verdict.shrink_ci
-    assert low <= verdict.shrink <= high
+    assert verdict.shrink_ci is None  # three held-out runs: too few for an interval
+    assert "too few for an interval" in verdict.reason
 
 
 def test_real_rows_that_fit_better_than_the_train_rows_are_no_gap():
