@@ -34,7 +34,7 @@ name and path) and ``truth.csv`` (its kind, truth column, snr and noise) beside 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -77,6 +77,8 @@ class FleetDesign:
         Runs per machine, how many of them the model was built on, minutes per run.
     noise_um
         Range of the machines' probe-noise standard deviations, μm.
+    soak_h
+        Hours each machine stands before a run (overnight; the simulator's default is 48 h).
     seed
         Seed of the whole fleet (machine ``i`` draws from ``(seed, i)``).
     """
@@ -90,6 +92,7 @@ class FleetDesign:
     train_runs: int = 2
     run_min: float = 180.0
     noise_um: tuple[float, float] = (0.3, 0.6)
+    soak_h: float = 8.0
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -124,9 +127,9 @@ def _programme(rng: np.random.Generator, minutes: float) -> tuple[CycleSegment, 
     return tuple(segments)
 
 
-def _machine_config(rng: np.random.Generator) -> ThermalConfig:
+def _machine_config(rng: np.random.Generator, soak_h: float) -> ThermalConfig:
     """One machine's build: its spindle, motor and nut heat, each scaled by U(0.8, 1.2)."""
-    base = ThermalConfig(measurement_noise=0.0)
+    base = ThermalConfig(measurement_noise=0.0, soak_h=soak_h)
     heat = dataclasses.replace(
         base.heat, spindle_heat_W=base.heat.spindle_heat_W * rng.uniform(0.8, 1.2),
         motor_heat_W=base.heat.motor_heat_W * rng.uniform(0.8, 1.2),
@@ -164,7 +167,7 @@ def _break_sensor(table: pd.DataFrame, real: np.ndarray, rng: np.random.Generato
 def machine_record(design: FleetDesign, index: int, kind: str) -> tuple[pd.DataFrame, dict]:
     """The record of machine ``index`` of the fleet, and its row of the truth table."""
     rng = np.random.default_rng([design.seed, index])
-    table = _runs(_machine_config(rng), design, rng)
+    table = _runs(_machine_config(rng, design.soak_h), design, rng)
     runs = table["run"].to_numpy()
     real = runs >= design.train_runs
     noise_sd = float(rng.uniform(*design.noise_um))
@@ -198,10 +201,13 @@ def fleet_records(design: FleetDesign) -> Iterator[tuple[str, pd.DataFrame, dict
         yield f"m{index:0{width}d}", table, truth
 
 
-def write_fleet(folder: str | Path, design: FleetDesign, *, force: bool = False) -> Path:
+def write_fleet(folder: str | Path, design: FleetDesign, *, force: bool = False,
+                progress: Callable[[int], None] | None = None) -> Path:
     """Write every machine as ``NAME.csv``, with ``manifest.csv`` and ``truth.csv``, in ``folder``.
 
-    Returns the path of the manifest.
+    The manifest names each record's file and its ``svrqp gap`` options (:data:`GAP_OPTIONS`),
+    so ``svrqp fleet FOLDER/manifest.csv --out OUT`` needs no other option. ``progress`` is
+    called with the number of machines written. Returns the path of the manifest.
     """
     from svrqp import output
 
@@ -211,8 +217,10 @@ def write_fleet(folder: str | Path, design: FleetDesign, *, force: bool = False)
         path = folder / f"{name}.csv"
         with output.replacing(path, force=force) as tmp:
             table.to_csv(tmp, index=False)
-        manifest.append({"name": name, "path": path.name})
+        manifest.append({"name": name, "path": path.name, **GAP_OPTIONS})
         truths.append({"name": name, **truth})
+        if progress is not None:
+            progress(len(manifest))
     with output.replacing(folder / "truth.csv", force=force) as tmp:
         pd.DataFrame(truths).to_csv(tmp, index=False)
     with output.replacing(folder / "manifest.csv", force=force) as tmp:
