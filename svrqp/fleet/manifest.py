@@ -70,6 +70,9 @@ def _csv_rows(path: Path) -> list[dict[str, Any]]:
     import pandas as pd
 
     table = pd.read_csv(path, dtype=str, keep_default_na=False)
+    if "path" not in table.columns:
+        raise ProblemError(f"{path.name}: a manifest needs a 'path' column (give record files "
+                           f"themselves as a glob: 'folder/*.csv')")
     return [{k: (v.strip() or None) for k, v in row.items()} for row in table.to_dict("records")]
 
 
