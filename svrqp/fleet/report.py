@@ -25,6 +25,7 @@ SLOWEST = 10
 def fleet_figure(table: pd.DataFrame, pooled: PooledVerdict) -> bytes:
     """The four panels of the page, as PNG bytes."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     fig = Figure(figsize=(11, 7.5), layout="constrained")
     (named, shrinks), (extrapolated, slow) = fig.subplots(2, 2)
@@ -44,12 +45,15 @@ def fleet_figure(table: pd.DataFrame, pooled: PooledVerdict) -> bytes:
     inputs = Counter(name for text in ok["extrapolated"] for name in str(text).split(",") if name)
     names = sorted(inputs, key=lambda c: (-inputs[c], c))
     extrapolated.barh(names or ["(none)"], [inputs[c] for c in names] or [0], color="tab:orange")
-    extrapolated.set_title("Inputs used outside their train range")
+    extrapolated.set_title("Model inputs and candidates used outside their train range")
     extrapolated.set_xlabel("records")
     top = table.sort_values("runtime_s", ascending=False).head(SLOWEST)[::-1]
     slow.barh(top["name"], top["runtime_s"].astype(float), color="tab:gray")
     slow.set_title(f"Slowest {len(top)} records")
     slow.set_xlabel("runtime (s)")
+    for ax in (named, shrinks):
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    extrapolated.xaxis.set_major_locator(MaxNLocator(integer=True))
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=90)
     return buffer.getvalue()
