@@ -8,6 +8,10 @@ lists of parts are arrays of tables (``[[cycle]]``, ``[[sensors]]``, ``[[lines]]
 left out keeps its default, so an effect is withheld with a single line such as
 ``ambient_drift = 0.0``.
 
+``svrqp simulate thermal --fleet N --out FOLDER`` draws N machines of one type instead
+(:mod:`svrqp.machine.fleet`): one CSV each, with ``manifest.csv`` for ``svrqp fleet`` and
+``truth.csv``.
+
 ``svrqp plot DATA.csv --out fig.png`` draws the temperatures and the error over time (or
 position), one column of panels per batch, with the effect contributions dashed when the
 table has them.
