@@ -129,6 +129,9 @@ def main_fleet(args, root: Path) -> dict:
             "quarter_s": small_wall, "n_quarter": max(args.n // 4, 1),
             "identical": same, "compared": compared, "dask_identical": int(dask_same),
             "record_s_mean": float(table["runtime_s"].mean()),
+            "record_s_sum": float(table["runtime_s"].sum()),
+            "dask_record_s_mean": float(dask_table["runtime_s"].mean()),
+            "dask_record_s_sum": float(dask_table["runtime_s"].sum()),
             "record_s_max": float(table["runtime_s"].max()),
             "failed": int((table["status"] == "failed").sum()),
             "attribution": attribution(table, truth).reset_index().to_dict("records"),
@@ -156,7 +159,8 @@ def weak_fleet(args, root: Path) -> dict:
     table = result.table.set_index("name")
     named_alone = int((table.loc[sorted(carriers), "verdict_column"] == "nut_C").sum())
     pooled_carriers = set(result.pooled.carriers.get("nut_C", []))
-    return {"n": args.weak_n, "snr": args.weak_snr, "carriers": len(carriers),
+    return {"n": args.weak_n, "snr": args.weak_snr, "seed": args.seed + 1,
+            "carriers": len(carriers),
             "named_alone": named_alone, "pooled_named": result.pooled.named,
             "pooled_summary": result.pooled.summary(),
             "fisher_named": pool(result.tests, "fisher").named,
@@ -181,6 +185,19 @@ def null_fleets(args, root: Path) -> dict:
             "fisher_naming": sum(bool(x) for x in fisher_named)}
 
 
+def _more_weak(runs: list[dict]) -> str:
+    """One paragraph per further weak-effect run (``--parts weak --json-name …``, merged by
+    ``--render --merge-weak FILE``)."""
+    lines = []
+    for w in runs:
+        lines.append(f"A further weak-effect fleet ({w['n']} records, {w['carriers']} carriers, "
+                     f"strength {w['snr']}, seed {w.get('seed', '?')}): a single record names "
+                     f"it on **{w['named_alone']} of {w['carriers']}** carriers; pooled, "
+                     f"{w['pooled_summary']} Fisher's rule would name "
+                     f"{w['fisher_named'] or 'nothing'}.")
+    return "\n\n".join(lines) + ("\n" if lines else "")
+
+
 def markdown(results: dict, args) -> str:
     m, w, z = results["main"], results["weak"], results["null"]
     rows = "\n".join(f"| {r['kind']} | {r['records']} | {r['top1']} | {r['false']} |"
@@ -192,9 +209,9 @@ def markdown(results: dict, args) -> str:
     big = 10_000 * t_record / 64
     return f"""# Fleet benchmark (issue #36)
 
-`python benchmarks/fleet.py {' '.join(sys.argv[1:])}` on {results['machine']} (shared with
-other work while it ran: wall times carry that load). Sizes: main fleet {m['n']} records,
-weak-effect fleet {w['n']}, {z['fleets']} null fleets of {z['n']} records.
+`python benchmarks/fleet.py {' '.join(results.get('argv', []))}` on {results['machine']}
+(shared with other work while it ran: wall times carry that load). Sizes: main fleet
+{m['n']} records, weak-effect fleet {w['n']}, {z['fleets']} null fleets of {z['n']} records.
 
 ## Main fleet ({m['n']} records, strength {m['snr']})
 
@@ -204,6 +221,13 @@ weak-effect fleet {w['n']}, {z['fleets']} null fleets of {z['n']} records.
 - Wall time (`svrqp fleet` in a child process, start-up included): serial {m['serial_s']:.1f} s,
   2 Dask workers {m['dask2_s']:.1f} s: **speed-up {m['speedup']:.2f}×**. Mean record
   {t_record:.2f} s (longest {m['record_s_max']:.2f} s).
+- Reading the speed-up: a record took {t_record:.2f} s on average serially and
+  {m['dask_record_s_mean']:.2f} s on a Dask worker, so the workers' records ran
+  {m['dask_record_s_mean'] / t_record:.2f}× slower than the serial ones: they did not get two
+  cores' time. The workers were busy with records {m['dask_record_s_sum'] / (2 * m['dask2_s']):.0%}
+  of the wall time (Σ record time / (2 × wall)), the serial process
+  {m['record_s_sum'] / m['serial_s']:.0%}: the rest is the start (imports, the cluster) and the
+  writing of the fleet's files.
 - Peak memory of the serial `svrqp fleet` process: {m['rss_quarter_mib']:.0f} MiB on
   {m['n_quarter']} records, {m['rss_all_mib']:.0f} MiB on {m['n']}; the parent of the 2-worker
   run: {m['rss_dask_parent_mib']:.0f} MiB.
@@ -219,10 +243,11 @@ A single record names it on **{w['named_alone']} of {w['carriers']}** carriers. 
 {w['pooled_carriers_false']} not carrying the effect. Fisher's rule would name:
 {w['fisher_named'] or 'nothing'}.
 
-| candidate | records | tested | p <= 0.05 | p (Wilkinson) | p (Fisher) | q (BH, Wilkinson) | named |
+| candidate | records | tested | p <= 0.05 | p (Wilkinson) | p (Fisher) | q (BH) | named |
 |---|---|---|---|---|---|---|---|
 {pooled}
 
+{_more_weak(results.get('weak_more', []))}
 ## Null fleets
 
 The pooled evidence names a candidate in **{z['fleets_naming']} of {z['fleets']}** fleets where
@@ -252,8 +277,21 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--parts", default="main,weak,null")
+    parser.add_argument("--json-name", default="fleet.json",
+                        help="file of benchmarks/results/ the numbers go to")
+    parser.add_argument("--merge-weak", nargs="*", default=[],
+                        help="with --render: files of further weak-effect runs to add")
+    parser.add_argument("--render", action="store_true",
+                        help="only write fleet.md again from the recorded fleet.json")
     args = parser.parse_args()
-    results: dict = {"machine": f"{os.cpu_count()} cores"}
+    if args.render:
+        results = json.loads((RESULTS / "fleet.json").read_text())
+        for name in args.merge_weak:
+            results.setdefault("weak_more", []).append(
+                json.loads((RESULTS / name).read_text())["weak"])
+        (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
+        return
+    results: dict = {"machine": f"{os.cpu_count()} cores", "argv": sys.argv[1:]}
     with tempfile.TemporaryDirectory(prefix="svrqp-fleet-") as folder:
         root = Path(folder)
         for part, function in (("main", main_fleet), ("weak", weak_fleet),
@@ -262,7 +300,7 @@ def main() -> None:
                 results[part] = function(args, root)
                 print(json.dumps(results[part], default=str)[:400], flush=True)
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "fleet.json").write_text(json.dumps(results, indent=2, default=str) + "\n")
+    (RESULTS / args.json_name).write_text(json.dumps(results, indent=2, default=str) + "\n")
     if {"main", "weak", "null"} <= set(results):
         (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
 
