@@ -170,7 +170,7 @@ def weak_fleet(args, root: Path) -> dict:
 
 
 def null_fleets(args, root: Path) -> dict:
-    named, fisher_named = [], []
+    named, fisher_named, records_naming = [], [], []
     for k in range(args.null_fleets):
         design = FleetDesign(n=args.null_n, seed=1000 + k, shares={"faulty": 0.1, "none": 0.9})
         manifest = draw(root / f"null{k}", design)
@@ -178,21 +178,25 @@ def null_fleets(args, root: Path) -> dict:
         named.append(result.pooled.named)
         fisher_named.append(pool(result.tests, "fisher").named)
         single = int((result.table["verdict_column"].fillna("") != "").sum())
+        records_naming.append(single)
         print(f"null fleet {k}: pooled names {result.pooled.named}, {single} records name one",
               flush=True)
     return {"fleets": args.null_fleets, "n": args.null_n,
             "fleets_naming": sum(bool(x) for x in named), "named": named,
-            "fisher_naming": sum(bool(x) for x in fisher_named)}
+            "fisher_naming": sum(bool(x) for x in fisher_named),
+            "records_naming": sum(records_naming)}
 
 
 def _more_weak(runs: list[dict]) -> str:
     """One paragraph per further weak-effect run (``--parts weak --json-name …``, merged by
     ``--render --merge-weak FILE``)."""
-    lines = []
+    lines = [] if not runs else [
+        "Further weak-effect fleets, each its own run (`python benchmarks/fleet.py --parts weak "
+        "--weak-snr S --seed K --json-name fleet_weakNNN.json`; the fleet's seed is K + 1):"]
     for w in runs:
         lines.append(f"A further weak-effect fleet ({w['n']} records, {w['carriers']} carriers, "
                      f"strength {w['snr']}, seed {w.get('seed', '?')}): a single record names "
-                     f"it on **{w['named_alone']} of {w['carriers']}** carriers; pooled, "
+                     f"it on **{w['named_alone']} of {w['carriers']}** carriers. "
                      f"{w['pooled_summary']} Fisher's rule would name "
                      f"{w['fisher_named'] or 'nothing'}.")
     return "\n\n".join(lines) + ("\n" if lines else "")
@@ -238,7 +242,7 @@ def markdown(results: dict, args) -> str:
 
 ## Weak effect ({w['n']} records, nut heating on {w['carriers']} of them at strength {w['snr']})
 
-A single record names it on **{w['named_alone']} of {w['carriers']}** carriers. Pooled:
+A single record names it on **{w['named_alone']} of {w['carriers']}** carriers.
 {w['pooled_summary']} Carriers it lists: {w['pooled_carriers_true']} true,
 {w['pooled_carriers_false']} not carrying the effect. Fisher's rule would name:
 {w['fisher_named'] or 'nothing'}.
@@ -252,7 +256,14 @@ A single record names it on **{w['named_alone']} of {w['carriers']}** carriers. 
 
 The pooled evidence names a candidate in **{z['fleets_naming']} of {z['fleets']}** fleets where
 nothing is withheld ({z['n']} records each, 10 % with a faulty `coolant_C`); with Fisher's rule
-instead, in {z['fisher_naming']} of {z['fleets']}.
+instead, in {z['fisher_naming']} of {z['fleets']}. Single records name a cause on
+{z.get('records_naming', '?')} of the {z['fleets'] * z['n']} null records.
+
+**The limit.** The pooled evidence counts the records' own transfer tests, and a record runs
+no test of a column whose transfer gain stays below the effect floor (5 %,
+`svrqp.gap.contract`): such a record enters with p = 1. Where the effect is so weak that nearly
+no record clears the floor (strength 0.15 above: the nut's column tested on few records), there
+is nothing to count and the fleet names nothing, rightly at its level but without power.
 
 ## Time model
 
