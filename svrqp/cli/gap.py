@@ -23,18 +23,11 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from svrqp import registry
-from svrqp.cli._common import BaselineModel, model_option, read_table, split_columns
+from svrqp.cli._common import BaselineModel, model_option, read_table
 from svrqp.exceptions import ProblemError
+from svrqp.fleet.record import GapOptions, diagnose_table
 
 REPORT_SUFFIXES = (".html", ".htm", ".md")
-
-
-def _one(text: str | None, table, option: str) -> str | None:
-    """The single column named by an option (None when the option was not given)."""
-    names = split_columns(text, table, option)
-    if text is not None and len(names) != 1:
-        raise ProblemError(f"{option}: name exactly one column, got {text!r}")
-    return names[0] if names else None
 
 
 def gap(
@@ -91,18 +84,11 @@ def gap(
 ) -> None:
     """Where the gap between a model and real data lies,
     which unmodelled effect causes it, how far it shrinks."""
-    from svrqp.gap import (  # imported when the command runs: `svrqp gap --help` stays quick
-        GapQuestion,
-        diagnose,
-    )
-
-    if (features is None) == (prediction is None):
-        raise ProblemError("give exactly one of --features (a model is fitted) or --prediction (a "
-                           "column)")
-    if prediction is not None and model is not None:
-        raise ProblemError(
-            "--model applies to --features only; with --prediction nothing is fitted"
-        )
+    options = GapOptions(
+        target=target, train=train, candidates=candidates, features=features,
+        model=None if model is None else model.value, prediction=prediction, order=order,
+        group=group, seed=seed, within_evidence=within_evidence, surrogates=surrogates,
+        local=local, local_along=local_along, jobs=jobs)
     if report is not None and report.suffix.lower() not in REPORT_SUFFIXES:
         raise ProblemError(f"--report: name the file with one of {REPORT_SUFFIXES}, got "
                            f"{report.name!r}")
@@ -115,25 +101,8 @@ def gap(
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
     with Progress(*columns, transient=True) as progress:
         task = progress.add_task("gap diagnosis", total=1.0)
-        question = GapQuestion(
-            target=_one(target, table, "--target"),
-            train=train,
-            features=split_columns(features, table, "--features") or None,
-            prediction=_one(prediction, table, "--prediction"),
-            candidates=split_columns(candidates, table, "--candidates"),
-            order=_one(order, table, "--order"),
-            group=_one(group, table, "--group"),
-            model=registry.baselines()[0] if model is None else model.value,
-            local=local,
-            local_along=split_columns(local_along, table, "--local-along") or None,
-        )
-        result = diagnose(
-            table,
-            question,
-            seed=seed,
-            surrogates=surrogates,
-            n_jobs=jobs,
-            within_evidence=within_evidence,
+        result = diagnose_table(
+            table, options,
             progress=lambda stage, done: progress.update(task, completed=done, description=stage),
         )
     written = [result.write_json(json_out, force=force)]

@@ -8,6 +8,10 @@ lists of parts are arrays of tables (``[[cycle]]``, ``[[sensors]]``, ``[[lines]]
 left out keeps its default, so an effect is withheld with a single line such as
 ``ambient_drift = 0.0``.
 
+``svrqp simulate thermal --fleet N --out FOLDER`` draws N machines of one type instead
+(:mod:`svrqp.machine.fleet`): one CSV each, with ``manifest.csv`` for ``svrqp fleet`` and
+``truth.csv``.
+
 ``svrqp plot DATA.csv --out fig.png`` draws the temperatures and the error over time (or
 position), one column of panels per batch, with the effect contributions dashed when the
 table has them.
@@ -152,6 +156,27 @@ def plot_table(
     return fig
 
 
+def _simulate_fleet(kind: Kind, out: Path, n: int, snr: float, seed: int, force: bool,
+                    refused: dict[str, object]) -> None:
+    """``simulate thermal --fleet N --out FOLDER`` (:func:`svrqp.machine.fleet.write_fleet`)."""
+    from svrqp.machine.fleet import FleetDesign, write_fleet
+
+    if kind is not Kind.thermal:
+        raise ProblemError("--fleet draws machining centres: use it with the thermal simulator")
+    given = [name for name, value in refused.items() if value is not None]
+    if given:
+        raise ProblemError(f"--fleet draws its own machines: {', '.join(given)} does not apply")
+    if out.exists() and not out.is_dir():
+        raise ProblemError(f"--out {out}: with --fleet, give a folder")
+    design = FleetDesign(n=n, seed=seed, snr={"nut": snr, "headstock": snr})
+    with Progress(TextColumn("machines"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
+                  console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("machines", total=n)
+        manifest = write_fleet(out, design, force=force,
+                               progress=lambda done: bar.update(task, completed=done))
+    typer.echo(f"wrote {n} machine records, {manifest} and {out / 'truth.csv'}")
+
+
 def register(app: typer.Typer) -> None:
     """Add ``svrqp simulate`` and ``svrqp plot`` to ``app``."""
 
@@ -160,7 +185,7 @@ def register(app: typer.Typer) -> None:
         kind: Kind = typer.Argument(..., help="Simulator: thermal (machining-centre thermal "
                                               "drift), "
                                     "axis (linear-axis geometric errors), gantry (2X/Y contour)."),
-        out: Path = typer.Option(..., "--out", help="CSV file to write."),
+        out: Path = typer.Option(..., "--out", help="CSV file to write (with --fleet: a folder)."),
         config: Path = typer.Option(None, "--config", help="TOML file setting fields of the "
                                     "simulator's config (e.g. 'ambient_drift = 0.0'); default: "
                                     "the built-in defaults."),
@@ -172,8 +197,18 @@ def register(app: typer.Typer) -> None:
         force: bool = typer.Option(False, "--force", help="Replace --out if it exists (a symbolic "
                                                           "link is replaced, never written "
                                                           "through)."),
+        fleet: int = typer.Option(None, "--fleet", help="thermal only: draw this many machines of "
+                                  "one type (svrqp.machine.fleet) into the folder --out: one CSV "
+                                  "each, manifest.csv (ready for svrqp fleet) and truth.csv."),
+        fleet_snr: float = typer.Option(2.0, "--fleet-snr", help="With --fleet: strength of the "
+                                        "withheld effects (their within-run spread over the "
+                                        "probe noise's)."),
     ) -> None:
         """Simulate a machine with switchable physical effects and write the table as CSV."""
+        if fleet is not None:
+            _simulate_fleet(kind, out, fleet, fleet_snr, seed, force,
+                            refused={"--config": config, "--nine-line": nine_line})
+            return
         output.check_target(out, force=force)
         with Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
                       TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
