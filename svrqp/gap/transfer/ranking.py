@@ -2,8 +2,7 @@ r"""Causes ranked by what they buy on held-out runs, and tested against surrogat
 
 Every candidate × transform is refitted leave-one-unit-out with the model family
 (:mod:`svrqp.gap.transfer.linear`); a column's row in the causes table is its best-transferring
-transform (the one with fewer parameters when two are within :data:`SAME_FIT` of each
-other). Its *transfer gain* is
+transform (fewer parameters within :data:`SAME_FIT`). Its *transfer gain* is
 
 .. math::
 
@@ -72,8 +71,7 @@ A t-test between runs where no ordering can decide
     Benjamini–Hochberg's first threshold :math:`\alpha/m`, a run-level cause's p-value is the
     t-test of :func:`svrqp.gap.transfer.between.between_run_test` instead (the family's residual
     summarised per run, regressed on the candidate's run level; one run must not carry it), and its
-    note says so. Its size on null run-level records is measured by
-    ``benchmarks/gap_run_level_size.py``.
+    note says so. Its size is measured by ``benchmarks/gap_run_level_size.py``.
 
 Effect floor
     A cause is significant only if its transfer gain is at least
@@ -225,17 +223,14 @@ class TransferRanker:
                     continue
                 if run_level and transform in WITHIN_RUN and not moves:
                     continue  # its rate, rise and lag are zero
-                # untestable when run-level and not permutable (:meth:`untestable_form`)
-                if transform == "local":
+                if transform == "local":  # untestable when run-level and not permutable
                     out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
                             for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
-                # a level scaling a profile along each run, or an offset
-                if run_level and transform == "level":
+                if run_level and transform == "level":  # a level scaling a profile, or an offset
                     out.append(Effect(column, transform, None, run_level, block=True))
-                # Rotated within runs whatever its run levels do: the dynamics, and a level that
-                # moves within runs beyond its reading noise (the block's test still exchanges its
-                # run levels).
+                # Rotated within runs: the dynamics, and a level that moves within runs beyond its
+                # reading noise (the block's test still exchanges its run levels).
                 within = transform in WITHIN_RUN or (transform == "level" and drifts)
                 out.append(Effect(column, transform, self.taus if transform == "lag" else None,
                                   run_level and not within))
