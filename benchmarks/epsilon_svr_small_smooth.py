@@ -23,6 +23,12 @@ violation, as ``kkt_std``: on smooth data libsvm stops with KKT violations of
 gap; the model's box, balance and KKT conditions): at most ``check_tol`` = 1e-6, or the fit
 raises.
 
+``--grid`` adds tuning's 5×5 grid (C in 0.1 … 1000, γ in 0.01 … 1, ε = 0.1, 5-fold ``KFold``)
+on the thermal generator at n = 200: ``grid_search`` with its defaults against
+``GridSearchCV(SVR(tol=1e-8))``, CPU time of this single-threaded process (less disturbed by
+the machine's other work than wall time), the largest relative difference of a candidate's CV
+mean squared error, and the best candidate of each.
+
 ``--profile`` adds, per cell, where svrqp's time goes (cProfile, cumulative time of each stage
 as a share of the fit): validation, the loose SMO (with screening's pilot runs), the crossover,
 the certificate on the stated QP and the rest.
@@ -202,7 +208,41 @@ def stage_shares(fit, count: int) -> dict[str, float]:
     return shares
 
 
-def report(table: pd.DataFrame, total_s: float) -> str:
+def run_grid(n: int = 200) -> pd.DataFrame:
+    """Tuning's 5×5 grid against GridSearchCV(SVR(tol=1e-8)) (module docstring), best of 2 runs."""
+    from sklearn.model_selection import GridSearchCV, KFold
+
+    from svrqp.tuning import Execution, grid_search
+
+    X, y = thermal_noisy(n)
+    C_grid, gamma_grid = [0.1, 1.0, 10.0, 100.0, 1000.0], [float(g) for g in np.logspace(-2, 0, 5)]
+    folds, cpu = KFold(5), {"svrqp": [], "GridSearchCV": []}
+    for _ in range(2):
+        start = time.process_time()
+        reference = GridSearchCV(SVR(epsilon=EPSILON, tol=1e-8), {"C": C_grid, "gamma": gamma_grid},
+                                 cv=folds, scoring="neg_mean_squared_error", refit=False).fit(X, y)
+        cpu["GridSearchCV"].append(time.process_time() - start)
+        start = time.process_time()
+        ours = grid_search(X, y, C=C_grid, gamma=gamma_grid, epsilon=[EPSILON],
+                           execution=Execution(cv=folds, backend="sequential"))
+        cpu["svrqp"].append(time.process_time() - start)
+    theirs = pd.DataFrame(reference.cv_results_["params"]).astype(float)
+    theirs["mse_reference"] = -reference.cv_results_["mean_test_score"]
+    merged = ours.table.merge(theirs, on=["C", "gamma"], validate="one_to_one")
+    best = theirs.loc[theirs["mse_reference"].idxmin()]
+    return pd.DataFrame([{
+        "data": "thermal", "n": n, "candidates": len(merged), "folds": 5,
+        "svrqp_cpu_s": min(cpu["svrqp"]), "GridSearchCV_cpu_s": min(cpu["GridSearchCV"]),
+        "ratio": min(cpu["svrqp"]) / min(cpu["GridSearchCV"]),
+        "max_rel_dCVMSE": float(np.max(np.abs(merged["mse"] - merged["mse_reference"])
+                                       / merged["mse_reference"])),
+        "failed_folds": int(merged["failed_folds"].sum()),
+        "best svrqp (C, γ)": f"({ours.best_params['C']:g}, {ours.best_params['gamma']:.3g})",
+        "best GridSearchCV (C, γ)": f"({best['C']:g}, {best['gamma']:.3g})",
+    }])
+
+
+def report(table: pd.DataFrame, total_s: float, grid: pd.DataFrame | None = None) -> str:
     """The Markdown page: machine, acceptance per cell, the table."""
     big = table[table["n"] >= 4000]
     lines = [
@@ -236,6 +276,8 @@ def report(table: pd.DataFrame, total_s: float) -> str:
         markdown_table(table),
         "",
     ]
+    if grid is not None:
+        lines += ["## Tuning: 5×5 grid, thermal, n = 200", "", markdown_table(grid), ""]
     return "\n".join(lines)
 
 
@@ -244,6 +286,7 @@ def main() -> None:
     parser.add_argument("--sizes", default=",".join(map(str, SIZES)))
     parser.add_argument("--data", default=",".join(GENERATORS))
     parser.add_argument("--profile", action="store_true", help="add the stage shares per cell")
+    parser.add_argument("--grid", action="store_true", help="add the tuning grid at n = 200")
     parser.add_argument("--out", type=Path, default=RESULTS / "epsilon_svr_small_smooth.md")
     parser.add_argument("--force", action="store_true", help="overwrite --out")
     arguments = parser.parse_args()
@@ -256,7 +299,8 @@ def main() -> None:
             print({key: (f"{value:.3g}" if isinstance(value, float) else value)
                    for key, value in rows[-1].items()}, flush=True)
     table = pd.DataFrame(rows)
-    arguments.out.write_text(report(table, time.perf_counter() - start), encoding="utf-8")
+    grid = run_grid() if arguments.grid else None
+    arguments.out.write_text(report(table, time.perf_counter() - start, grid), encoding="utf-8")
     table.to_csv(arguments.out.with_suffix(".csv"), index=False)
 
 

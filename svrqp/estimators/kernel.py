@@ -52,8 +52,11 @@ class _KernelModel(RegressorMixin, BaseEstimator):
     """Shared kernel handling: input validation, ``gamma`` resolution, Gram matrices, predict."""
 
     def _validated_training_data(self, X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
-        if _finite_float_arrays(X, y):  # what check_X_y would return as is: only names and width
-            validate_data(self, X, y, skip_check_array=True)
+        if _finite_float_arrays(X, y):  # what check_X_y would return as is
+            # validate_data's bookkeeping for an array without column names (its name lookup
+            # through narwhals costs more than a 50-point libsvm run)
+            self.n_features_in_ = X.shape[1]
+            self.__dict__.pop("feature_names_in_", None)
         else:
             check_numeric_array(X, "X")
             check_numeric_array(y, "y")
