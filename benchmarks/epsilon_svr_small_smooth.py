@@ -31,7 +31,8 @@ mean squared error, and the best candidate of each.
 
 ``--profile`` adds, per cell, where svrqp's time goes (cProfile, cumulative time of each stage
 as a share of the fit): validation, the loose SMO (with screening's pilot runs), the crossover,
-the certificate on the stated QP and the rest.
+the certificate on the stated QP and the rest (the estimator's bookkeeping, the solver's
+dispatch).
 
 Usage::
 
@@ -68,7 +69,7 @@ EXACT_MAX_N = 1000
 #: Stages of the profile: a stage's time is the cumulative time of the functions named.
 STAGES = {
     "validation": ("_validated_training_data",),
-    "loose SMO": ("decomposition_fit", "_pilot"),
+    "loose SMO": ("decomposition_fit", "screened_fit"),  # with screening's pilots and holds
     "crossover": ("crossover",),
     "certificate": ("model_on_qp", "of_qp", "require_certificates", "kernel_scale"),
 }
