@@ -205,10 +205,10 @@ def stage_shares(fit, count: int) -> dict[str, float]:
                 if name == "fit" and path.endswith("kernel.py"))
     shares = {}
     for stage, names in STAGES.items():
-        # outermost calls only: a stage function called inside another of the same stage is not
-        # counted twice (the pilot calls decomposition_fit)
-        seconds = sum(ct for (_, _, name), (_, _, _, ct, callers) in stats.items()
-                      if name in names and not any(caller[2] in names for caller in callers))
+        # outermost calls only: the time a stage function spends called from another function
+        # of the same stage is not counted twice (the pilot calls decomposition_fit)
+        seconds = sum(timing[3] for (_, _, name), (*_, callers) in stats.items() if name in names
+                      for caller, timing in callers.items() if caller[2] not in names)
         shares[f"{stage} %"] = 100.0 * seconds / total
     shares["other %"] = 100.0 - sum(shares.values())
     return shares
