@@ -375,7 +375,7 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
     if m == 0:
         return np.zeros(0), 0.0, None  # no free SV: the caller sets b by the midpoint rule
     # LAPACK's Cholesky and its solve called directly: scipy's cho_factor / cho_solve wrappers
-    # cost 5 times the work on the few free points of a small fit (96 µs against 16 µs at m = 6)
+    # cost 5 times the work on the few free points of a small fit (96 μs against 16 μs at m = 6)
     factor, info = scipy.linalg.lapack.dpotrf(K_FF, lower=1, clean=0)
     pivots = np.abs(np.diag(factor)) ** 2
     if info == 0 and pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
