@@ -84,7 +84,7 @@ def _as_vector(v: Any, name: str, size: int, *,
 
 def _inf_norm(v: Any) -> float:
     v = np.asarray(v, dtype=float)
-    return float(np.max(np.abs(v))) if v.size else 0.0
+    return float(np.abs(v).max()) if v.size else 0.0
 
 
 def check_psd(P: Matrix, name: str = "P", tolerance: float = PSD_TOLERANCE) -> None:

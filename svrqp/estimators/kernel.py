@@ -38,15 +38,31 @@ _KERNEL_CHECKS = {
 }
 
 
+def _finite_float_arrays(X: Any, y: Any) -> bool:
+    """Whether ``X`` and ``y`` are float64 ndarrays (2-D, at least one row and column; 1-D of the
+    same length) with finite values: scikit-learn's ``check_X_y`` returns such arrays unchanged,
+    and its checks cost 20 times a 50-point libsvm run (0.6 ms against 0.05 ms, measured)."""
+    return (type(X) is np.ndarray and type(y) is np.ndarray and X.dtype == np.float64
+            and y.dtype == np.float64 and X.ndim == 2 and y.ndim == 1
+            and X.shape[0] == y.shape[0] and min(X.shape) >= 1
+            and bool(np.isfinite(X).all()) and bool(np.isfinite(y).all()))
+
+
 class _KernelModel(RegressorMixin, BaseEstimator):
     """Shared kernel handling: input validation, ``gamma`` resolution, Gram matrices, predict."""
 
     def _validated_training_data(self, X: ArrayLike, y: ArrayLike) -> tuple[NDArray, NDArray]:
-        check_numeric_array(X, "X")
-        check_numeric_array(y, "y")
-        with input_errors_as_problem_errors():
-            X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
-        y = y.astype(np.float64, copy=False)  # boolean or integer targets
+        if _finite_float_arrays(X, y):  # what check_X_y would return as is
+            # validate_data's bookkeeping for an array without column names (its name lookup
+            # through narwhals costs more than a 50-point libsvm run)
+            self.n_features_in_ = X.shape[1]
+            self.__dict__.pop("feature_names_in_", None)
+        else:
+            check_numeric_array(X, "X")
+            check_numeric_array(y, "y")
+            with input_errors_as_problem_errors():
+                X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+            y = y.astype(np.float64, copy=False)  # boolean or integer targets
         check_magnitude(X, "X")
         check_magnitude(y, "y")
         if X.shape[0] < 2:

@@ -139,3 +139,44 @@ def test_crossover_from_a_held_start_reaches_the_same_optimum_with_or_without_pa
                          settings=settings) for settings in (CrossoverSettings(), warm_start.HELD_START)]
     assert all(result.exact for result in results)
     np.testing.assert_allclose(results[1].beta, results[0].beta, rtol=0, atol=1e-9 * case.C)
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "linear", "poly", "precomputed"])
+def test_libsvm_binding_gives_what_public_svr_gives(kernel, monkeypatch):
+    """The direct call to libsvm's binding and the public SVR (its fallback) give the same run."""
+    rng = np.random.default_rng(1)
+    X = rng.normal(size=(60, 3))
+    y = np.sin(X[:, 0]) + 0.1 * rng.normal(size=60)
+    parameters = {"kernel": kernel, "gamma": 0.4, "degree": 2, "coef0": 1.0}
+    data = gram(X, **{**parameters, "kernel": "rbf"}) if kernel == "precomputed" else X
+    direct = screening.libsvm_smo(data, y, 3.0, 0.1, parameters, 1e-3, 10_000)
+    from sklearn.svm import _libsvm
+
+    real = _libsvm.fit
+
+    def missing(*args, **kwargs):  # another signature for our call; SVR.fit's own call still works
+        if "sample_weight" in kwargs:
+            return real(*args, **kwargs)
+        raise TypeError("fit() got an unexpected keyword argument")
+
+    monkeypatch.setattr(_libsvm, "fit", missing)
+    public = screening.libsvm_smo(data, y, 3.0, 0.1, parameters, 1e-3, 10_000)
+    np.testing.assert_array_equal(direct[0], public[0])
+    np.testing.assert_allclose(direct[1], public[1], rtol=0, atol=1e-12)
+    assert direct[2] == pytest.approx(public[2], abs=1e-12) and direct[3] == public[3]
+    assert public[3] > 0 and 0 < direct[0].size < y.size
+
+
+def test_libsvm_binding_refuses_non_finite_coefficients(monkeypatch):
+    from sklearn.svm import _libsvm
+
+    real = _libsvm.fit
+
+    def overflowing(*args, **kwargs):
+        support, vectors, counts, coef, intercept, *rest = real(*args, **kwargs)
+        return (support, vectors, counts, coef * np.inf, intercept, *rest)
+
+    monkeypatch.setattr(_libsvm, "fit", overflowing)
+    X, y = np.arange(20.0)[:, None], np.sin(np.arange(20.0))
+    with pytest.raises(ValueError, match="not finite"):
+        screening.libsvm_smo(X, y, 1.0, 0.1, {**RBF, "gamma": 0.5}, 1e-3, 1000)

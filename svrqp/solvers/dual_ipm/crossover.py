@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 from numpy.typing import NDArray
 
 from svrqp.formulations import epsilon_svr_certificate as certificate
@@ -317,8 +318,9 @@ def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8
     The free-set solve makes this hold unless its system was inconsistent (coinciding inputs with
     different targets both free), which the final check must not take on trust.
     """
-    free = np.abs(states) == 1
-    return bool(np.all(certificate.kkt_violation(residual, states, epsilon)[free] <= slack))
+    free = np.flatnonzero(np.abs(states) == 1)
+    # certificate.kkt_violation of a free coefficient of sign s: |r - ε s|
+    return bool(np.all(np.abs(residual[free] - epsilon * states[free]) <= slack))
 
 
 def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64],
@@ -372,17 +374,17 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
     m = rhs.size
     if m == 0:
         return np.zeros(0), 0.0, None  # no free SV: the caller sets b by the midpoint rule
-    try:
-        factor = scipy.linalg.cho_factor(K_FF, lower=True, check_finite=False)
-        pivots = np.abs(np.diag(factor[0])) ** 2
-        if pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
-            solution = scipy.linalg.cho_solve(factor, np.column_stack([rhs, np.ones(m)]),
-                                              check_finite=False)
-            mu, nu = solution[:, 0], solution[:, 1]
-            b = (mu.sum() - total) / nu.sum()
-            return mu - b * nu, float(b), None
-    except np.linalg.LinAlgError:
-        pass
+    # LAPACK's Cholesky and its solve called directly: scipy's cho_factor / cho_solve wrappers
+    # cost 5 times the work on the few free points of a small fit (96 μs against 16 μs at m = 6)
+    factor, info = scipy.linalg.lapack.dpotrf(K_FF, lower=1, clean=0)
+    pivots = np.abs(np.diag(factor)) ** 2
+    if info == 0 and pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
+        right = np.empty((m, 2))
+        right[:, 0], right[:, 1] = rhs, 1.0
+        solution, _ = scipy.linalg.lapack.dpotrs(factor, right, lower=1, overwrite_b=1)
+        mu, nu = solution[:, 0], solution[:, 1]
+        b = (mu.sum() - total) / nu.sum()
+        return mu - b * nu, float(b), None
     M = np.zeros((m + 1, m + 1))
     M[:m, :m] = K_FF
     M[:m, m] = M[m, :m] = 1.0
