@@ -240,7 +240,8 @@ def thermal_case(s: Scenario) -> Case:
     else:
         if s.effect is None:
             true_effect, truth = np.zeros(len(df)), ()
-            candidates = tuple(rng.choice(NULL_FEATURES_POOL, s.n_decoys, replace=False))
+            candidates = tuple(rng.choice(NULL_FEATURES_POOL, min(s.n_decoys, len(NULL_FEATURES_POOL)),
+                                          replace=False))
         else:
             node = NODE_OF_SENSOR[s.effect]
             true_effect = 1e3 * EXPANSION_PER_K * NODE_LENGTH_MM[node] * (df[f"true_{node}_C"].to_numpy() - 20.0)

@@ -49,7 +49,7 @@ def test_air_lag_verdict_is_significant_and_shrinks_the_error(air_lag_report):
     top = air_lag_report.causes[0]
     assert top.significant and top.p_value < 0.05
     assert air_lag_report.verdict.shrink > 0.5
-    assert air_lag_report.verdict.shrink_ci[0] <= air_lag_report.verdict.shrink <= air_lag_report.verdict.shrink_ci[1]
+    assert air_lag_report.verdict.shrink_ci is None  # three held-out runs: too few for an interval
     assert air_lag_report.gap_detected
 
 
