@@ -2,7 +2,7 @@
 # The package as a stranger meets it, outside this checkout:
 # 1. the wheel, built from the repository and installed alone into a bare venv (no extras), runs
 #    `svrqp --version`, `python -m svrqp --help`, and `svrqp demo --quick` stops with one line naming
-#    the extra it needs and leaves nothing behind; with that extra, the demo runs to the end;
+#    the extras it needs and leaves nothing behind; with those extras, the demo runs to the end;
 # 2. a clone of the repository with nothing beside it (no ../shared) passes the tests that read
 #    the shipped real data.
 set -euo pipefail
@@ -27,10 +27,10 @@ if "$WORK/bare/bin/svrqp" demo --quick --out "$WORK/demo-core" 2> "$WORK/core.er
     echo "the demo ran without the guard extra; expected it to name the extra" >&2
     exit 1
 fi
-grep -q "pip install 'svrqp\[guard\]'" "$WORK/core.err" || { cat "$WORK/core.err" >&2; exit 1; }
+grep -q "pip install 'svrqp\[guard,ga\]'" "$WORK/core.err" || { cat "$WORK/core.err" >&2; exit 1; }
 test "$(wc -l < "$WORK/core.err")" -eq 1 || { cat "$WORK/core.err" >&2; exit 1; }
 test ! -e "$WORK/demo-core" || { echo "the failed demo left $WORK/demo-core behind" >&2; exit 1; }
-"$WORK/bare/bin/python" -m pip install --quiet "$WHEEL[guard]"
+"$WORK/bare/bin/python" -m pip install --quiet "$WHEEL[guard,ga]"
 "$WORK/bare/bin/svrqp" demo --quick --out "$WORK/demo" > /dev/null
 test -s "$WORK/demo/report.html" && test -s "$WORK/demo/results.json"
 echo "wheel: OK"

@@ -28,7 +28,7 @@ EXTRA_MODULES: dict[str, str] = {
 
 
 def install_hint(extra: str) -> str:
-    """The command that installs ``extra``."""
+    """The command that installs ``extra`` (several: comma-separated, ``"guard,ga"``)."""
     return f"pip install 'svrqp[{extra}]'"
 
 
@@ -39,16 +39,21 @@ def has_extra(extra: str) -> bool:
     return importlib.util.find_spec(EXTRA_MODULES[extra]) is not None
 
 
-def require(extra: str, purpose: str) -> None:
+def require(extra: str | tuple[str, ...], purpose: str) -> None:
     """Raise :class:`~svrqp.exceptions.BackendNotAvailableError` unless ``extra`` is installed.
 
     Parameters
     ----------
     extra
-        A key of :data:`EXTRA_MODULES`.
+        A key of :data:`EXTRA_MODULES`, or several: every missing one is named in one line.
     purpose
         What needs it, the start of the message (``"svrqp demo"``, ``"calibrated intervals"``).
     """
-    if not has_extra(extra):
-        raise BackendNotAvailableError(f"{purpose}: needs the '{extra}' extra "
-                                       f"({EXTRA_MODULES[extra]}): {install_hint(extra)}")
+    missing = [e for e in ((extra,) if isinstance(extra, str) else extra) if not has_extra(e)]
+    if not missing:
+        return
+    names = " and ".join(f"'{e}'" for e in missing)
+    packages = ", ".join(EXTRA_MODULES[e] for e in missing)
+    plural = "extras" if len(missing) > 1 else "extra"
+    raise BackendNotAvailableError(f"{purpose}: needs the {names} {plural} ({packages}): "
+                                   f"{install_hint(','.join(missing))}")

@@ -38,8 +38,8 @@ STEP_WEIGHTS = {"S0: MLR and ε-SVR with 5-fold CV": 0.25, "S0 variants": 0.15,
                 "export and verify": 0.05, "gap diagnosis": 0.14, "figures and report": 0.03}
 
 
-#: The extra the demo needs, and why (checked before anything is written).
-REQUIRED_EXTRA = ("guard", "svrqp demo (its S0 ε-SVR carries conformal intervals)")
+#: The extras the demo needs, and why (checked before anything is written).
+REQUIRED_EXTRA = (("guard", "ga"), "svrqp demo (S0's conformal intervals, S1's genetic algorithm)")
 
 
 def prepare_directory(out: Path, force: bool) -> None:

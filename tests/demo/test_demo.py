@@ -272,6 +272,18 @@ def test_without_the_guard_extra_the_demo_names_it_and_writes_nothing(tmp_path, 
     assert not out.exists()
 
 
+def test_without_both_extras_the_demo_names_both_in_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "crepes", None)
+    monkeypatch.setitem(sys.modules, "pygad", None)
+    out = tmp_path / "demo-output"
+    with pytest.raises(SystemExit) as exit_info:
+        main(["demo", "--quick", "--out", str(out)])
+    assert exit_info.value.code == 2
+    error = capsys.readouterr().err.strip()
+    assert "\n" not in error and "'guard' and 'ga' extras" in error and "pip install 'svrqp[guard,ga]'" in error
+    assert not out.exists()
+
+
 def test_a_demo_that_fails_midway_leaves_no_folder_behind(tmp_path, monkeypatch):
     from svrqp.demo import run as demo_run
 
