@@ -43,6 +43,7 @@ from transfer_oracle import (
     AS_WELL,
     Predict,
     as_well_as_truth,
+    between_block,
     best_shrink,
     column_shrinks,
     logo_rmse,
@@ -279,14 +280,8 @@ def _truth_transfers(s: Scenario, case: Case) -> bool:
     refit = _shrink_with(None, y, own, before, runs, real, predict)
     truth = tuple(c for c in case.truth if c in case.candidates)
     t = table[order].to_numpy(float)
-    first, last = (table.groupby("run")[order].transform(f).to_numpy(float) for f in ("first", "last"))
-    phase = 2.0 * (t - first) / np.where(last > first, last - first, 1.0) - 1.0
-    profile = np.polynomial.legendre.legvander(phase, 3)[:, 1:]
-    blocks = []
-    for column in truth:
-        level = table.groupby("run")[column].transform("mean").to_numpy(float)[:, None]
-        blocks.append(_shrink_with(np.column_stack([profile, level, level * profile]), y, own, before, runs, real,
-                                   predict))
+    blocks = [_shrink_with(between_block(table[column].to_numpy(float), t, runs), y, own, before, runs, real,
+                           predict) for column in truth]
     best = max([best_shrink(table, y, own, before, truth, order, "run", real, predict), *blocks])
     return best > refit + AS_WELL
 

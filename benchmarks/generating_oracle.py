@@ -28,8 +28,15 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-import pandas as pd
-from transfer_oracle import Predict, logo_rmse, lstsq_predict
+from transfer_oracle import (
+    Predict,
+    between_block,
+    logo_rmse,
+    lowpass,
+    lstsq_predict,
+    median_step_and_span,
+    rate_and_start,
+)
 
 NAMEABLE_GAIN = 0.05
 """Least relative RMSE gain over the same-input refit for a truth to count as nameable (DESIGN §4)."""
@@ -43,58 +50,24 @@ PROFILE_DEGREE = 3
 
 def oracle_taus(t: np.ndarray, runs: np.ndarray, n: int) -> np.ndarray:
     """``n`` time constants, geometric from one median sampling step to four median run spans."""
-    steps, spans = [], []
-    for run in pd.unique(runs):
-        tr = t[runs == run]
-        steps.extend(np.diff(tr))
-        spans.append(tr[-1] - tr[0])
-    step = float(np.median(steps)) if steps else 1.0
-    span = max(float(np.median(spans)), step)
-    return np.geomspace(max(step, 1e-9), 4.0 * span, n)
-
-
-def lowpass(x: np.ndarray, t: np.ndarray, runs: np.ndarray, taus: np.ndarray) -> np.ndarray:
-    r"""First-order low-pass of ``x`` for each ``tau`` (columns), from each run's first value; ``inf`` holds it."""
-    out = np.empty((x.size, taus.size))
-    for run in pd.unique(runs):
-        rows = np.flatnonzero(runs == run)
-        state = np.full(taus.size, x[rows[0]])
-        out[rows[0]] = state
-        dt = np.diff(t[rows])
-        gain = 1.0 - np.exp(-dt[:, None] / taus[None, :])  # exp(-dt/inf) = 1: the state holds x(t0)
-        for k in range(1, rows.size):
-            state = state + gain[k - 1] * (x[rows[k]] - state)
-            out[rows[k]] = state
-    return out
-
-
-def run_phase(t: np.ndarray, runs: np.ndarray) -> np.ndarray:
-    """Position along each run, −1 at its first row and 1 at its last."""
-    frame = pd.DataFrame({"t": t, "run": runs})
-    first = frame.groupby("run")["t"].transform("min").to_numpy(float)
-    last = frame.groupby("run")["t"].transform("max").to_numpy(float)
-    return 2.0 * (t - first) / np.where(last > first, last - first, 1.0) - 1.0
+    step, span = median_step_and_span(t, runs)
+    step = step if np.isfinite(step) else 1.0
+    return np.geomspace(max(step, 1e-9), 4.0 * max(span, step), n)
 
 
 def forms(x: np.ndarray, t: np.ndarray, runs: np.ndarray,
           physics: np.ndarray | None = None) -> dict[str, list[np.ndarray]]:
     """The oracle's forms of one column (module docstring); rows sorted by ``t`` within each run."""
     x = np.asarray(x, dtype=float)
-    rate, start = np.empty_like(x), np.empty_like(x)
-    for run in pd.unique(runs):
-        rows = np.flatnonzero(runs == run)
-        rate[rows] = np.gradient(x[rows], t[rows]) if rows.size > 1 else 0.0
-        start[rows] = x[rows[0]]
+    rate, start = rate_and_start(x, t, runs)
     fine = lowpass(x, t, runs, np.append(oracle_taus(t, runs, N_TAU), np.inf))
     coarse = lowpass(x, t, runs, np.append(oracle_taus(t, runs, N_TAU_PAIRS), np.inf))
-    level = pd.Series(x).groupby(runs).transform("mean").to_numpy(float)[:, None]
-    profile = np.polynomial.legendre.legvander(run_phase(t, runs), PROFILE_DEGREE)[:, 1:]
     out = {
         "level": [x[:, None]], "rate": [rate[:, None]], "rise": [(x - start)[:, None]],
         "lag": [np.column_stack([x, fine[:, j]]) for j in range(fine.shape[1])],
         "lag2": [np.column_stack([x, coarse[:, i], coarse[:, j]])
                  for i, j in itertools.combinations(range(coarse.shape[1]), 2)],
-        "between": [np.column_stack([profile, level, level * profile])],
+        "between": [between_block(x, t, runs, PROFILE_DEGREE)],
     }
     if physics is not None:
         out["physics"] = [np.asarray(physics, dtype=float)[:, None]]

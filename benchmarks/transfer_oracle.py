@@ -44,17 +44,60 @@ def lstsq_predict(D_fit: np.ndarray, y_fit: np.ndarray, D_new: np.ndarray) -> np
     return D_new @ coef
 
 
-def tau_grid(t: np.ndarray, groups: np.ndarray, n_tau: int = N_TAU) -> np.ndarray:
-    """Geometric grid from two median sampling steps (at least 1 % of the median group span) to half
-    that span."""
+def median_step_and_span(t: np.ndarray, groups: np.ndarray) -> tuple[float, float]:
+    """The median sampling step and the median group span of ``t`` (rows sorted within groups)."""
     steps, spans = [], []
     for g in pd.unique(groups):
         tg = t[groups == g]
         steps.extend(np.diff(tg))
         spans.append(tg[-1] - tg[0])
-    span = float(np.median(spans))
-    low = max(2 * float(np.median(steps)), span / 100)
+    return (float(np.median(steps)) if steps else float("nan")), float(np.median(spans))
+
+
+def tau_grid(t: np.ndarray, groups: np.ndarray, n_tau: int = N_TAU) -> np.ndarray:
+    """Geometric grid from two median sampling steps (at least 1 % of the median group span) to half
+    that span."""
+    step, span = median_step_and_span(t, groups)
+    low = max(2 * step, span / 100)
     return np.geomspace(low, max(span / 2, 2 * low), n_tau)
+
+
+def lowpass(x: np.ndarray, t: np.ndarray, groups: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    r"""First-order low-pass of ``x`` for each ``tau`` (columns), from each group's first value
+    (:math:`\tau = \infty` holds it); rows sorted by ``t`` within each group."""
+    out = np.empty((x.size, taus.size))
+    for g in pd.unique(groups):
+        rows = np.flatnonzero(groups == g)
+        state = np.full(taus.size, x[rows[0]])
+        out[rows[0]] = state
+        gain = 1.0 - np.exp(-np.diff(t[rows])[:, None] / taus[None, :])
+        for k in range(1, rows.size):
+            state = state + gain[k - 1] * (x[rows[k]] - state)
+            out[rows[k]] = state
+    return out
+
+
+def rate_and_start(x: np.ndarray, t: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rate of ``x`` along ``t`` (:func:`numpy.gradient`) and each group's first value, per row."""
+    rate, start = np.empty_like(x), np.empty_like(x)
+    for g in pd.unique(groups):
+        rows = np.flatnonzero(groups == g)
+        rate[rows] = np.gradient(x[rows], t[rows]) if rows.size > 1 else 0.0
+        start[rows] = x[rows[0]]
+    return rate, start
+
+
+def between_block(x: np.ndarray, t: np.ndarray, groups: np.ndarray, degree: int = 3) -> np.ndarray:
+    r"""The between-run block :math:`[P, \bar x, \bar x P]`: the group mean :math:`\bar x` scaling the
+    Legendre polynomials :math:`P` of degree 1 to ``degree`` of the group phase (−1 at a group's first
+    row, 1 at its last)."""
+    frame = pd.DataFrame({"t": t, "g": groups, "x": x})
+    first = frame.groupby("g")["t"].transform("min").to_numpy(float)
+    last = frame.groupby("g")["t"].transform("max").to_numpy(float)
+    phase = 2.0 * (t - first) / np.where(last > first, last - first, 1.0) - 1.0
+    profile = np.polynomial.legendre.legvander(phase, degree)[:, 1:]
+    level = frame.groupby("g")["x"].transform("mean").to_numpy(float)[:, None]
+    return np.column_stack([profile, level, level * profile])
 
 
 def transform_variants(x: np.ndarray, t: np.ndarray, groups: np.ndarray,
@@ -64,22 +107,10 @@ def transform_variants(x: np.ndarray, t: np.ndarray, groups: np.ndarray,
     Rows must be sorted by ``t`` within each group.
     """
     x = np.asarray(x, dtype=float)
-    rate, lowpass = np.empty_like(x), np.empty((x.size, taus.size))
-    for g in pd.unique(groups):
-        rows = np.flatnonzero(groups == g)
-        tg = t[rows]
-        rate[rows] = np.gradient(x[rows], tg) if rows.size > 1 else 0.0
-        state = np.full(taus.size, x[rows[0]])
-        lowpass[rows[0]] = state
-        for k in range(1, rows.size):
-            state = state + (1 - np.exp(-(tg[k] - tg[k - 1]) / taus)) * (x[rows[k]] - state)
-            lowpass[rows[k]] = state
-    start = np.empty_like(x)  # each group's first value: the rise is x - x(t0)
-    for g in pd.unique(groups):
-        rows = np.flatnonzero(groups == g)
-        start[rows] = x[rows[0]]
+    rate, start = rate_and_start(x, t, groups)
+    lagged = lowpass(x, t, groups, taus)
     return {"level": [x[:, None]], "rate": [rate[:, None]], "rise": [(x - start)[:, None]],
-            "lag": [np.column_stack([x, lowpass[:, j]]) for j in range(taus.size)]}
+            "lag": [np.column_stack([x, lagged[:, j]]) for j in range(taus.size)]}
 
 
 def logo_rmse(y: np.ndarray, base: np.ndarray, variants: list[np.ndarray], groups: np.ndarray,
