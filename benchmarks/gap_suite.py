@@ -165,6 +165,7 @@ def summarise_local(rows: pd.DataFrame) -> str:
     gap = local[local.gap_detected.astype(bool)]
     correct_iou = pd.to_numeric(local[top1 & _counted(local)].region_iou, errors="coerce")
     told = _told_names_driver(gap)
+    proxies = _proxies(nulls)
     # As the main table: where the real rows fit no worse than the train rows (the effect acts on the train run
     # too), naming no culprit is the answer; those are counted apart and the target row is over the rest.
     metric = {
@@ -187,7 +188,10 @@ def summarise_local(rows: pd.DataFrame) -> str:
         "named where there is no gap (local)": (local[~local.gap_detected.astype(bool)].named.mean(), ""),
         "no verdict (local)": ((~local.named).mean(), ""),
         "decoy named (local, wrong column)": ((local.named & ~top1).mean(), ""),
-        "false attribution (local nulls)": (nulls.named.mean(), "≤ 0.05"),
+        "false attribution (local nulls without an offered proxy)": (nulls[~proxies].named.mean(), "≤ 0.05"),
+        "local nulls with an offered proxy (the generating-form oracle finds it transferring), named; scored "
+        "apart": (nulls[proxies].named.mean() if proxies.any() else float("nan"), ""),
+        "false attribution (all local nulls, proxies included; reference)": (nulls.named.mean(), ""),
         "correct verdicts with region IoU ≥ 0.5": ((correct_iou >= 0.5).mean() if len(correct_iou) else float("nan"),
                                                   "≥ 0.70"),
         "region IoU, mean over correct verdicts": (correct_iou.mean(), ""),
@@ -197,6 +201,7 @@ def summarise_local(rows: pd.DataFrame) -> str:
     lines = ["", f"## Localised effects ({len(local)} local withheld, {len(nulls)} local nulls)", "",
              "| metric | value | target |", "|---|---|---|"]
     lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
+    lines += _proxy_lines("Local nulls with an offered proxy (scored apart)", nulls[proxies])
     lines += ["", ("| family | kind | effect | n | top-1 | top-1 (with a gap) | named | region IoU (named stretch) "
                    "| gap detected |"), "|---|---|---|---|---|---|---|---|---|"]
     part_rows = rows[rows.kind.isin(LOCAL_KINDS)]
@@ -323,9 +328,13 @@ def _denominator_lines(withheld: pd.DataFrame, nulls: pd.DataFrame, proxies: pd.
              "| reason | n | scenarios | named |", "|---|---|---|---|"]
     for reason, part in excluded.groupby(excluded["excluded"].str.replace(r" \(generating-form.*", "", regex=True)):
         lines.append(f"| {reason} | {len(part)} | {', '.join(part.name)} | {part.named.sum()} |")
-    lines += ["", "## Unmeasured effects with an offered proxy (scored apart)", "",
-              "| scenario | proxy (oracle gain) | verdict |", "|---|---|---|"]
-    for _, row in nulls[proxies].iterrows():
+    return lines + _proxy_lines("Unmeasured effects with an offered proxy (scored apart)", nulls[proxies])
+
+
+def _proxy_lines(title: str, proxied: pd.DataFrame) -> list[str]:
+    """Markdown: each scenario whose unmeasured effect has an offered proxy, its oracle gain and the verdict."""
+    lines = ["", f"## {title}", "", "| scenario | proxy (oracle gain) | verdict |", "|---|---|---|"]
+    for _, row in proxied.iterrows():
         lines.append(f"| {row['name']} | {row['best_candidate']} ({row['candidate_gain']:.2f}) | {row['verdict']} |")
     return lines
 
@@ -390,7 +399,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="Run every tenth scenario only.")
     parser.add_argument("--grid", choices=tuple(GRIDS), default="development",
-                        help="Scenario grid: development (to tune), or holdout, fresh, confirm, blind (to check).")
+                        help="Scenario grid: development (to tune), or holdout, fresh, confirm, blind, sealed (to check).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
     parser.add_argument("--only", default="", help="Comma-separated name prefixes: run only those scenarios "
                                                       "(files suffixed _only).")
@@ -409,14 +418,16 @@ def main(argv: list[str] | None = None) -> int:
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
     name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh",
-            "confirm": "gap_suite_confirm", "blind": "gap_suite_blind"}[args.grid]
+            "confirm": "gap_suite_confirm", "blind": "gap_suite_blind",
+            "sealed": "gap_suite_sealed"}[args.grid]
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
     name += "_local_everywhere" if args.local else ""
     name += "_quick" if args.quick else ""
     name += "_" + args.only.replace(",", "_").replace("-", "").strip("_") if args.only else ""
     table.to_csv(args.out / f"{name}.csv", index=False)
     title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid",
-             "confirm": "confirmation grid (run once)", "blind": "blind grid (run once)"}[args.grid]
+             "confirm": "confirmation grid (run once)", "blind": "blind grid (run once)",
+             "sealed": "sealed grid (run once)"}[args.grid]
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
     title += ", local form on every scenario" if args.local else ""
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"

@@ -57,6 +57,14 @@ LSSVR_C = 10.0
 # ----------------------------------------------------------------------- evaluation
 
 
+NOTHING_CARRIED = ("null", "unmeasured", "extrapolation", "local-null")
+"""Kinds whose error no offered column carries: any verdict there is a false attribution, unless the
+column is a proxy of an unmeasured effect."""
+UNMEASURED = ("unmeasured", "local-null")
+"""Kinds with an effect that no column reads (a ``local-null``'s random amplitude per run in its
+stretch): an offered column whose generating form transfers there is its proxy, scored apart."""
+
+
 def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_everywhere: bool = False):
     """Run the diagnosis the way a user would on this scenario: with the ``local`` form (``GapQuestion(local=True)``)
     on the localised scenarios, where the user suspects an effect in one stretch, or on all with ``local_everywhere``."""
@@ -98,7 +106,7 @@ def evaluate(s: Scenario, surrogates: str = "rotation", local_everywhere: bool =
         row["truth_transfers"] = None if s.continuous else _truth_transfers(s, case)
     if s.kind in LOCAL_KINDS:
         row["region_iou"], row["region_source"] = _region_iou(report, case, s)
-    if s.kind in ("null", "unmeasured", "extrapolation") and report.verdict.column is not None:
+    if s.kind in NOTHING_CARRIED and report.verdict.column is not None:
         row["named_transfers"] = _named_transfers(s, case, report)
     if s.kind == "local" and report.gap_detected:  # without a gap the real rows may carry no error at all
         row["truth_transfers"] = _local_truth_transfers(s, case)
@@ -124,10 +132,10 @@ def _denominator(s: Scenario, case: Case) -> dict:
         out |= {"truth_gain": gain, "truth_form": form, "excluded": exclusion(s, out["gap_true"], gain, levels)}
     elif s.kind in ("withheld", "local"):
         out["excluded"] = exclusion(s, out["gap_true"], float("nan"), None)
-    elif s.kind in ("null", "unmeasured", "extrapolation") and not kernel:
+    elif s.kind in NOTHING_CARRIED and not kernel:
         gain, column = best_candidate(table, family, tuple(case.candidates), order, real)
         out |= {"candidate_gain": gain, "best_candidate": column,
-                "proxy": s.kind == "unmeasured" and gain >= NAMEABLE_GAIN}
+                "proxy": s.kind in UNMEASURED and gain >= NAMEABLE_GAIN}
     return out
 
 

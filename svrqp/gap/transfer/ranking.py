@@ -224,7 +224,10 @@ class TransferRanker:
                 if run_level and transform in WITHIN_RUN and not moves:
                     continue  # its rate, rise and lag are zero
                 if transform == "local":  # untestable when run-level and not permutable
-                    out += [Effect(column, transform, None, run_level, windows=windows, axis=axis)
+                    # A level that drifts within runs beyond its noise scales a window by its
+                    # values there: rotated within runs, its run levels exchanged, as the level.
+                    out += [Effect(column, transform, None, run_level and not drifts,
+                                   windows=windows, axis=axis)
                             for axis, (_, windows) in self.axes.items() if len(windows)]
                     continue
                 if run_level and transform == "level":  # a level scaling a profile, or an offset

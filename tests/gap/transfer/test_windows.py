@@ -262,3 +262,36 @@ def test_without_the_local_form_the_same_passes_call_the_level_too_thin():
     report = diagnose(_passes(carried=True, runs=3), GapQuestion(**QUESTION | {"local": False}))
     assert report.verdict.untestable == "room_C"
     assert "The level of room_C, one level per run" in report.verdict.reason and "term acting" not in report.verdict.reason
+
+
+def _drifting_passes(carried: bool, seed: int, runs: int = 3) -> pd.DataFrame:
+    """Passes whose room temperature sits at one level per pass (10 to 30 °C) but drifts within it by a
+    1 °C swing, far beyond its 0.01 °C reading noise; the patch grows with the room temperature there
+    (``carried``) or has a random size per pass that no column reads."""
+    rng = np.random.default_rng(seed)
+    x = np.arange(0.0, 101.0)
+    tables = []
+    for run in range(runs):
+        level = 20.0 if run == 0 else rng.uniform(10.0, 30.0)
+        room = level + np.sin(2 * np.pi * x / 100 + rng.uniform(0, 2 * np.pi)) + 0.01 * rng.standard_normal(x.size)
+        size = 1.5 * (room - 20.0) if carried else rng.normal(0.0, 1.5)
+        inside = (x >= PATCH_MM[0]) & (x <= PATCH_MM[1])
+        tables.append(pd.DataFrame({
+            "x_mm": x, "run": run, "room_C": room, "humidity_pct": rng.uniform(30, 60), "prediction_um": 0.02 * x,
+            "error_um": 0.02 * x + size * inside + 0.3 * rng.standard_normal(x.size)}))
+    return pd.concat(tables, ignore_index=True)
+
+
+def test_a_run_level_reading_that_drifts_within_runs_is_tested_in_its_window_over_three_runs():
+    """One level per pass by its share of variance, but its movement within a pass is far above its noise: its local
+    form is rotated within runs and has its run levels exchanged (as its level is), so three passes can name it
+    where the permutation of three levels alone could not (it was called too thin to test)."""
+    df = _drifting_passes(carried=True, seed=1)
+    verdict = diagnose(df, GapQuestion(**QUESTION)).verdict
+    assert (verdict.column, verdict.transform, verdict.untestable) == ("room_C", "local", None)
+    assert _iou((verdict.region["low"], verdict.region["high"]), PATCH_MM, df["x_mm"].to_numpy()) >= 0.5
+
+
+def test_a_patch_no_column_carries_is_not_pinned_on_a_drifting_reading():
+    report = diagnose(_drifting_passes(carried=False, seed=1), GapQuestion(**QUESTION))
+    assert report.verdict.column is None
