@@ -61,8 +61,9 @@ NOTHING_CARRIED = ("null", "unmeasured", "extrapolation", "local-null")
 """Kinds whose error no offered column carries: any verdict there is a false attribution, unless the
 column is a proxy of an unmeasured effect."""
 UNMEASURED = ("unmeasured", "local-null")
-"""Kinds with an effect that no column reads (a ``local-null``'s random amplitude per run in its
-stretch): an offered column whose generating form transfers there is its proxy, scored apart."""
+"""Kinds with an effect that no column reads: an offered column whose generating form transfers there
+is labelled ``proxy``. An unmeasured scenario's proxy is scored apart; a ``local-null``'s amplitude is
+random per run, so its "proxy" only lines up by chance and every local null stays counted."""
 
 
 def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_everywhere: bool = False):
