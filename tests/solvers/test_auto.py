@@ -21,7 +21,7 @@ from support.problems import SVR_CASES
 from svrqp import EpsilonSVR, SolverError
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr_certificate import dual_qp_point, multipliers
-from svrqp.formulations.epsilon_svr_residuals import model_on_qp
+from svrqp.formulations.epsilon_svr_residuals import stated_dual
 from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord
 from svrqp.solvers import auto as solver_choice
@@ -94,8 +94,8 @@ def test_certificates_without_P_equal_the_generic_ones(formulation):
     problem = epsilon_svr.build(formulation, case.y, case.C, case.epsilon, K=K)
     point = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon))
     expected = problem.kkt_residuals(*point[:2], None, point[2])
-    on_qp = model_on_qp(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
-    solution = Solution.of_qp(on_qp.qp, on_qp.point, SolverRecord("test", "0"), extra_residuals=on_qp.certificate)
+    stated = stated_dual(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
+    solution = Solution.of_stated(stated, SolverRecord("test", "0"))
     residuals, objective = solution.residuals, solution.objective
     assert expected.keys() <= residuals.keys()
     for key, value in expected.items():
