@@ -134,7 +134,8 @@ def dual_qp_point(formulation: str, point: Multipliers
 
 def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
                       K_beta: NDArray[np.float64], b: float,
-                      C: float, epsilon: float, kernel_scale: float) -> dict[str, float]:
+                      C: float, epsilon: float, kernel_scale: float, *,
+                      residual: NDArray[np.float64] | None = None) -> dict[str, float]:
     r"""How far a returned model :math:`(\beta, b)` is from the ε-SVR optimality conditions, in the
     units of the problem (not of C).
 
@@ -155,10 +156,11 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     the predictions (:math:`|\beta_i| k` or :math:`(C - |\beta_i|) k`), so a coefficient that is
     merely tiny or merely near its bound is not a violation, while a dropped support vector
     (:math:`\beta_i = 0` outside the tube) is. A model with every value at most δ is optimal for
-    targets within about δ·s_y of y.
+    targets within about δ·s_y of y. ``residual`` is :math:`r` when the caller has it already
+    (``Multipliers.residual``).
     """
     beta = np.asarray(beta, dtype=float)
-    r = multipliers(beta, b, K_beta, y, epsilon).residual
+    r = y - K_beta - b if residual is None else residual
     spread = float(np.std(y))
     s_y = spread if spread > 0 else (float(np.max(np.abs(y))) or 1.0)
     k = kernel_scale if kernel_scale > 0 else 1.0
