@@ -45,7 +45,10 @@ def _name(formulation: str) -> str:
 
 def kernel_scale(X: NDArray[np.float64], kernel_parameters: dict[str, Any]) -> float:
     """:math:`\\max_i K_{ii}` without forming K (``X`` is the Gram matrix for ``"precomputed"``)."""
-    if kernel_parameters["kernel"] == "precomputed":
+    kernel = kernel_parameters["kernel"]
+    if kernel == "rbf":  # k(x, x) = 1: nothing to evaluate
+        return 1.0 if len(X) else 0.0
+    if kernel == "precomputed":
         return float(np.max(np.diagonal(X), initial=0.0))
     return float(np.max(gram_diagonal(np.asarray(X, dtype=float), **kernel_parameters),
                         initial=0.0))
