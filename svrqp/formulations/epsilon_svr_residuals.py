@@ -95,13 +95,12 @@ def _split_residuals(y, C, epsilon, point: Multipliers, Kbeta):
     norm = dict(zip(_SPLIT_ROWS, np.abs(rows.reshape(len(_SPLIT_ROWS), -1)).max(axis=1).tolist(),
                     strict=True))
     balance = abs(float(beta.sum()))
-    pair_norm = max(-float(pair.min()), float(pair.max()))
+    pair_low, pair_high = float(pair.min()), float(pair.max())
     curvature = float(beta @ Kbeta)
     linear = float(epsilon * pair.sum() - y @ beta)
     return _assembled(
-        primal=(norm["equality"], balance, -float(pair.min()), float(pair.max()) - C,
-                norm["beta"] - C),
-        primal_scale=(norm["beta"], pair_norm, norm["equality"], balance, C),
+        primal=(norm["equality"], balance, -pair_low, pair_high - C, norm["beta"] - C),
+        primal_scale=(norm["beta"], max(-pair_low, pair_high), norm["equality"], balance, C),
         dual=max(norm["stationarity_beta"], norm["stationarity_alpha"],
                  norm["stationarity_alpha_star"]),
         dual_scale=(norm["Kbeta"], norm["y"], epsilon, norm["r_b"], norm["r"], norm["z_alpha"],
