@@ -73,7 +73,7 @@ STAGES = {
     "validation": ("_validated_training_data",),
     "loose SMO": ("decomposition_fit", "screened_fit", "_pilot"),  # with screening's pilots
     "crossover": ("crossover",),
-    "certificate": ("model_on_qp", "of_qp", "require_certificates", "kernel_scale"),
+    "certificate": ("stated_dual", "of_stated", "require_certificates", "kernel_scale"),
 }
 
 

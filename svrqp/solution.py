@@ -135,6 +135,19 @@ class Solution:
                    residuals=residuals, record=record)
 
     @classmethod
+    def of_stated(cls, stated: Any, record: SolverRecord) -> Solution:
+        """The solution at the point of ``stated``, whose residuals and objective on its QP were
+        evaluated without forming it (a
+        :class:`svrqp.formulations.epsilon_svr_residuals.StatedDual`: ``point``, ``residuals``,
+        ``objective``).
+
+        Not checked: :func:`require_certificates` is the caller's next step.
+        """
+        x, y, z, z_box = stated.point
+        return cls(x=x, y=y, z=z, z_box=z_box, objective=stated.objective, status="optimal",
+                   residuals=dict(stated.residuals), record=record)
+
+    @classmethod
     def of_linear_system(cls, x: NDArray[np.float64], residual: dict[str, float],
                          record: SolverRecord) -> Solution:
         """The solution ``x`` of a linear system, certified by its residual
@@ -152,14 +165,17 @@ def check_limit(tol: float, check_tol: float | None) -> float:
     return DEFAULT_CHECK_FACTOR * tol if check_tol is None else float(check_tol)
 
 
-def require_certificates(solution: Solution, problem: QuadraticProgram, check_tol: float) -> None:
+def require_certificates(solution: Solution, problem: QuadraticProgram | str,
+                         check_tol: float) -> None:
     """Raise :class:`SolverError` naming the backend when a relative primal residual, dual
-    residual or duality gap of ``solution`` exceeds ``check_tol`` (NaN included)."""
+    residual or duality gap of ``solution`` exceeds ``check_tol`` (NaN included); ``problem`` is
+    the QP solved, or its name."""
     failed = [key for key in ("primal_rel", "dual_rel",
                               "gap_rel") if not solution.residuals[key] <= check_tol]
     if failed:
         worst = failed[0]
-        raise SolverError(f"backend {solution.backend!r} did not solve {problem.name!r}: its "
+        name = problem if isinstance(problem, str) else problem.name
+        raise SolverError(f"backend {solution.backend!r} did not solve {name!r}: its "
                           f"{worst[:-4]} certificate is {solution.residuals[worst]:.2e} (relative) "
                           f"> {check_tol:.1e}", solution.backend, "inaccurate")
 

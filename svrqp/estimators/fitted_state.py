@@ -14,7 +14,7 @@ Within the process that fitted it, the model keeps ``problem_`` and ``solution_`
 built (when the path built them at all) and the training rows: when the fit's path never formed
 the QP, as ``solver="auto"`` does not, ``problem_`` is rebuilt from them on first access, and
 ``solution_`` gets its point and multipliers back from :math:`(\\beta, b)`
-(:func:`svrqp.formulations.epsilon_svr_residuals.model_on_qp`), its objective and certificates
+(:func:`svrqp.formulations.epsilon_svr_residuals.stated_dual`), its objective and certificates
 recomputed on that QP (so they certify the returned coefficients). After unpickling, ``solution_``
 is the solver record without vectors, and :meth:`CompactFitMixin.with_training_data` gives the
 model its training rows back (checked against the digest) so that both are rebuilt as above. A
@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp.formulations import epsilon_svr, ls_svr
-from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
+from svrqp.formulations.epsilon_svr_residuals import kernel_scale, stated_dual
 from svrqp.kernels import gram
 from svrqp.problems import LinearSystem, QuadraticProgram
 from svrqp.solution import Solution
@@ -93,10 +93,9 @@ class CompactFitMixin:
         beta[self.support_] = self.dual_coef_[0]
         Kbeta = self._kernel(X, X[self.support_]) @ self.dual_coef_[0]
         # X is the Gram matrix when the kernel is precomputed
-        on_qp = model_on_qp(record["formulation"], y, record["C"], record["epsilon"], beta,
-                            float(self.intercept_[0]), Kbeta, kernel_scale(X, record["kernel"]))
-        return Solution.of_qp(on_qp.qp, on_qp.point, self._solution_record.record,
-                              extra_residuals=on_qp.certificate)
+        stated = stated_dual(record["formulation"], y, record["C"], record["epsilon"], beta,
+                             float(self.intercept_[0]), Kbeta, kernel_scale(X, record["kernel"]))
+        return Solution.of_stated(stated, self._solution_record.record)
 
     def _keep_fit_data(self, X: NDArray[np.float64], y: NDArray[np.float64],
                        formulation: str) -> None:

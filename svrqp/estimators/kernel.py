@@ -27,7 +27,7 @@ from svrqp.kernels import MAX_DEGREE, check_kernel_range, gram, training_gram
 from svrqp.parameters import Boolean, Nothing, Number, OneOf, check_parameters
 from svrqp.solvers.epsilon_svr import SOLVERS, SolveOptions, SVRTask, solve_epsilon_svr
 from svrqp.solvers.linear import solve_linear_system
-from svrqp.table_checks import check_magnitude, check_numeric_array
+from svrqp.table_checks import check_finite_magnitude, check_magnitude, check_numeric_array
 
 #: What the kernel parameters of both models accept (:mod:`svrqp.parameters`).
 _KERNEL_CHECKS = {
@@ -57,14 +57,19 @@ class _KernelModel(RegressorMixin, BaseEstimator):
             # through narwhals costs more than a 50-point libsvm run)
             self.n_features_in_ = X.shape[1]
             self.__dict__.pop("feature_names_in_", None)
-        else:
-            check_numeric_array(X, "X")
-            check_numeric_array(y, "y")
-            with input_errors_as_problem_errors():
-                X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
-            y = y.astype(np.float64, copy=False)  # boolean or integer targets
+            check_finite_magnitude(X, "X")
+            check_finite_magnitude(y, "y")
+            return self._checked_shape(X, y)
+        check_numeric_array(X, "X")
+        check_numeric_array(y, "y")
+        with input_errors_as_problem_errors():
+            X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        y = y.astype(np.float64, copy=False)  # boolean or integer targets
         check_magnitude(X, "X")
         check_magnitude(y, "y")
+        return self._checked_shape(X, y)
+
+    def _checked_shape(self, X: NDArray, y: NDArray) -> tuple[NDArray, NDArray]:
         if X.shape[0] < 2:
             raise ProblemError(f"n_samples = {X.shape[0]}: at least 2 samples are needed to fit, "
                                f"got 1 sample")

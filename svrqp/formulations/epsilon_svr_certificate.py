@@ -124,7 +124,7 @@ def dual_qp_point(formulation: str, point: Multipliers
     if formulation == "split":
         beta = alpha_star - alpha
         return (
-            np.concatenate([beta, alpha, alpha_star]), np.append(r, b),
+            np.concatenate([beta, alpha, alpha_star]), np.concatenate([r, [b]]),
             np.concatenate([np.zeros_like(beta), z_box]),
         )
     if formulation == "stacked":
@@ -134,7 +134,8 @@ def dual_qp_point(formulation: str, point: Multipliers
 
 def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
                       K_beta: NDArray[np.float64], b: float,
-                      C: float, epsilon: float, kernel_scale: float) -> dict[str, float]:
+                      C: float, epsilon: float, kernel_scale: float, *,
+                      residual: NDArray[np.float64] | None = None) -> dict[str, float]:
     r"""How far a returned model :math:`(\beta, b)` is from the ε-SVR optimality conditions, in the
     units of the problem (not of C).
 
@@ -155,12 +156,14 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     the predictions (:math:`|\beta_i| k` or :math:`(C - |\beta_i|) k`), so a coefficient that is
     merely tiny or merely near its bound is not a violation, while a dropped support vector
     (:math:`\beta_i = 0` outside the tube) is. A model with every value at most δ is optimal for
-    targets within about δ·s_y of y.
+    targets within about δ·s_y of y. ``residual`` is :math:`r` when the caller has it already
+    (``Multipliers.residual``).
     """
     beta = np.asarray(beta, dtype=float)
-    r = multipliers(beta, b, K_beta, y, epsilon).residual
-    spread = float(np.std(y))
-    s_y = spread if spread > 0 else (float(np.max(np.abs(y))) or 1.0)
+    r = y - K_beta - b if residual is None else residual
+    y_max = float(np.abs(y).max()) if y.size else 0.0
+    spread = _std(y)
+    s_y = spread if spread > 0 else (y_max or 1.0)
     k = kernel_scale if kernel_scale > 0 else 1.0
     magnitude = np.abs(beta)
     sign = np.sign(beta)
@@ -170,16 +173,25 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     above = np.minimum(np.maximum(signed_r - epsilon, 0.0), np.maximum(C - magnitude, 0.0) * k)
     violation = np.where(beta == 0.0, inside, np.maximum(below, above))
     l1 = float(magnitude.sum())
-    rounding = (
-        ROUNDING_ULPS
-        * np.finfo(float).eps
-        * (float(np.max(np.abs(y), initial=0.0)) + abs(b) + k * l1)
-    )
+    rounding = ROUNDING_ULPS * _EPS * (y_max + abs(b) + k * l1)
+    largest = (float(magnitude.max()), float(violation.max())) if beta.size else (0.0, 0.0)
     return {
-        "box_rel": float(np.max(np.maximum(magnitude - C, 0.0), initial=0.0)) / C,
+        "box_rel": max(largest[0] - C, 0.0) / C,
         "balance_rel": max(k * abs(float(beta.sum())) - rounding, 0.0) / s_y,
-        "kkt_rel": max(float(np.max(violation, initial=0.0)) - rounding, 0.0) / s_y,
+        "kkt_rel": max(largest[1] - rounding, 0.0) / s_y,
     }
+
+
+_EPS = float(np.finfo(float).eps)
+
+
+def _std(y: NDArray[np.float64]) -> float:
+    """``np.std(y)`` of a 1-D float array, the same operations (pairwise sums) without its
+    dispatch, which costs more than the sums on a small fit."""
+    if not y.size:
+        return float("nan")
+    centred = y - np.add.reduce(y) / y.size
+    return float(np.sqrt(np.add.reduce(centred * centred) / y.size))
 
 
 def failed_model_certificates(certificate: dict[str, float], check_tol: float) -> list[str]:

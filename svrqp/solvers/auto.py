@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from svrqp._version import __version__
 from svrqp.exceptions import SolverError, SvrqpError
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
-from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
+from svrqp.formulations.epsilon_svr_residuals import kernel_scale, stated_dual
 from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
 from svrqp.solvers import dual_ipm
@@ -114,14 +114,14 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     start = time.perf_counter()
     beta, b, Kbeta, path_settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
     solve_time = time.perf_counter() - start
-    on_qp = model_on_qp(settings.formulation, y, C, epsilon, beta, b, Kbeta,
-                        kernel_scale(X, kernel_parameters))
+    stated = stated_dual(settings.formulation, y, C, epsilon, beta, b, Kbeta,
+                         kernel_scale(X, kernel_parameters))
     record = SolverRecord(path, f"svrqp {__version__}",
                           {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s},
                           build_time=time.perf_counter() - start - solve_time,
                           solve_time=solve_time)
-    solution = Solution.of_qp(on_qp.qp, on_qp.point, record, extra_residuals=on_qp.certificate)
-    require_certificates(solution, on_qp.qp, check_tol)
+    solution = Solution.of_stated(stated, record)
+    require_certificates(solution, stated.name, check_tol)
     require_model_certificate(solution.residuals, check_tol, path)
     return DualFit(beta, b, None, solution, bool(path_settings["crossover_exact"]))
 

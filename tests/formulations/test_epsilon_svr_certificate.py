@@ -66,21 +66,39 @@ def test_violations_vanish_at_libsvm_optimum_and_see_a_shifted_bias(case_factory
 
 
 @pytest.mark.parametrize("formulation", ["split", "stacked"])
-def test_stated_view_has_the_built_qps_vectors_and_products(formulation):
-    from svrqp.formulations.epsilon_svr_residuals import model_on_qp
+def test_stated_dual_is_the_built_qp_at_any_point(formulation):
+    """The closed form equals the generic residuals of the built QP, off the optimum too."""
+    from svrqp.formulations.epsilon_svr_residuals import stated_dual
 
     rng = np.random.default_rng(3)
     n, C, epsilon = 7, 2.5, 0.3
     y = rng.normal(size=n)
-    beta = rng.uniform(-C, C, n)
     K = gram(rng.normal(size=(n, 2)), gamma=0.7)
     built = epsilon_svr.build(formulation, y, C, epsilon, K=K)
-    view = model_on_qp(formulation, y, C, epsilon, beta, 0.2, K @ beta, 1.0)
-    x, y_eq = view.point[0], view.point[1]
-    for name in ("q", "b", "lb", "ub"):
-        np.testing.assert_array_equal(getattr(view.qp, name), getattr(built, name), err_msg=name)
-    np.testing.assert_allclose(view.qp.A @ x, built.A @ x, rtol=0, atol=1e-14)
-    np.testing.assert_allclose(view.qp.A.T @ y_eq, built.A.T @ y_eq, rtol=0, atol=1e-14)
-    assert view.qp.A.shape == built.A.shape and view.qp.A.T.shape == built.A.T.shape
-    np.testing.assert_allclose(view.qp.P @ x, built.P @ x, rtol=1e-12, atol=1e-12)
-    assert view.qp.name == built.name and view.qp.n == built.n
+    for beta in (rng.uniform(-C, C, n), rng.uniform(-2 * C, 2 * C, n)):  # inside and outside the box
+        stated = stated_dual(formulation, y, C, epsilon, beta, 0.2, K @ beta, 1.0)
+        x, y_eq, z, z_box = stated.point
+        expected = built.kkt_residuals(x, y_eq, z, z_box)
+        for key, value in expected.items():
+            assert stated.residuals[key] == pytest.approx(value, rel=1e-12, abs=1e-14), key
+        assert stated.objective == pytest.approx(built.objective(x), rel=1e-12)
+        assert stated.name == built.name
+        assert stated.residuals["primal_rel"] > 0 and stated.residuals["gap_rel"] > 1e-3
+
+
+def test_stated_dual_names_a_formulation_it_does_not_know():
+    from svrqp.exceptions import ProblemError
+    from svrqp.formulations.epsilon_svr_residuals import stated_dual
+
+    with pytest.raises(ProblemError, match="formulation"):
+        stated_dual("primal", np.zeros(2), 1.0, 0.1, np.zeros(2), 0.0, np.zeros(2), 1.0)
+
+
+def test_the_certificates_spread_is_numpys_std_to_the_bit():
+    from svrqp.formulations.epsilon_svr_certificate import _std
+
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 7, 50, 1000, 12345):
+        for y in (rng.normal(size=n) * 1e3 + 5.0, np.full(n, 0.1), rng.integers(0, 3, n).astype(float)):
+            assert _std(y) == float(np.std(y))
+    assert np.isnan(_std(np.zeros(0)))

@@ -21,7 +21,7 @@ from support.problems import SVR_CASES
 from svrqp import EpsilonSVR, SolverError
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr_certificate import dual_qp_point, multipliers
-from svrqp.formulations.epsilon_svr_residuals import model_on_qp
+from svrqp.formulations.epsilon_svr_residuals import stated_dual
 from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord
 from svrqp.solvers import auto as solver_choice
@@ -74,6 +74,22 @@ def test_smo_crossover_many_free_support_vectors(C):
     assert model.solution_.settings["crossover_exact"] and model.solution_.is_optimal(1e-10)
 
 
+@pytest.mark.parametrize("kernel", ["rbf", "poly", "linear"])
+def test_small_fits_read_the_whole_gram_matrix_and_agree_with_the_column_cache(kernel, monkeypatch):
+    """Up to DENSE_MAX_POINTS the crossover reads the Gram matrix formed at once: the same exact
+    answer as through the column cache, to rounding."""
+    from svrqp.solvers import warm_start
+
+    X, y = sinc_case(n=warm_start.DENSE_MAX_POINTS)
+    settings = {"C": 10.0, "epsilon": 0.05, "kernel": kernel, "gamma": 0.3, "solver": "smo_crossover"}
+    dense = EpsilonSVR(**settings).fit(X, y)
+    monkeypatch.setattr(warm_start, "DENSE_MAX_POINTS", 0)
+    cached = EpsilonSVR(**settings).fit(X, y)
+    assert dense.solution_.is_optimal(1e-10) and cached.solution_.is_optimal(1e-10)
+    np.testing.assert_array_equal(dense.support_, cached.support_)
+    assert np.max(np.abs(dense.predict(X) - cached.predict(X))) <= 1e-10 * y.std()
+
+
 def test_precomputed_kernel_goes_through_auto():
     case = SVR_CASES[0]()
     K = gram(case.X, gamma=case.gamma)
@@ -94,8 +110,8 @@ def test_certificates_without_P_equal_the_generic_ones(formulation):
     problem = epsilon_svr.build(formulation, case.y, case.C, case.epsilon, K=K)
     point = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon))
     expected = problem.kkt_residuals(*point[:2], None, point[2])
-    on_qp = model_on_qp(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
-    solution = Solution.of_qp(on_qp.qp, on_qp.point, SolverRecord("test", "0"), extra_residuals=on_qp.certificate)
+    stated = stated_dual(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
+    solution = Solution.of_stated(stated, SolverRecord("test", "0"))
     residuals, objective = solution.residuals, solution.objective
     assert expected.keys() <= residuals.keys()
     for key, value in expected.items():

@@ -174,8 +174,9 @@ def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False
     """The equality-constrained optimum on the free set (module docstring), K_{:,F}, K_{:,bounded}
     beta_bounded, and the direction in which the free-set
     objective is unbounded below (None when it is not)."""
-    free = np.flatnonzero(np.abs(states) == 1)
-    fixed = np.where(np.abs(states) == 2, np.sign(states) * C, 0.0)
+    magnitude = np.abs(states)
+    free = np.flatnonzero(magnitude == 1)
+    fixed = np.where(magnitude == 2, np.sign(states) * C, 0.0)
     K_free = kernel.free_columns(free)
     bounded_term = kernel.update_bounded(fixed, fresh=fresh)
     rhs = y[free] - epsilon * states[free] - bounded_term[free]
@@ -189,13 +190,14 @@ def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False
 ENTERING_PER_STEP = 64
 
 
-def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float):
+def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float,
+                  free_count: int):
     """The worst fixed coefficients whose residual violates
     their KKT condition: (to free positive, to free negative).
 
     A zero with :math:`|\\rho| > \\varepsilon` or a bound with :math:`\\rho` on the wrong side of
     :math:`\\pm\\varepsilon` violates by that distance; at most ``ENTERING_PER_STEP`` plus the
-    number of free coefficients enter at once.
+    number of free coefficients (``free_count``) enter at once.
     """
     zero = states == 0
     violation_positive = np.where(zero, rho - epsilon,
@@ -203,8 +205,8 @@ def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: f
     violation_negative = np.where(zero, -rho - epsilon,
                                   np.where(states == -2, rho + epsilon, -np.inf))
     positive, negative = violation_positive > slack, violation_negative > slack
-    limit = ENTERING_PER_STEP + int(np.sum(np.abs(states) == 1))
-    if positive.sum() + negative.sum() > limit:
+    limit = ENTERING_PER_STEP + free_count
+    if np.count_nonzero(positive) + np.count_nonzero(negative) > limit:
         worst = np.maximum(violation_positive, violation_negative)
         kept = np.zeros(rho.size, dtype=bool)
         kept[np.argpartition(-worst, limit)[:limit]] = True
@@ -242,12 +244,14 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps,
         new_states[(positive & (beta <= 0)) | (negative & (beta >= 0))] = 0
         new_states[positive & (beta > C)] = 2
         new_states[negative & (beta < -C)] = -2
-        entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
+        entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack,
+                                                             free.size)
         new_states[entering_positive] = 1
         new_states[entering_negative] = -1
         if np.array_equal(new_states, states):
-            if fresh or kernel.accurate or not _balanced(beta, C):
-                exact = _balanced(beta, C) and _free_equalities_hold(rho, states, epsilon, slack)
+            balanced = _balanced(beta, C)
+            if fresh or kernel.accurate or not balanced:
+                exact = balanced and _free_equalities_hold(rho, states, free, epsilon, slack)
                 return CrossoverResult(beta, b, step, exact, int(free.size),
                                        K_free @ target + bounded_term)
             # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
@@ -284,10 +288,12 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
             fresh = False
             continue
         rho, b = _residuals(y, K_free, current[free], bounded_term, states, epsilon, b, free)
-        entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack)
+        entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack,
+                                                             free.size)
         if not (entering_positive.any() or entering_negative.any()):
-            if fresh or kernel.accurate or not _balanced(current, C):
-                exact = _balanced(current, C) and _free_equalities_hold(rho, states, epsilon, slack)
+            balanced = _balanced(current, C)
+            if fresh or kernel.accurate or not balanced:
+                exact = balanced and _free_equalities_hold(rho, states, free, epsilon, slack)
                 return CrossoverResult(current, b, step, exact, int(free.size),
                                        K_free @ current[free] + bounded_term)
             # confirm once with the bounded term recomputed from scratch (class _KernelAccess)
@@ -310,15 +316,15 @@ def _balanced(beta: NDArray[np.float64], C: float) -> bool:
 BALANCE_TOL = 1e-9
 
 
-def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8], epsilon: float,
-                          slack: float) -> bool:
+def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8],
+                          free: NDArray[np.intp], epsilon: float, slack: float) -> bool:
     """Whether every free coefficient sits on its tube
     edge, :math:`y_i - f(x_i) = \\varepsilon s_i`.
 
     The free-set solve makes this hold unless its system was inconsistent (coinciding inputs with
-    different targets both free), which the final check must not take on trust.
+    different targets both free), which the final check must not take on trust. ``free`` indexes
+    the free coefficients.
     """
-    free = np.flatnonzero(np.abs(states) == 1)
     # certificate.kkt_violation of a free coefficient of sign s: |r - ε s|
     return bool(np.all(np.abs(residual[free] - epsilon * states[free]) <= slack))
 
