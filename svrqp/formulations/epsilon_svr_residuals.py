@@ -147,7 +147,8 @@ def model_on_qp(formulation: str, y: NDArray[np.float64], C: float, epsilon: flo
     ``Solution.of_qp(result.qp, result.point, record, extra_residuals=result.certificate)`` gives
     the residuals and objective every backend's answer gets.
     """
-    x, y_eq, z_box = dual_qp_point(formulation, multipliers(beta, b, Kbeta, y, epsilon))
+    x, y_eq, z_box = dual_qp_point(formulation, multipliers(beta, b, Kbeta, y, epsilon),
+                                   float(C))
     Px = (
         np.concatenate([Kbeta, np.zeros(2 * y.size)])
         if formulation == "split"

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from svrqp._version import __version__
 from svrqp.exceptions import SolverError, SvrqpError
+from svrqp.formulations.epsilon_svr import DualScaling
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale, model_on_qp
 from svrqp.kernels import gram
@@ -112,12 +113,17 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     check_tol = check_limit(tol, settings.check_tol)
     C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
     start = time.perf_counter()
-    beta, b, Kbeta, path_settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
+    scaling = DualScaling.of_targets(y)  # the paths' tolerances are absolute in units of y
+    scaled_beta, scaled_b, scaled_Kbeta, path_settings, times_s = PATHS[path](
+        X, *scaling.scaled(y, C, epsilon), kernel_parameters, tol)
+    beta, b = scaling.unscaled(scaled_beta, scaled_b, C)
+    Kbeta = scaling.beta_scale * scaled_Kbeta
     solve_time = time.perf_counter() - start
     on_qp = model_on_qp(settings.formulation, y, C, epsilon, beta, b, Kbeta,
                         kernel_scale(X, kernel_parameters))
     record = SolverRecord(path, f"svrqp {__version__}",
-                          {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s},
+                          {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s,
+                           "scaling": scaling._asdict()},
                           build_time=time.perf_counter() - start - solve_time,
                           solve_time=solve_time)
     solution = Solution.of_qp(on_qp.qp, on_qp.point, record, extra_residuals=on_qp.certificate)

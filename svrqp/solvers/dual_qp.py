@@ -76,7 +76,8 @@ def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float,
     ``record`` gives the backend, its settings, times and iterations."""
     Kbeta = dual.K @ beta
     x, y_eq, z_box = dual_qp_point(dual.formulation,
-                                   multipliers(beta, b, Kbeta, dual.y, dual.epsilon))
+                                   multipliers(beta, b, Kbeta, dual.y, dual.epsilon),
+                                   dual.C)
     certificate = model_certificate(dual.y, beta, Kbeta, b, dual.C, dual.epsilon,
                                     float(np.max(np.diagonal(dual.K), initial=0.0)))
     solution = Solution.of_qp(dual.qp, (x, y_eq, None, z_box), record, extra_residuals=certificate)
