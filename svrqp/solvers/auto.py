@@ -36,7 +36,7 @@ from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
 from svrqp.solvers import dual_ipm
 from svrqp.solvers.dual_ipm.exact import ExactSettings
-from svrqp.solvers.dual_qp import DualFit, DualSettings
+from svrqp.solvers.dual_qp import DualFit, DualSettings, rejected_coefficients
 from svrqp.solvers.warm_start import solve_warm_started
 
 #: ``EpsilonSVR(solver=AUTO)``: choose the path (module docstring).
@@ -127,8 +127,9 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
                           build_time=time.perf_counter() - start - solve_time,
                           solve_time=solve_time)
     solution = Solution.of_qp(on_qp.qp, on_qp.point, record, extra_residuals=on_qp.certificate)
-    require_certificates(solution, on_qp.qp, check_tol)
-    require_model_certificate(solution.residuals, check_tol, path)
+    with rejected_coefficients(beta):
+        require_certificates(solution, on_qp.qp, check_tol)
+        require_model_certificate(solution.residuals, check_tol, path)
     return DualFit(beta, b, None, solution, bool(path_settings["crossover_exact"]))
 
 
@@ -146,14 +147,18 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
         When no path certifies; the message names each path tried and why it failed.
     """
     rejected: list[str] = []
+    sizes: list[float] = []  # sum |beta| of the answers rejected
     for path in AUTO_ORDER:
         try:
             fit = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters,
                              settings=settings)
         except (SvrqpError, np.linalg.LinAlgError) as error:
             rejected.append(f"{path}: {error}")
+            sizes += [error.coefficient_l1] if getattr(error, "coefficient_l1", None) else []
             continue
         fit.solution.settings["rejected"] = rejected
         return fit
-    raise SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
-                      + "; ".join(rejected), AUTO, "failed")
+    error = SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
+                        + "; ".join(rejected), AUTO, "failed")
+    error.coefficient_l1 = max(sizes, default=None)
+    raise error

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp._version import __version__
-from svrqp.exceptions import ProblemError
+from svrqp.exceptions import ProblemError, SingularSystemError, SolverError
 from svrqp.formulations.epsilon_svr import DualScaling
 from svrqp.solution import SolverRecord, check_limit
 from svrqp.solvers.dual_ipm.exact import (
@@ -61,11 +61,15 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
     build_time = time.perf_counter() - start
     scaling = DualScaling.of_targets(y)  # its tolerances are absolute in the units of y
     scaled = scaling.scaled(y, dual.C, dual.epsilon)
-    if X is None:
-        fit = solve_exact(K, *scaled, tol=tol)
-    else:
-        fit = solve_exact_from_data(X, *scaled, kernel_parameters,
-                                    settings=ExactSettings(tol=tol), K=K)
+    try:
+        if X is None:
+            fit = solve_exact(K, *scaled, tol=tol)
+        else:
+            fit = solve_exact_from_data(X, *scaled, kernel_parameters,
+                                        settings=ExactSettings(tol=tol), K=K)
+    except SingularSystemError as err:  # a solver failure: the fallback may still answer
+        raise SolverError(f"{DUAL_IPM!r} failed: {err} (or K's rounding exceeds the interior "
+                          f"point's diagonal)", DUAL_IPM, "failed") from err
     record = SolverRecord(
         DUAL_IPM, f"svrqp {__version__}",
         {"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
