@@ -22,61 +22,37 @@ from __future__ import annotations
 
 import argparse
 import time
-import warnings
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import adversarial_documents  # the tampered-file family, beside this script
+import adversarial_second  # the second campaign's families (issue #39), beside this script
 import numpy as np
 import pandas as pd
+from adversarial_cases import (  # what every family shares, beside this script
+    BUDGET_S,
+    CRASH,
+    DOCUMENTED,
+    HANG,
+    OUTCOMES,
+    PREDICTION_TOL,
+    RIGHT,
+    WRONG,
+    Case,
+    classify,
+)
 from sklearn.linear_model import LinearRegression
 from sklearn.metrics.pairwise import pairwise_kernels, rbf_kernel
 from sklearn.svm import SVR
 
-import adversarial_documents  # the tampered-file family, beside this script
-import adversarial_second  # the second campaign's families (issue #39), beside this script
-
 from svrqp import LSSVR, EpsilonSVR
-from svrqp.exceptions import SvrqpError
 from svrqp.estimators import LinearLS, RecursiveLS
 from svrqp.query import QueryError, select_rows
 from svrqp.solvers import available_backends
 
 RESULTS = Path(__file__).resolve().parent / "results"
-
-DOCUMENTED, RIGHT, WRONG, CRASH, HANG = "documented error", "right answer", "silent wrong", "crash", "hang"
-OUTCOMES = (DOCUMENTED, RIGHT, WRONG, CRASH, HANG)
-
-#: DESIGN §3: predictions within 1e-5·std(y) of the reference.
-PREDICTION_TOL = 1e-5
-
-
-@dataclass(frozen=True)
-class Case:
-    """One adversarial case: ``case()`` runs it and returns its outcome (one of :data:`OUTCOMES`)."""
-
-    label: str
-    check: Callable[[dict[str, Any]], str] = field(repr=False)
-    parameters: dict[str, Any] = field(default_factory=dict)
-
-    def __call__(self) -> str:
-        return self.check(self.parameters)
-
-
-def classify(run: Callable[[], bool]) -> str:
-    """Outcome of ``run`` (which fits, predicts and compares with a reference computed beforehand)."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            right = run()
-    except SvrqpError:
-        return DOCUMENTED
-    except Exception:  # anything else escaping the library is a crash
-        return CRASH
-    return RIGHT if right else WRONG
-
 
 def _close(predicted: np.ndarray, reference: np.ndarray, scale: float) -> bool:
     return bool(np.all(np.isfinite(predicted)) and np.max(np.abs(predicted - reference)) <= PREDICTION_TOL * scale)
@@ -526,8 +502,8 @@ def report(rows: list[dict[str, Any]], failures: list[str], errors: Counter, tot
         "`LinearRegression`, numpy's direct solve of the LS-SVR KKT system, pandas masks) computed on the same "
         "problem in units where the reference's own tolerances hold; *documented error* is an `SvrqpError` "
         "(for a query: a `QueryError` with nothing executed); *silent wrong* and *crash* (any other exception) "
-        f"must be 0, and so must *hang* (a case of the second campaign's families that ran past "
-        f"{adversarial_second.BUDGET_S:g} s or blocked; for an output path, *silent wrong* includes any byte "
+        f"must be 0, and so must *hang* (a case that ran past {BUDGET_S:g} s or blocked; for an "
+        "output path, *silent wrong* includes any byte "
         "written outside the named path).",
         "",
         "| family | tried | documented error | right answer | silent wrong | crash | hang | seconds |",

@@ -1,0 +1,52 @@
+"""What every adversarial campaign family shares (``benchmarks/adversarial.py`` and
+``benchmarks/adversarial_second.py``): the outcomes, the time budget, the prediction tolerance, the
+:class:`Case` and :func:`classify`."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from svrqp.exceptions import SvrqpError
+
+DOCUMENTED, RIGHT, WRONG, CRASH, HANG = (
+    "documented error", "right answer", "silent wrong", "crash", "hang")
+OUTCOMES = (DOCUMENTED, RIGHT, WRONG, CRASH, HANG)
+#: Longest a case may take (seconds) before it counts as a hang.
+BUDGET_S = 10.0
+#: DESIGN §3: predictions within 1e-5·std(y) of the reference.
+PREDICTION_TOL = 1e-5
+
+
+@dataclass(frozen=True)
+class Case:
+    """One adversarial case: ``case()`` runs it and returns its outcome (one of :data:`OUTCOMES`),
+    :data:`HANG` when it ran past :data:`BUDGET_S`."""
+
+    label: str
+    check: Callable[[dict[str, Any]], str] = field(repr=False)
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+    def __call__(self) -> str:
+        start = time.perf_counter()
+        outcome = self.check(self.parameters)
+        return HANG if time.perf_counter() - start > BUDGET_S else outcome
+
+
+def classify(run: Callable[[], bool],
+             documented: tuple[type[BaseException], ...] = (SvrqpError,)) -> str:
+    """Outcome of ``run`` (which fits, predicts and compares with a reference computed
+    beforehand): an exception of ``documented`` (the library's own errors) is a documented error,
+    any other escaping the library a crash."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            right = run()
+    except documented:
+        return DOCUMENTED
+    except Exception:  # noqa: BLE001 - anything else escaping the library is a crash
+        return CRASH
+    return RIGHT if right else WRONG
