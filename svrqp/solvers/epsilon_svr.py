@@ -10,6 +10,10 @@ Everything above the solvers that needs an ε-SVR fit asks this module, and only
   and, when that path raises :class:`~svrqp.exceptions.SolverError`, solves once more with the
   other exact path (:data:`FALLBACK_SOLVER` for ``dual_ipm`` and ``auto``, ``dual_ipm`` for a
   backend), saying so in :attr:`SVRFit.solver` and :attr:`SVRFit.fallback_reason`.
+* :func:`require_representable` refuses, with a :class:`~svrqp.exceptions.ProblemError` naming
+  the scale, a model whose own predictions round by more than :data:`REPRESENTATION_LIMIT`·std(y)
+  (coefficients up to C times kernel values beyond double precision: a linear kernel on large
+  inputs), whether a solver returned it or every solver failed on it.
 * :func:`fit_on_gram` is what the tuning loops run on a fold's shared Gram matrix, warm-started
   along an ascending C grid (:data:`WARM_START_BACKENDS`, :func:`warm_start_applies`).
 
