@@ -339,7 +339,11 @@ def fit_on_gram(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilo
         When no answer can be returned (the caller counts the fit as failed).
     """
     if solver == DUAL_IPM:
-        beta, b = _exact_dual_along_c(K, y, float(C), float(epsilon), tol, previous)
+        scaling = epsilon_svr.DualScaling.of_targets(y)  # as the estimator's exact paths
+        u = scaling.beta_scale
+        start = None if previous is None else (previous[0] / u, previous[1] / u)
+        beta, b = _exact_dual_along_c(K, *scaling.scaled(y, C, epsilon), tol, start)
+        beta, b = scaling.unscaled(beta, b, C)
         return beta, b, (beta, float(C))
     fit = dual_qp.solve_dual(K, y, C, epsilon, solver, DualSettings(tol=tol), initvals=previous)
     return fit.beta, fit.intercept, fit.solution.x
