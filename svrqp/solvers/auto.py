@@ -154,7 +154,8 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
                              settings=settings)
         except (SvrqpError, np.linalg.LinAlgError) as error:
             rejected.append(f"{path}: {error}")
-            sizes += [error.coefficient_l1] if getattr(error, "coefficient_l1", None) else []
+            size = getattr(error, "coefficient_l1", None)
+            sizes += [size] if size else []  # a rejected all-zero answer says nothing of the size
             continue
         fit.solution.settings["rejected"] = rejected
         return fit
