@@ -22,61 +22,37 @@ from __future__ import annotations
 
 import argparse
 import time
-import warnings
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import adversarial_documents  # the tampered-file family, beside this script
+import adversarial_second  # the second campaign's families (issue #39), beside this script
 import numpy as np
 import pandas as pd
+from adversarial_cases import (  # what every family shares, beside this script
+    BUDGET_S,
+    CRASH,
+    DOCUMENTED,
+    HANG,
+    OUTCOMES,
+    PREDICTION_TOL,
+    RIGHT,
+    WRONG,
+    Case,
+    classify,
+)
 from sklearn.linear_model import LinearRegression
 from sklearn.metrics.pairwise import pairwise_kernels, rbf_kernel
 from sklearn.svm import SVR
 
-import adversarial_documents  # the tampered-file family, beside this script
-import adversarial_second  # the second campaign's families (issue #39), beside this script
-
 from svrqp import LSSVR, EpsilonSVR
-from svrqp.exceptions import SvrqpError
 from svrqp.estimators import LinearLS, RecursiveLS
 from svrqp.query import QueryError, select_rows
 from svrqp.solvers import available_backends
 
 RESULTS = Path(__file__).resolve().parent / "results"
-
-DOCUMENTED, RIGHT, WRONG, CRASH, HANG = "documented error", "right answer", "silent wrong", "crash", "hang"
-OUTCOMES = (DOCUMENTED, RIGHT, WRONG, CRASH, HANG)
-
-#: DESIGN §3: predictions within 1e-5·std(y) of the reference.
-PREDICTION_TOL = 1e-5
-
-
-@dataclass(frozen=True)
-class Case:
-    """One adversarial case: ``case()`` runs it and returns its outcome (one of :data:`OUTCOMES`)."""
-
-    label: str
-    check: Callable[[dict[str, Any]], str] = field(repr=False)
-    parameters: dict[str, Any] = field(default_factory=dict)
-
-    def __call__(self) -> str:
-        return self.check(self.parameters)
-
-
-def classify(run: Callable[[], bool]) -> str:
-    """Outcome of ``run`` (which fits, predicts and compares with a reference computed beforehand)."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            right = run()
-    except SvrqpError:
-        return DOCUMENTED
-    except Exception:  # anything else escaping the library is a crash
-        return CRASH
-    return RIGHT if right else WRONG
-
 
 def _close(predicted: np.ndarray, reference: np.ndarray, scale: float) -> bool:
     return bool(np.all(np.isfinite(predicted)) and np.max(np.abs(predicted - reference)) <= PREDICTION_TOL * scale)
@@ -455,28 +431,31 @@ def svr_cases(rng: np.random.Generator, n: int) -> list[Case]:
     """ε-SVR × every installed backend and dual_ipm × kernels × units × C from 1e-11 to 1e13."""
     solvers = ["auto", "dual_ipm", *available_backends()]
     draws = [draw_svr(rng, solvers) for _ in range(n)]
-    return [Case(f"svr/{p['solver']}/{p['kernel']}", check_svr, p) for p in draws]
+    return [Case(f"svr/{p['solver']}/{p['kernel']}", check_svr, p, None) for p in draws]
 
 
 def lssvr_cases(rng: np.random.Generator, n: int) -> list[Case]:
     """LS-SVR (Cholesky + Schur and LU) with inputs scaled and offset (epoch-second style)."""
-    return [Case(f"lssvr/{p['solver']}", check_lssvr, p) for p in (draw_lssvr(rng) for _ in range(n))]
+    return [Case(f"lssvr/{p['solver']}", check_lssvr, p, None)
+            for p in (draw_lssvr(rng) for _ in range(n))]
 
 
 def linear_cases(rng: np.random.Generator, n: int) -> list[Case]:
     """MLR and recursive LS with scaled and offset inputs and targets."""
-    return [Case(f"linear/{p['model']}", check_linear, p) for p in (draw_linear(rng) for _ in range(n))]
+    return [Case(f"linear/{p['model']}", check_linear, p, None)
+            for p in (draw_linear(rng) for _ in range(n))]
 
 
 def hostile_input_cases(rng: np.random.Generator, n: int) -> list[Case]:
     """NaN, inf, text, overflowing magnitudes, wrong shapes, and awkward but valid targets."""
-    return [Case(f"input/{p['estimator']}/{p['corruption']}", check_hostile, p)
+    return [Case(f"input/{p['estimator']}/{p['corruption']}", check_hostile, p, None)
             for p in (draw_hostile(rng) for _ in range(n))]
 
 
 def query_cases(rng: np.random.Generator, n: int) -> list[Case]:
     """``--train`` filters: random allowed ones and ones with a code-running part."""
-    return [Case("query/" + ("hostile" if p["reference"] is None else "filter"), check_query, p)
+    return [Case("query/" + ("hostile" if p["reference"] is None else "filter"), check_query, p,
+                 None)
             for p in (draw_query(rng) for _ in range(n))]
 
 
@@ -523,11 +502,13 @@ def report(rows: list[dict[str, Any]], failures: list[str], errors: Counter, tot
         "",
         f"{total} cases drawn with seed {seed} (`python benchmarks/adversarial.py`). A case is *right* when the "
         f"predictions are within {PREDICTION_TOL:g}·std(y) of an independent reference (scikit-learn `SVR(tol=1e-8)`, "
-        "`LinearRegression`, numpy's direct solve of the LS-SVR KKT system, pandas masks) computed on the same "
+        "`LinearRegression`, numpy's direct solve of the LS-SVR KKT system, pandas masks, cvxpy with Clarabel) computed on the same "
         "problem in units where the reference's own tolerances hold; *documented error* is an `SvrqpError` "
         "(for a query: a `QueryError` with nothing executed); *silent wrong* and *crash* (any other exception) "
-        f"must be 0, and so must *hang* (a case of the second campaign's families that ran past "
-        f"{adversarial_second.BUDGET_S:g} s or blocked; for an output path, *silent wrong* includes any byte "
+        f"must be 0, and so must *hang* (a case of the second campaign's families, from "
+        f"`dtype_container_cases` on, that ran past {BUDGET_S:g} s or blocked; each backend call of "
+        "the first's is bounded by its own time or iteration limit; for an output path, *silent "
+        "wrong* includes any byte "
         "written outside the named path).",
         "",
         "| family | tried | documented error | right answer | silent wrong | crash | hang | seconds |",

@@ -15,7 +15,10 @@ system itself (what exists where after a write).
 * ``path_cases`` — outputs named by a dangling link, a link to a file, a FIFO or a folder, with
   and without ``force``: nothing may be written anywhere but the named path, nothing may block;
 * ``huge_header_cases`` — header-only CSVs of 10 000 to 100 000 columns, some repeating a name;
-* ``probe_blind_cases`` — a dual coefficient far from every probe changed and the file re-hashed.
+* ``probe_blind_cases`` — a dual coefficient far from every probe changed and the file re-hashed;
+* ``scale_cases`` — ε-SVR targets of 1e-14 to 1e-9 with tubes down to 1e-3 of them, constant
+  targets, a linear kernel on inputs up to ×1e8 (findings 14 and 15), against cvxpy and Clarabel
+  on the stated dual in units of std(y), or on the primal in unit inputs.
 """
 
 from __future__ import annotations
@@ -24,17 +27,26 @@ import json
 import os
 import tempfile
 import threading
-import time
 import warnings
-from collections.abc import Callable
 from fractions import Fraction
-from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 import scipy.linalg
+from adversarial_cases import (  # what every family shares, beside this script
+    BUDGET_S,
+    CRASH,
+    DOCUMENTED,
+    HANG,
+    PREDICTION_TOL,
+    RIGHT,
+    WRONG,
+    Case,
+    classify,
+)
 
 from svrqp import LSSVR, EpsilonSVR, Guarded, output
 from svrqp.cli._common import read_table
@@ -43,39 +55,9 @@ from svrqp.exceptions import SvrqpError
 from svrqp.export import build_document, content_sha256, verify
 from svrqp.query import select_rows
 
-DOCUMENTED, RIGHT, WRONG, CRASH, HANG = "documented error", "right answer", "silent wrong", "crash", "hang"
-#: Longest a case may take (seconds) before it counts as a hang.
-BUDGET_S = 10.0
-#: Predictions within this fraction of std(y) of the reference (DESIGN §3 uses 1e-5).
-PREDICTION_TOL = 1e-5
-
-
-@dataclass(frozen=True)
-class Case:
-    """One case: ``case()`` returns its outcome."""
-
-    label: str
-    check: Callable[[dict[str, Any]], str] = field(repr=False)
-    parameters: dict[str, Any] = field(default_factory=dict)
-
-    def __call__(self) -> str:
-        start = time.perf_counter()
-        outcome = self.check(self.parameters)
-        return HANG if time.perf_counter() - start > BUDGET_S else outcome
-
-
-def classify(run: Callable[[], bool]) -> str:
-    """Outcome of ``run``: the library's own error (or, for an output path, the refusal to replace a
-    file without force, ``FileExistsError``, which the CLI reports as one line) is documented."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            right = run()
-    except (SvrqpError, FileExistsError):
-        return DOCUMENTED
-    except Exception:  # noqa: BLE001 - anything else escaping the library is a crash
-        return CRASH
-    return RIGHT if right else WRONG
+#: The second campaign's files and paths: refusing to replace a file without force
+#: (``FileExistsError``, which the CLI reports as one line) is documented too.
+classify = partial(classify, documented=(SvrqpError, FileExistsError))
 
 
 # -- dtypes and containers -------------------------------------------------------------------
@@ -320,5 +302,116 @@ def probe_blind_cases(rng: np.random.Generator, n: int) -> list[Case]:
             for _ in range(n)]
 
 
+# -- ε-SVR on hostile scales (findings 14 and 15) --------------------------------------------
+
+SCALE_KINDS = ("tiny-targets", "constant", "linear-scale")
+TINY_TARGET_SOLVERS = ("auto", "smo_crossover", "dual_ipm", "proxqp", "osqp", "highs", "clarabel")
+
+
+def _tube_dual_predictions(K: np.ndarray, y: np.ndarray, epsilon: float, C: float) -> np.ndarray:
+    """The stated ε-SVR dual by cvxpy and Clarabel in units of std(y): predictions at the training
+    points. A box wider than 1e6 in those units is left out and must come out inactive."""
+    import cvxpy as cp
+
+    a, m = float(np.std(y)), float(np.mean(y))
+    target, box = (y - m) / a, C / a
+    beta = cp.Variable(y.size)
+    objective = (0.5 * cp.quad_form(beta, cp.psd_wrap(K)) - target @ beta
+                 + epsilon / a * cp.norm1(beta))
+    constraints = [cp.sum(beta) == 0] + ([cp.abs(beta) <= box] if box <= 1e6 else [])
+    cp.Problem(cp.Minimize(objective), constraints).solve(
+        solver=cp.CLARABEL, tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
+    value = beta.value
+    if box > 1e6 and np.abs(value).max() >= 1e-3 * box:
+        raise RuntimeError("the reference's dropped box is active")
+    free = (np.abs(value) > 1e-6 * np.abs(value).max()) & (np.abs(value) < box * (1 - 1e-6))
+    residual = target - K @ value
+    b = float(np.median(residual[free] - epsilon / a * np.sign(value[free])))
+    return a * (K @ value + b) + m
+
+
+def _linear_primal_predictions(Z: np.ndarray, y: np.ndarray, scale: float, C: float,
+                               epsilon: float) -> np.ndarray:
+    """The linear-kernel ε-SVR on inputs ``scale``·Z from its primal on the unit inputs Z (cvxpy
+    and Clarabel, relative gap 1e-12): with w = v/s the objective is ½|v|² + C s² Σξ (over s²),
+    v of order 1. Written as ½|v|²/(C s²) + Σξ instead, with every point in the tube the
+    objective was 1e-11 at inputs of 1e5 and Clarabel stopped 3 % short of it (and 70 % at C s² =
+    9e10); that form is used only where the first does not solve (C s² of 1e18: nearly a linear
+    programme)."""
+    import cvxpy as cp
+
+    v, b, xi = cp.Variable(Z.shape[1]), cp.Variable(), cp.Variable(y.size, nonneg=True)
+    residual = y - Z @ v - b
+    weight = C * scale**2
+    forms = [0.5 * cp.sum_squares(v) + weight * cp.sum(xi),
+             0.5 * cp.sum_squares(v) / weight + cp.sum(xi)]
+    for objective in forms:
+        problem = cp.Problem(cp.Minimize(objective),
+                             [residual <= epsilon + xi, -residual <= epsilon + xi])
+        try:
+            problem.solve(solver=cp.CLARABEL, tol_gap_abs=0.0, tol_gap_rel=1e-12, tol_feas=1e-12)
+        except cp.error.SolverError:
+            continue
+        if problem.status == cp.OPTIMAL:
+            return Z @ v.value + b.value
+    raise RuntimeError("the reference primal did not solve")
+
+
+def check_scale(p: dict[str, Any]) -> str:
+    """One ε-SVR fit on a hostile scale; an answer is judged against its independent reference
+    (computed only for an answer: a refusal needs none, and a reference that cannot be solved
+    stops the campaign instead of counting against svrqp)."""
+    rng = np.random.default_rng(p["seed"])
+    kind, solver = p["kind"], p["solver"]
+    if kind == "linear-scale":
+        Z = rng.standard_normal((p["n"], p["d"]))
+        y = Z @ rng.normal(size=p["d"]) + p["noise"] * rng.standard_normal(p["n"])
+        X, model = Z * p["scale"], EpsilonSVR(C=p["C"], epsilon=0.1, kernel="linear", **(
+            {"formulation": "primal"} if solver == "primal" else {"solver": solver}))
+
+        def reference() -> np.ndarray:
+            return _linear_primal_predictions(Z, y, p["scale"], p["C"], 0.1)
+    else:
+        X = rng.uniform(-1, 1, (p["n"], 2))
+        y = (np.full(p["n"], p["level"]) if kind == "constant"
+             else p["level"] * np.sin(3 * X[:, 0]) + p["level"] * 0.3 * X[:, 1])
+        epsilon = p["tube"] * (float(np.std(y)) or abs(p["level"]) or 1.0)
+        model = EpsilonSVR(C=p["C"], epsilon=epsilon, gamma=1.0, solver=solver)
+
+        def reference() -> np.ndarray:
+            K = np.exp(-np.square(X[:, None, :] - X[None, :, :]).sum(axis=2))
+            return y if kind == "constant" else _tube_dual_predictions(K, y, epsilon, p["C"])
+    answers: list[np.ndarray] = []
+    outcome = classify(lambda: answers.append(model.fit(X, y).predict(X)) is None)
+    if outcome != RIGHT:
+        return outcome
+    if kind == "constant":  # b = y exactly, and no support vector
+        return RIGHT if model.support_.size == 0 and np.all(answers[0] == y[0]) else WRONG
+    error = float(np.max(np.abs(answers[0] - reference())))
+    return RIGHT if error <= PREDICTION_TOL * float(np.std(y)) else WRONG
+
+
+def scale_cases(rng: np.random.Generator, n: int) -> list[Case]:
+    """Targets of 1e-14 to 1e-9 with tubes down to 1e-3 of them, constant targets, a linear kernel on
+    inputs ×1 to ×1e8, on the exact paths and the QP backends."""
+    cases = []
+    for _ in range(n):
+        kind = str(rng.choice(SCALE_KINDS))
+        p = {"seed": int(rng.integers(2**31)), "kind": kind, "C": float(10 ** rng.uniform(-1, 2))}
+        if kind == "linear-scale":
+            p.update(n=int(rng.integers(20, 120)), d=int(rng.integers(1, 5)),
+                     noise=float(rng.choice([0.01, 0.1, 0.5])), scale=float(10 ** rng.uniform(0, 8)),
+                     solver=str(rng.choice(["auto", "dual_ipm", "clarabel", "primal"])))
+        else:
+            level = (float(rng.choice([0.0, 3.0, 1e-12, -1e6])) if kind == "constant"
+                     else float(10 ** rng.uniform(-14, -9)))
+            p.update(n=int(rng.integers(6, 16)), level=level,
+                     tube=float(rng.choice([0.0, 1e-3, 1e-2, 0.1])),
+                     solver=str(rng.choice(TINY_TARGET_SOLVERS)))
+        cases.append(Case(f"scale/{kind}/{p['solver']}", check_scale, p))
+    return cases
+
+
 #: The families, in the order the campaign runs them.
-FAMILIES = [dtype_container_cases, query_name_cases, budget_cases, path_cases, huge_header_cases, probe_blind_cases]
+FAMILIES = [dtype_container_cases, query_name_cases, budget_cases, path_cases, huge_header_cases,
+            probe_blind_cases, scale_cases]

@@ -28,12 +28,18 @@ class InputTypeError(ProblemError, TypeError):
 
 
 class SolverError(SvrqpError, RuntimeError):
-    """A backend failed, or returned a solution that misses the requested tolerance."""
+    r"""A backend failed, or returned a solution that misses the requested tolerance.
+
+    ``coefficient_l1`` is :math:`\sum_i|\beta_i|` of the rejected ε-SVR answer, when there was
+    one (how much its predictions cancel:
+    :func:`svrqp.solvers.epsilon_svr.require_representable`).
+    """
 
     def __init__(self, message: str, backend: str | None = None, status: str | None = None):
         super().__init__(message)
         self.backend = backend
         self.status = status
+        self.coefficient_l1: float | None = None
 
 
 class BackendNotAvailableError(SvrqpError, ImportError):

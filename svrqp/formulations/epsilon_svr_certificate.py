@@ -26,8 +26,9 @@ condition on :math:`z_{box}` that depends on the state of :math:`\beta_i` (:func
 :func:`kkt_violation` is how far each point is from its condition, in the units of y. The
 returned model's own certificate (:func:`model_certificate`) weighs these violations by what
 moving a coefficient would change in the predictions; :func:`dual_qp_point` writes the
-multipliers in the variables of each dual QP, so the stated QP's residuals certify a model however
-it was found.
+multipliers in the variables of each dual QP, projected onto the bounds each variable sits at
+(:func:`box_multipliers`: a sign condition that fails then shows as a stationarity residual), so
+the stated QP's residuals certify a model however it was found.
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ MODEL_CERTIFICATES: tuple[str, ...] = ("box_rel", "balance_rel", "kkt_rel")
 
 #: Rounding allowance of :func:`model_certificate`, in units of the float64 machine epsilon.
 ROUNDING_ULPS = 64.0
+#: How many roundings below C a variable of :func:`box_multipliers` still sits at C.
+BOUND_ULPS = 4.0
 
 
 def states(beta: NDArray[np.float64], C: float, bound_tol: float,
@@ -104,23 +107,27 @@ def kkt_violation(residual: NDArray[np.float64], state: NDArray[np.int8],
                      [np.abs(residual) - epsilon, epsilon - residual, residual + epsilon], free)
 
 
-def dual_qp_point(formulation: str, point: Multipliers
+def dual_qp_point(formulation: str, point: Multipliers, C: float
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     r"""The primal point and multipliers ``(x, y_eq, z_box)``
-    of a dual QP at the model of ``point``.
+    of a dual QP at the model of ``point``, for the box :math:`[0, C]` of each
+    :math:`\alpha_i, \alpha^*_i`.
 
     In the variables of the QPs of :mod:`svrqp.formulations.epsilon_svr` (qpsolvers' signs):
 
     * split, :math:`x = [\beta; \alpha; \alpha^*]`: equality multipliers :math:`[r;\ b]`, box
-      multipliers :math:`[0;\ -\varepsilon - r;\ r - \varepsilon]`;
+      multipliers :math:`[0;\ z_\alpha;\ z_{\alpha^*}]`;
     * stacked, :math:`x = [\alpha; \alpha^*]`: equality multiplier :math:`b`, box multipliers
-      :math:`[-\varepsilon - r;\ r - \varepsilon]`.
+      :math:`[z_\alpha;\ z_{\alpha^*}]`.
 
-    The box multipliers have the signs the bounds need exactly when :math:`(\beta, b)` satisfies
-    the ε-SVR KKT conditions, so the QP's residuals certify the model independently of how it
-    was found.
+    The box multipliers are those of ``point`` (:math:`-\varepsilon - r` and
+    :math:`r - \varepsilon`) projected onto what the bound each variable sits at allows
+    (:func:`box_multipliers`); what the projection removes is left in the QP's stationarity
+    residual. At a model that satisfies the ε-SVR KKT conditions nothing is removed, so the QP's
+    residuals certify the model independently of how it was found.
     """
     alpha, alpha_star, b, z_box, r = point
+    z_box = box_multipliers(np.concatenate([alpha, alpha_star]), z_box, C)
     if formulation == "split":
         beta = alpha_star - alpha
         return (
@@ -130,6 +137,24 @@ def dual_qp_point(formulation: str, point: Multipliers
     if formulation == "stacked":
         return np.concatenate([alpha, alpha_star]), np.array([b]), z_box
     raise ProblemError(f"formulation must be one of ('split', 'stacked'), got {formulation!r}")
+
+
+def box_multipliers(x: NDArray[np.float64], z: NDArray[np.float64],
+                    C: float) -> NDArray[np.float64]:
+    r"""The multipliers ``z`` of the box :math:`0 \le x \le C` projected onto the normal cone
+    of the box at ``x``: at most 0 where :math:`x_i = 0`, at least 0 where :math:`x_i = C`, and 0
+    strictly inside the box.
+
+    A multiplier of a bound the variable does not sit at enters the duality gap multiplied by the
+    bound: :math:`C\,z_i`. Left there, the rounding of :math:`r - \varepsilon` at a free
+    coefficient (about :math:`10^{-16}` of y) counts C times over, and a wide box
+    (:math:`C \gg \max|\beta|`: targets of 1e-12 with C = 10, or a linear kernel on large inputs)
+    fails the gap certificate at the exact optimum (issue #39, findings 14 and 15). Projected, the
+    same amount is measured once, as a stationarity residual in the units of y. A variable within
+    :data:`BOUND_ULPS` roundings of C sits at C (:math:`u \cdot (C/u)` of a rescaled solve).
+    """
+    at_lower, at_upper = x <= 0.0, x >= C * (1.0 - BOUND_ULPS * np.finfo(float).eps)
+    return np.where(at_lower, np.minimum(z, 0.0), np.where(at_upper, np.maximum(z, 0.0), 0.0))
 
 
 def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],

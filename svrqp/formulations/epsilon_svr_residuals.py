@@ -30,6 +30,7 @@ from svrqp.exceptions import ProblemError
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr_certificate import (
     Multipliers,
+    box_multipliers,
     dual_qp_point,
     model_certificate,
     multipliers,
@@ -181,13 +182,18 @@ def stated_dual(formulation: str, y: NDArray[np.float64], C: float, epsilon: flo
     """
     point = multipliers(beta, b, Kbeta, y, epsilon)
     C, epsilon = float(C), float(epsilon)
+    # The box multipliers as the QP's point carries them: projected onto the bound each
+    # variable sits at (box_multipliers), so rounding at a free coefficient is not counted C
+    # times over in the gap.
+    point = point._replace(z_box=box_multipliers(
+        np.concatenate([point.alpha, point.alpha_star]), point.z_box, C))
     if formulation == "split":
         residuals, objective = _split_residuals(y, C, epsilon, point, Kbeta)
     elif formulation == "stacked":
         residuals, objective = _stacked_residuals(y, C, epsilon, point, Kbeta)
     else:
         raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
-    x, y_eq, z_box = dual_qp_point(formulation, point)
+    x, y_eq, z_box = dual_qp_point(formulation, point, C)
     residuals.update(model_certificate(y, beta, Kbeta, b, C, epsilon, scale,
                                        residual=point.residual))
     return StatedDual(_name(formulation), (x, y_eq, None, z_box), residuals, objective)

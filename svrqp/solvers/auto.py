@@ -29,13 +29,14 @@ from numpy.typing import NDArray
 
 from svrqp._version import __version__
 from svrqp.exceptions import SolverError, SvrqpError
+from svrqp.formulations.epsilon_svr import DualScaling
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale, stated_dual
 from svrqp.kernels import gram
 from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
 from svrqp.solvers import dual_ipm
 from svrqp.solvers.dual_ipm.exact import ExactSettings
-from svrqp.solvers.dual_qp import DualFit, DualSettings
+from svrqp.solvers.dual_qp import DualFit, DualSettings, rejected_coefficients
 from svrqp.solvers.warm_start import solve_warm_started
 
 #: ``EpsilonSVR(solver=AUTO)``: choose the path (module docstring).
@@ -112,17 +113,23 @@ def solve_path(path: str, X: NDArray[np.float64], y: NDArray[np.float64], C: flo
     check_tol = check_limit(tol, settings.check_tol)
     C, epsilon = float(C), float(epsilon)  # an int C would overflow the crossover's int8 states
     start = time.perf_counter()
-    beta, b, Kbeta, path_settings, times_s = PATHS[path](X, y, C, epsilon, kernel_parameters, tol)
+    scaling = DualScaling.of_targets(y)  # the paths' tolerances are absolute in units of y
+    scaled_beta, scaled_b, scaled_Kbeta, path_settings, times_s = PATHS[path](
+        X, *scaling.scaled(y, C, epsilon), kernel_parameters, tol)
+    beta, b = scaling.unscaled(scaled_beta, scaled_b, C)
+    Kbeta = scaling.beta_scale * scaled_Kbeta
     solve_time = time.perf_counter() - start
     stated = stated_dual(settings.formulation, y, C, epsilon, beta, b, Kbeta,
                          kernel_scale(X, kernel_parameters))
     record = SolverRecord(path, f"svrqp {__version__}",
-                          {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s},
+                          {"tol": tol, "check_tol": check_tol, **path_settings, "times_s": times_s,
+                           "scaling": scaling._asdict()},
                           build_time=time.perf_counter() - start - solve_time,
                           solve_time=solve_time)
     solution = Solution.of_stated(stated, record)
-    require_certificates(solution, stated.name, check_tol)
-    require_model_certificate(solution.residuals, check_tol, path)
+    with rejected_coefficients(beta):
+        require_certificates(solution, stated.name, check_tol)
+        require_model_certificate(solution.residuals, check_tol, path)
     return DualFit(beta, b, None, solution, bool(path_settings["crossover_exact"]))
 
 
@@ -140,14 +147,19 @@ def solve_auto(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
         When no path certifies; the message names each path tried and why it failed.
     """
     rejected: list[str] = []
+    sizes: list[float] = []  # sum |beta| of the answers rejected
     for path in AUTO_ORDER:
         try:
             fit = solve_path(path, X, y, C, epsilon, kernel_parameters=kernel_parameters,
                              settings=settings)
         except (SvrqpError, np.linalg.LinAlgError) as error:
             rejected.append(f"{path}: {error}")
+            size = getattr(error, "coefficient_l1", None)
+            sizes += [size] if size else []  # a rejected all-zero answer says nothing of the size
             continue
         fit.solution.settings["rejected"] = rejected
         return fit
-    raise SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
-                      + "; ".join(rejected), AUTO, "failed")
+    error = SolverError("solver='auto' found no path that certifies the epsilon-SVR dual; tried "
+                        + "; ".join(rejected), AUTO, "failed")
+    error.coefficient_l1 = max(sizes, default=None)
+    raise error

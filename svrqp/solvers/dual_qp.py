@@ -11,12 +11,15 @@ paths (``dual_ipm``, ``auto``) end in the same :class:`DualFit`.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+from svrqp.exceptions import SolverError
 from svrqp.formulations.epsilon_svr import (
     DualScaling,
     beta_from_solution,
@@ -76,13 +79,26 @@ def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float,
     ``record`` gives the backend, its settings, times and iterations."""
     Kbeta = dual.K @ beta
     x, y_eq, z_box = dual_qp_point(dual.formulation,
-                                   multipliers(beta, b, Kbeta, dual.y, dual.epsilon))
+                                   multipliers(beta, b, Kbeta, dual.y, dual.epsilon),
+                                   dual.C)
     certificate = model_certificate(dual.y, beta, Kbeta, b, dual.C, dual.epsilon,
                                     float(np.max(np.diagonal(dual.K), initial=0.0)))
     solution = Solution.of_qp(dual.qp, (x, y_eq, None, z_box), record, extra_residuals=certificate)
-    require_certificates(solution, dual.qp, check_tol)
-    require_model_certificate(solution.residuals, check_tol, record.backend)
+    with rejected_coefficients(beta):
+        require_certificates(solution, dual.qp, check_tol)
+        require_model_certificate(solution.residuals, check_tol, record.backend)
     return solution
+
+
+@contextmanager
+def rejected_coefficients(beta: NDArray[np.float64]) -> Iterator[None]:
+    r"""A :class:`~svrqp.exceptions.SolverError` raised inside says how large the rejected answer
+    ``beta`` was (``coefficient_l1``, :math:`\sum_i|\beta_i|`)."""
+    try:
+        yield
+    except SolverError as error:
+        error.coefficient_l1 = float(np.abs(beta).sum())
+        raise
 
 
 class DualFit(NamedTuple):
@@ -142,7 +158,8 @@ def solve_dual(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
         # The exact crossover of svrqp.solvers.dual_ipm: polish guesses the active sets once, the
         # crossover corrects them (coefficients a few 1e-6·C inside a bound, for instance).
         exact = crossover(lambda idx: K_scaled[:, idx], y_scaled, C_scaled, epsilon_scaled,
-                          beta_scaled)
+                          beta_scaled,
+                          kernel_scale=float(np.max(np.diagonal(K_scaled), initial=0.0)))
         polished = exact.beta if exact.exact else None
     beta = u * (beta_scaled if polished is None else polished)
     return certified_dual_fit(dual, beta, record.record, check_tol, polished is not None)

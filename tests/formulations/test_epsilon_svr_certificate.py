@@ -10,6 +10,7 @@ from support.problems import SVR_CASES
 
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr_certificate import (
+    box_multipliers,
     dual_qp_point,
     kkt_violation,
     multipliers,
@@ -36,17 +37,29 @@ def test_violation_of_each_condition_in_units_of_y():
 
 
 @pytest.mark.parametrize("formulation", ["split", "stacked"])
-def test_rebuilt_multipliers_make_any_model_stationary(formulation):
-    """Stationarity holds by construction, for any (β, b): only the sign conditions are left."""
+def test_rebuilt_multipliers_leave_only_the_projected_part_in_stationarity(formulation):
+    """For any (β, b) the box multipliers have the signs their bounds allow (complementarity is
+    exact); what the projection removed, and only that, is the stationarity residual."""
     case = SVR_CASES[1]()
     K = gram(case.X, gamma=case.gamma)
     rng = np.random.default_rng(7)
     beta, b = rng.uniform(-case.C, case.C, case.y.size), 0.3
+    beta[:3] = [case.C, -case.C, 0.0]
     problem = epsilon_svr.build(formulation, case.y, case.C, case.epsilon, K=K)
-    x, y_eq, z_box = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon))
+    point = multipliers(beta, b, K @ beta, case.y, case.epsilon)
+    x, y_eq, z_box = dual_qp_point(formulation, point, case.C)
     residuals = problem.kkt_residuals(x, y_eq, None, z_box)
-    assert residuals["dual_rel"] <= 1e-13
+    assert residuals["complementarity"] == 0.0
+    removed = np.max(np.abs(point.z_box - z_box[-point.z_box.size:]))
+    assert removed > 0.0
+    assert residuals["dual"] == pytest.approx(removed, rel=1e-12)
     np.testing.assert_allclose(epsilon_svr.beta_from_solution(formulation, case.y.size, x), beta, rtol=0, atol=0)
+
+
+def test_box_multipliers_keep_the_signs_each_bound_allows():
+    x = np.array([0.0, 0.0, 0.5, 2.0, 2.0])
+    z = np.array([-1.0, 1.0, 3.0, -1.0, 1.0])
+    np.testing.assert_array_equal(box_multipliers(x, z, 2.0), [-1.0, 0.0, 0.0, 0.0, 1.0])
 
 
 @pytest.mark.parametrize("case_factory", SVR_CASES, ids=lambda f: f.__name__)

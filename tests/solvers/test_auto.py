@@ -108,7 +108,7 @@ def test_certificates_without_P_equal_the_generic_ones(formulation):
     beta, b = full_beta(model, len(case.y)), model.intercept_[0]
     beta[0] += 1e-3 * case.C  # off the optimum, so that every certificate is non-trivial
     problem = epsilon_svr.build(formulation, case.y, case.C, case.epsilon, K=K)
-    point = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon))
+    point = dual_qp_point(formulation, multipliers(beta, b, K @ beta, case.y, case.epsilon), case.C)
     expected = problem.kkt_residuals(*point[:2], None, point[2])
     stated = stated_dual(formulation, case.y, case.C, case.epsilon, beta, b, K @ beta, 1.0)
     solution = Solution.of_stated(stated, SolverRecord("test", "0"))

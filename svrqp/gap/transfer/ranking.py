@@ -195,8 +195,7 @@ class TransferRanker:
         self.sse_refit = float(self.refit.errors @ self.refit.errors)
         self.axes = window_axes(data, family.units.code) if local else {}
         self.window_alone = WindowAlone(family, self.axes)
-        # One record cut into blocks: its readings drift over
-        # the record, rotated plainly they jump at the seam.
+        # One record in blocks: its readings, rotated plainly, would jump at the seam.
         self.surrogates = TransferSurrogates(data, family.A, rng, self.local_rng,
                                              lift=family.units.kind == "blocks")
         # Whether some ordering of the run levels can reach
@@ -223,9 +222,7 @@ class TransferRanker:
                     continue
                 if run_level and transform in WITHIN_RUN and not moves:
                     continue  # its rate, rise and lag are zero
-                if transform == "local":  # untestable when run-level and not permutable
-                    # A level that drifts within runs beyond its noise scales a window by its
-                    # values there: rotated within runs, its run levels exchanged, as the level.
+                if transform == "local":  # a drifting level is rotated within runs here too
                     out += [Effect(column, transform, None, run_level and not drifts,
                                    windows=windows, axis=axis)
                             for axis, (_, windows) in self.axes.items() if len(windows)]

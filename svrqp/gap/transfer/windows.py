@@ -34,7 +34,10 @@ Surrogates that respect what varies where
     rotated within runs *and* has its run means exchanged by a random permutation of the runs
     (:func:`svrqp.gap.transfer.surrogates.exchange_run_levels`): under "this candidate carries
     nothing" its within-run phase and which run holds which level are both arbitrary. A candidate
-    that holds one level per run is permuted across runs only, as for every transform.
+    that holds one level per run is permuted across runs only, as for every transform, unless it
+    also moves within runs beyond four times its noise variance
+    (:func:`svrqp.gap.transfer.between.moves_beyond_noise`): then its values inside the window
+    carry the effect, and it is rotated and exchanged like any other.
 
 What the form costs the other transforms
     The ``local`` form of a candidate that holds one level per run is offered only when a

@@ -15,7 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from svrqp._version import __version__
-from svrqp.exceptions import ProblemError
+from svrqp.exceptions import ProblemError, SingularSystemError, SolverError
+from svrqp.formulations.epsilon_svr import DualScaling
 from svrqp.solution import SolverRecord, check_limit
 from svrqp.solvers.dual_ipm.exact import (
     ExactSettings,
@@ -58,16 +59,23 @@ def solve_dual_ipm(K: NDArray[np.float64], y: NDArray[np.float64], C: float, eps
     # a float C: an int would overflow int8 states
     dual = DualProblem.of(settings.formulation, K, y, C, epsilon)
     build_time = time.perf_counter() - start
-    if X is None:
-        fit = solve_exact(K, y, dual.C, dual.epsilon, tol=tol)
-    else:
-        fit = solve_exact_from_data(X, y, dual.C, dual.epsilon, kernel_parameters,
-                                    settings=ExactSettings(tol=tol), K=K)
+    scaling = DualScaling.of_targets(y)  # its tolerances are absolute in the units of y
+    scaled = scaling.scaled(y, dual.C, dual.epsilon)
+    try:
+        if X is None:
+            fit = solve_exact(K, *scaled, tol=tol)
+        else:
+            fit = solve_exact_from_data(X, *scaled, kernel_parameters,
+                                        settings=ExactSettings(tol=tol), K=K)
+    except SingularSystemError as err:  # a solver failure: the fallback may still answer
+        raise SolverError(f"{DUAL_IPM!r} failed: {err} (or K's rounding exceeds the interior "
+                          f"point's diagonal)", DUAL_IPM, "failed") from err
     record = SolverRecord(
         DUAL_IPM, f"svrqp {__version__}",
         {"tol": tol, "check_tol": check_tol, "ipm_iterations": fit.ipm.iterations,
          "ipm_converged": fit.ipm.converged,
          "crossover_steps": fit.crossover.steps, "crossover_exact": fit.crossover.exact,
-         "low_rank_path": fit.low_rank},
+         "low_rank_path": fit.low_rank, "scaling": scaling._asdict()},
         build_time=build_time, solve_time=sum(fit.times_s.values()), iterations=fit.ipm.iterations)
-    return certified_dual_fit(dual, fit.beta, record, check_tol, fit.crossover.exact)
+    beta, _ = scaling.unscaled(fit.beta, fit.intercept, dual.C)
+    return certified_dual_fit(dual, beta, record, check_tol, fit.crossover.exact)

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.kernels import gram, kernel_arguments
+from svrqp.kernels import gram, gram_diagonal, kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 from svrqp.solvers.dual_ipm.crossover import (
@@ -50,7 +50,7 @@ def solve_exact(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilo
     returned; its certificates say how accurate it is.
     """
     return _interior_point_then_crossover(DenseKernel(K), lambda idx: K[:, idx], y, C, epsilon, tol,
-                                          max_iter)
+                                          max_iter, float(np.max(np.diagonal(K), initial=0.0)))
 
 
 #: The interior point behind a crossover stops at this relative accuracy (or the requested one, if
@@ -61,7 +61,7 @@ IDENTIFICATION_TOL = 1e-4
 
 
 def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilon, tol,
-                                   max_iter) -> ExactFit:
+                                   max_iter, kernel_scale: float) -> ExactFit:
     times_s = {"ipm_s": 0.0, "crossover_s": 0.0}
     for ipm_tol in dict.fromkeys([max(tol, IDENTIFICATION_TOL), tol]):  # the loose run first
         start = time.perf_counter()
@@ -70,6 +70,7 @@ def _interior_point_then_crossover(kernel: KernelOperator, columns, y, C, epsilo
         result = crossover(
             columns, y, C, epsilon, ipm.beta,
             settings=CrossoverSettings(threshold=max(CROSSOVER_THRESHOLD, np.sqrt(ipm_tol))),
+            kernel_scale=kernel_scale,
         )
         times_s["ipm_s"] += middle - start
         times_s["crossover_s"] += time.perf_counter() - middle
@@ -119,8 +120,9 @@ def solve_exact_from_data(X: NDArray[np.float64], y: NDArray[np.float64], C: flo
                               tol=settings.factor_tol, give_up=True)
     factor_s = time.perf_counter() - start
     if factor.relative_trace_error <= settings.factor_tol:
+        scale = float(np.max(gram_diagonal(X, **parameters), initial=0.0))
         fit = _interior_point_then_crossover(FactoredKernel(factor.L), columns, y, C, epsilon, tol,
-                                             max_iter)
+                                             max_iter, scale)
         if fit.crossover.exact:
             fit.times_s.update(factor_s=factor_s, gram_s=0.0)
             fit.low_rank = True
