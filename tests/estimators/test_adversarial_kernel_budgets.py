@@ -3,7 +3,6 @@ any work (a documented maximum degree, a bound on the polynomial kernel's values
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -20,13 +19,13 @@ def sine_problem() -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("model", [EpsilonSVR, LSSVR])
-def test_degree_2_to_the_40_is_refused_fast(model):
-    """#10 and #12: libsvm's OverflowError for EpsilonSVR; LSSVR never returned (2**40 products)."""
+def test_degree_2_to_the_40_is_refused(model):
+    """#10 and #12: libsvm's OverflowError for EpsilonSVR; LSSVR never returned (2**40 products).
+    The refusal is a parameter check, so it comes before any kernel is formed (no time is asserted:
+    a regression would hang the suite rather than fail it)."""
     X, y = sine_problem()
-    start = time.perf_counter()
     with pytest.raises(ProblemError, match=f"degree.*\\[1, {MAX_DEGREE}\\]"):
         model(kernel="poly", degree=2**40).fit(X, y)
-    assert time.perf_counter() - start < 2.0
 
 
 def test_gram_refuses_a_degree_above_the_maximum():
