@@ -118,7 +118,8 @@ class GapResult:
     :class:`svrqp.gap.GapReport`, which adds the renderings and the writer).
 
     The attributes mirror the keys of the ``svrqp.gap/2`` JSON (:meth:`to_dict`); ``series``
-    holds the per-row data the figures draw and is not part of the JSON.
+    holds the per-row data the figures draw and ``pool_p`` the p-values pooled by ``svrqp
+    fleet``; neither is part of the JSON.
     """
 
     target: str
@@ -150,6 +151,9 @@ class GapResult:
     runtime_s: float
     series: Series = field(repr=False)
     order_sorted: list[str] = field(default_factory=list)
+    pool_p: dict[str, float] | None = field(default=None, repr=False)
+    """Every candidate's transfer-test p-value for pooling over records
+    (:mod:`svrqp.gap.transfer.pooling`; ``diagnose(pool=True)`` only): not part of the JSON."""
 
     def to_dict(self) -> dict[str, Any]:
         """The ``svrqp.gap/2`` document as plain Python (validated against the schema)."""
