@@ -234,7 +234,7 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     verdict = replace(verdict, reason=verdict.reason + extrapolation_text(context))
     remaining = [c.column for c in causes[1:] if verdict.column and c.significant
                  and (c.note or "").startswith("carries information beyond")]
-    pooled = pool_p_values(ranker, ranked, seed) if pool else None
+    pooled = pool_p_values(ranker, seed) if pool else None
     return _Findings(context, causes, verdict, errors_after, residual_gate, remaining, pooled)
 
 
