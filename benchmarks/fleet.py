@@ -21,7 +21,7 @@ Four parts, each on fleets of :mod:`svrqp.machine.fleet` (written to a temporary
 
 Run: ``python benchmarks/fleet.py [--parts main,weak,null] [--n 200] [--null-fleets 20] ...``;
 the parts run replace theirs in ``benchmarks/results/fleet.json`` (the others are kept), and
-``fleet.md`` is written from it once it holds all three.
+``fleet.md`` is written from it (a part it lacks is named as missing).
 """
 
 from __future__ import annotations
@@ -231,23 +231,14 @@ def _commands(results: dict) -> str:
     """The command that ran each part (each part may be its own run)."""
     argv = results.get("argv_of", {})
     return "; ".join(f"{part}: `python benchmarks/fleet.py {' '.join(argv[part])}`"
-                     for part in ("main", "weak", "null") if part in argv) or "Recorded"
+                     for part in ("main", "weak", "null") if part in argv) or "Recorded runs"
 
 
-def markdown(results: dict, args) -> str:
-    m, runs, z = results["main"], results["weak"], results["null"]
+def _main_section(m: dict) -> str:
     rows = "\n".join(f"| {r['kind']} | {r['records']} | {r['top1']} | {r['false']} |"
                      for r in m["attribution"])
-    # the pooled table: the weakest strength the pool names the effect at (else the weakest)
-    w = min((r for r in runs if "nut_C" in r["pooled_named"]) or runs, key=lambda r: r["snr"])
     t_record = m["record_s_mean"]
-    big = 10_000 * t_record / 64
-    return f"""# Fleet benchmark (issue #36)
-
-{_commands(results)} on {results['machine']}. Sizes: main fleet {m['n']} records, weak-effect
-fleets {w['n']}, {z['fleets']} null fleets of {z['n']} records.
-
-## Main fleet ({m['n']} records, strength {m['snr']})
+    return f"""## Main fleet ({m['n']} records, strength {m['snr']})
 
 - Per-record answers identical to single `svrqp gap` calls (JSON text equal, `runtime_s` aside):
   **{m['identical']} of {m['compared']}**; the 2-worker Dask run's documents equal the serial
@@ -270,7 +261,13 @@ fleets {w['n']}, {z['fleets']} null fleets of {z['n']} records.
 |---|---|---|---|
 {rows}
 
-## Weak effect ({w['n']} records, nut heating on {w['carriers']} of them)
+"""
+
+
+def _weak_section(runs: list[dict]) -> str:
+    # the pooled table: the weakest strength the pool names the effect at (else the weakest)
+    w = min((r for r in runs if "nut_C" in r["pooled_named"]) or runs, key=lambda r: r["snr"])
+    return f"""## Weak effect ({w['n']} records, nut heating on {w['carriers']} of them)
 
 The same {w['n']} machines (fleet seed {w['seed']}) with the withheld nut heating at each
 strength: how many carriers their own diagnosis tests for it (its transfer gain above the
@@ -290,7 +287,11 @@ At strength {w['snr']}: {w['pooled_summary']}
 |---|---|---|---|---|---|---|---|
 {_pooled_rows(w)}
 
-## Null fleets
+"""
+
+
+def _null_section(z: dict, runs: list[dict], workers) -> str:
+    return f"""## Null fleets
 
 The pooled evidence names a candidate in **{z['fleets_naming']} of {z['fleets']}** fleets where
 nothing is withheld ({z['n']} records each, 10 % with a faulty `coolant_C`); Wilkinson's count
@@ -305,10 +306,16 @@ Fisher term −2 ln p averages at most 2): at or below 0.01, 0.05, 0.1, 0.5 in
 effect floor (5 %, `svrqp.gap.contract`); in the fleet each record also tests every other
 candidate, after its diagnosis and on its own surrogate stream (`svrqp.gap.transfer.pooling`;
 its JSON unchanged), and the pool combines those p-values. Times: weak-effect fleets
-{', '.join(f"{r['seconds']:.0f} s" for r in runs)} (drawing included), null fleets
-{z['seconds']:.0f} s in all, with {results.get('workers', '?')} workers.
+{', '.join(f"{r['seconds']:.0f} s" for r in runs) or 'not recorded'} (drawing included), null
+fleets {z['seconds']:.0f} s in all, with {workers} workers.
 
-## Time model
+"""
+
+
+def _time_section(m: dict) -> str:
+    t_record = m["record_s_mean"]
+    big = 10_000 * t_record / 64
+    return f"""## Time model
 
 `T(n, w) ≈ t0(w) + n · t_record / (w · e)`: `t0` the start (Python and svrqp's imports; for
 Dask also the local cluster's processes), `t_record` = {t_record:.2f} s per record here (read,
@@ -318,6 +325,29 @@ over all was {m['speedup'] / 2:.2f}. 10,000 such records on a 64-core cluster at
 would take about {big / 0.9 / 60:.0f} min, plus the cluster's start; the parent holds only the
 fleet table's rows (one small dict per record) and at most two records per worker in flight.
 """
+
+
+def _missing(part: str) -> str:
+    return (f"## {part.capitalize()}\n\nNot in this record (or recorded in an older format): "
+            f"`python benchmarks/fleet.py --parts {part}` adds it.\n\n")
+
+
+def markdown(results: dict, args) -> str:
+    """fleet.md from the recorded parts (a part not recorded, or recorded by an older version of
+    this script, is named as missing)."""
+    m, runs, z = results.get("main"), results.get("weak"), results.get("null")
+    runs = runs if isinstance(runs, list) and runs else None
+    z = z if isinstance(z, dict) and "p_share" in z else None
+    sizes = [f"main fleet {m['n']} records" if m else None,
+             f"weak-effect fleets {runs[0]['n']} records" if runs else None,
+             f"{z['fleets']} null fleets of {z['n']} records" if z else None]
+    text = (f"# Fleet benchmark (issue #36)\n\n{_commands(results)} on {results['machine']}. "
+            f"Sizes: {', '.join(x for x in sizes if x)}.\n\n")
+    text += _main_section(m) if m else _missing("main")
+    text += _weak_section(runs) if runs else _missing("weak")
+    text += (_null_section(z, runs or [], results.get("workers", "?")) if z
+             else _missing("null"))
+    return text + (_time_section(m) if m else "")
 
 
 def main() -> None:
@@ -354,8 +384,7 @@ def main() -> None:
                 print(json.dumps(results[part], default=str)[:400], flush=True)
     RESULTS.mkdir(exist_ok=True)
     path.write_text(json.dumps(results, indent=2, default=str) + "\n")
-    if {"main", "weak", "null"} <= set(results):
-        (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
+    (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
 
 
 if __name__ == "__main__":
