@@ -11,15 +11,17 @@ Four parts, each on fleets of :mod:`svrqp.machine.fleet` (written to a temporary
    but for ``runtime_s``. Per-record top-1 (the verdict names the truth column) and false
    attribution (a verdict naming another column, or any column on a record with nothing
    withheld or a faulty sensor), per kind.
-2. **Weak effect** (``--weak-n`` records, 30 % carrying the nut heating at ``--weak-snr``, too
-   weak for a record alone): how often a single record names it, and what the pooled evidence
-   names.
+2. **Weak effect** (``--weak-n`` records, 30 % carrying the nut heating at each strength of
+   ``--weak-snr``, the same machines at each): how often a single record tests and names it, and
+   what the pooled evidence (every record's transfer test, below the effect floor too) names.
 3. **Null fleets** (``--null-fleets`` fleets of ``--null-n`` records, nothing withheld, 10 % a
-   faulty sensor): how many the pooled evidence names anything in.
+   faulty sensor): how many the pooled evidence names anything in, and the distribution of
+   their records' pooled p-values.
 4. The time model: ``T(n, w) = t0(w) + n * t_record / (w * e)``, from the measured runs.
 
-Run: ``python benchmarks/fleet.py [--n 200] [--null-fleets 20] ...``; it writes
-``benchmarks/results/fleet.md`` and ``fleet.json``.
+Run: ``python benchmarks/fleet.py [--parts main,weak,null] [--n 200] [--null-fleets 20] ...``;
+the parts run replace theirs in ``benchmarks/results/fleet.json`` (the others are kept), and
+``fleet.md`` is written from it (a part it lacks is named as missing).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from svrqp.fleet import Execution, pool, read_records, run_fleet
@@ -149,75 +152,93 @@ def run_in_process(manifest: Path, out: Path, workers: int):
     return run_fleet(read_records(manifest), {}, out, execution=execution)
 
 
-def weak_fleet(args, root: Path) -> dict:
-    design = FleetDesign(n=args.weak_n, seed=args.seed + 1, snr={"nut": args.weak_snr},
+def weak_fleet(args, root: Path, snr: float) -> dict:
+    """One weak-effect fleet: the nut heating on 30 % of the machines at strength ``snr``."""
+    start = time.perf_counter()
+    design = FleetDesign(n=args.weak_n, seed=args.seed + 1, snr={"nut": snr},
                          shares={"nut": 0.3, "faulty": 0.1, "none": 0.6})
-    manifest = draw(root / "weak", design)
-    result = run_in_process(manifest, root / "weak_out", args.workers)
-    truth = pd.read_csv(root / "weak" / "truth.csv")
+    manifest = draw(root / f"weak{snr}", design)
+    result = run_in_process(manifest, root / f"weak{snr}_out", args.workers)
+    truth = pd.read_csv(root / f"weak{snr}" / "truth.csv")
     carriers = set(truth.loc[truth["kind"] == "nut", "name"])
     table = result.table.set_index("name")
     named_alone = int((table.loc[sorted(carriers), "verdict_column"] == "nut_C").sum())
+    nut = result.tests[result.tests["column"] == "nut_C"].set_index("name")
     pooled_carriers = set(result.pooled.carriers.get("nut_C", []))
-    return {"n": args.weak_n, "snr": args.weak_snr, "seed": args.seed + 1,
-            "carriers": len(carriers),
-            "named_alone": named_alone, "pooled_named": result.pooled.named,
-            "pooled_summary": result.pooled.summary(),
-            "fisher_named": pool(result.tests, "fisher").named,
+    other = pool(result.tests, "wilkinson")
+    return {"n": args.weak_n, "snr": snr, "seed": args.seed + 1, "carriers": len(carriers),
+            "named_alone": named_alone,
+            "tested_alone": int(nut.loc[sorted(carriers), "tested"].sum()),
+            "carrier_p_median": float(nut.loc[sorted(carriers), "p_pool"].median()),
+            "pooled_named": result.pooled.named, "pooled_summary": result.pooled.summary(),
+            "wilkinson_named": other.named,
             "pooled_carriers_true": len(pooled_carriers & carriers),
             "pooled_carriers_false": len(pooled_carriers - carriers),
-            "pooled": result.pooled.table.to_dict("records")}
+            "pooled": result.pooled.table.to_dict("records"),
+            "seconds": time.perf_counter() - start}
+
+
+def weak_fleets(args, root: Path) -> list[dict]:
+    runs = []
+    for snr in (float(x) for x in args.weak_snr.split(",")):
+        runs.append(weak_fleet(args, root, snr))
+        print(f"weak {snr}: alone {runs[-1]['named_alone']}, pooled {runs[-1]['pooled_named']}",
+              flush=True)
+    return runs
 
 
 def null_fleets(args, root: Path) -> dict:
-    named, fisher_named, records_naming = [], [], []
+    """``--null-fleets`` fleets with nothing withheld: what the pool names, and how the pooled
+    p-values of their records are distributed (valid: at most a share u at or below u)."""
+    start = time.perf_counter()
+    named, other_named, records_naming, p_values = [], [], [], []
     for k in range(args.null_fleets):
         design = FleetDesign(n=args.null_n, seed=1000 + k, shares={"faulty": 0.1, "none": 0.9})
         manifest = draw(root / f"null{k}", design)
         result = run_in_process(manifest, root / f"null{k}_out", args.workers)
         named.append(result.pooled.named)
-        fisher_named.append(pool(result.tests, "fisher").named)
+        other_named.append(pool(result.tests, "wilkinson").named)
         single = int((result.table["verdict_column"].fillna("") != "").sum())
         records_naming.append(single)
-        print(f"null fleet {k}: pooled names {result.pooled.named}, {single} records name one",
-              flush=True)
+        p_values += result.tests["p_pool"].tolist()
+        print(f"null fleet {k}: pooled names {result.pooled.named}, {single} records name one, "
+              f"smallest q {result.pooled.table['q_value'].min():.3g}", flush=True)
+    p = pd.Series(p_values)
     return {"fleets": args.null_fleets, "n": args.null_n,
             "fleets_naming": sum(bool(x) for x in named), "named": named,
-            "fisher_naming": sum(bool(x) for x in fisher_named),
-            "records_naming": sum(records_naming)}
+            "wilkinson_naming": sum(bool(x) for x in other_named),
+            "records_naming": sum(records_naming), "p_tests": len(p),
+            "p_share": {str(u): float((p <= u).mean()) for u in (0.01, 0.05, 0.1, 0.5)},
+            "mean_fisher_term": float((-2 * np.log(p)).mean()),
+            "seconds": time.perf_counter() - start}
 
 
-def _more_weak(runs: list[dict]) -> str:
-    """One paragraph per further weak-effect run (``--parts weak --json-name …``, merged by
-    ``--render --merge-weak FILE``)."""
-    lines = [] if not runs else [
-        "Further weak-effect fleets, each its own run (`python benchmarks/fleet.py --parts weak "
-        "--weak-snr S --seed K --json-name fleet_weakNNN.json`; the fleet's seed is K + 1):"]
-    for w in runs:
-        lines.append(f"A further weak-effect fleet ({w['n']} records, {w['carriers']} carriers, "
-                     f"strength {w['snr']}, seed {w.get('seed', '?')}): a single record names "
-                     f"it on **{w['named_alone']} of {w['carriers']}** carriers. "
-                     f"{w['pooled_summary']} Fisher's rule would name "
-                     f"{w['fisher_named'] or 'nothing'}.")
-    return "\n\n".join(lines) + ("\n" if lines else "")
+def _weak_rows(runs: list[dict]) -> str:
+    return "\n".join(
+        f"| {w['snr']} | {w['carriers']} | {w['tested_alone']} | **{w['named_alone']}** | "
+        f"{w['carrier_p_median']:.3g} | {', '.join(w['pooled_named']) or 'nothing'} | "
+        f"{w['pooled_carriers_true']} / {w['pooled_carriers_false']} | "
+        f"{', '.join(w['wilkinson_named']) or 'nothing'} |" for w in runs)
 
 
-def markdown(results: dict, args) -> str:
-    m, w, z = results["main"], results["weak"], results["null"]
+def _pooled_rows(w: dict) -> str:
+    return "\n".join(f"| {r['column']} | {r['records']} | {r['tested']} | {r['carriers']} | "
+                     f"{r['p_fisher']:.3g} | {r['p_wilkinson']:.3g} | {r['q_value']:.3g} | "
+                     f"{r['named']} |" for r in w["pooled"])
+
+
+def _commands(results: dict) -> str:
+    """The command that ran each part (each part may be its own run)."""
+    argv = results.get("argv_of", {})
+    return "; ".join(f"{part}: `python benchmarks/fleet.py {' '.join(argv[part])}`"
+                     for part in ("main", "weak", "null") if part in argv) or "Recorded runs"
+
+
+def _main_section(m: dict) -> str:
     rows = "\n".join(f"| {r['kind']} | {r['records']} | {r['top1']} | {r['false']} |"
                      for r in m["attribution"])
-    pooled = "\n".join(f"| {r['column']} | {r['records']} | {r['tested']} | {r['carriers']} | "
-                       f"{r['p_wilkinson']:.3g} | {r['p_fisher']:.3g} | {r['q_value']:.3g} | "
-                       f"{r['named']} |" for r in w["pooled"])
     t_record = m["record_s_mean"]
-    big = 10_000 * t_record / 64
-    return f"""# Fleet benchmark (issue #36)
-
-`python benchmarks/fleet.py {' '.join(results.get('argv', []))}` on {results['machine']}
-(shared with other work while it ran: wall times carry that load). Sizes: main fleet
-{m['n']} records, weak-effect fleet {w['n']}, {z['fleets']} null fleets of {z['n']} records.
-
-## Main fleet ({m['n']} records, strength {m['snr']})
+    return f"""## Main fleet ({m['n']} records, strength {m['snr']})
 
 - Per-record answers identical to single `svrqp gap` calls (JSON text equal, `runtime_s` aside):
   **{m['identical']} of {m['compared']}**; the 2-worker Dask run's documents equal the serial
@@ -240,32 +261,61 @@ def markdown(results: dict, args) -> str:
 |---|---|---|---|
 {rows}
 
-## Weak effect ({w['n']} records, nut heating on {w['carriers']} of them at strength {w['snr']})
+"""
 
-A single record names it on **{w['named_alone']} of {w['carriers']}** carriers.
-{w['pooled_summary']} Carriers it lists: {w['pooled_carriers_true']} true,
-{w['pooled_carriers_false']} not carrying the effect. Fisher's rule would name:
-{w['fisher_named'] or 'nothing'}.
 
-| candidate | records | tested | p <= 0.05 | p (Wilkinson) | p (Fisher) | q (BH) | named |
+def _weak_section(runs: list[dict]) -> str:
+    # the pooled table: the weakest strength the pool names the effect at (else the weakest)
+    w = min((r for r in runs if "nut_C" in r["pooled_named"]) or runs, key=lambda r: r["snr"])
+    return f"""## Weak effect ({w['n']} records, nut heating on {w['carriers']} of them)
+
+The same {w['n']} machines (fleet seed {w['seed']}) with the withheld nut heating at each
+strength: how many carriers their own diagnosis tests for it (its transfer gain above the
+effect floor) and names, the median of the carriers' pooled p-values (`p_pool`), what the
+pooled evidence names (Fisher over every record's transfer test, below the floor too; BH over
+the candidates), the records it lists as carriers (true / not carrying it), and what
+Wilkinson's count of the same p-values would name.
+
+| strength | carriers | tested alone | named alone | carriers' median p | pooled (Fisher) \
+names | listed true / false | Wilkinson names |
 |---|---|---|---|---|---|---|---|
-{pooled}
+{_weak_rows(runs)}
 
-{_more_weak(results.get('weak_more', []))}
-## Null fleets
+At strength {w['snr']}: {w['pooled_summary']}
+
+| candidate | records | tested alone | p <= 0.05 | p (Fisher) | p (Wilkinson) | q (BH) | named |
+|---|---|---|---|---|---|---|---|
+{_pooled_rows(w)}
+
+"""
+
+
+def _null_section(z: dict, runs: list[dict], workers) -> str:
+    return f"""## Null fleets
 
 The pooled evidence names a candidate in **{z['fleets_naming']} of {z['fleets']}** fleets where
-nothing is withheld ({z['n']} records each, 10 % with a faulty `coolant_C`); with Fisher's rule
-instead, in {z['fisher_naming']} of {z['fleets']}. Single records name a cause on
-{z.get('records_naming', '?')} of the {z['fleets'] * z['n']} null records.
+nothing is withheld ({z['n']} records each, 10 % with a faulty `coolant_C`); Wilkinson's count
+instead, in {z['wilkinson_naming']} of {z['fleets']}. Single records name a cause on
+{z['records_naming']} of the {z['fleets'] * z['n']} null records. The pooled p-values of those
+records' {z['p_tests']} tests (a valid p-value is at or below u at most a share u of the time; its
+Fisher term −2 ln p averages at most 2): at or below 0.01, 0.05, 0.1, 0.5 in
+{', '.join(f"{v:.3f}" for v in z['p_share'].values())} of them; mean −2 ln p
+{z['mean_fisher_term']:.2f}.
 
-**The limit.** The pooled evidence counts the records' own transfer tests, and a record runs
-no test of a column whose transfer gain stays below the effect floor (5 %,
-`svrqp.gap.contract`): such a record enters with p = 1. Where the effect is so weak that nearly
-no record clears the floor (strength 0.15 above: the nut's column tested on few records), there
-is nothing to count and the fleet names nothing, rightly at its level but without power.
+**Below the floor.** A record tests by transfer only the columns whose transfer gain clears the
+effect floor (5 %, `svrqp.gap.contract`); in the fleet each record also tests every other
+candidate, after its diagnosis and on its own surrogate stream (`svrqp.gap.transfer.pooling`;
+its JSON unchanged), and the pool combines those p-values. Times: weak-effect fleets
+{', '.join(f"{r['seconds']:.0f} s" for r in runs) or 'not recorded'} (drawing included), null
+fleets {z['seconds']:.0f} s in all, with {workers} workers.
 
-## Time model
+"""
+
+
+def _time_section(m: dict) -> str:
+    t_record = m["record_s_mean"]
+    big = 10_000 * t_record / 64
+    return f"""## Time model
 
 `T(n, w) ≈ t0(w) + n · t_record / (w · e)`: `t0` the start (Python and svrqp's imports; for
 Dask also the local cluster's processes), `t_record` = {t_record:.2f} s per record here (read,
@@ -277,43 +327,64 @@ fleet table's rows (one small dict per record) and at most two records per worke
 """
 
 
+def _missing(part: str) -> str:
+    return (f"## {part.capitalize()}\n\nNot in this record (or recorded in an older format): "
+            f"`python benchmarks/fleet.py --parts {part}` adds it.\n\n")
+
+
+def markdown(results: dict, args) -> str:
+    """fleet.md from the recorded parts (a part not recorded, or recorded by an older version of
+    this script, is named as missing)."""
+    m, runs, z = results.get("main"), results.get("weak"), results.get("null")
+    runs = runs if isinstance(runs, list) and runs else None
+    z = z if isinstance(z, dict) and "p_share" in z else None
+    sizes = [f"main fleet {m['n']} records" if m else None,
+             f"weak-effect fleets {runs[0]['n']} records" if runs else None,
+             f"{z['fleets']} null fleets of {z['n']} records" if z else None]
+    text = (f"# Fleet benchmark (issue #36)\n\n{_commands(results)} on {results['machine']}. "
+            f"Sizes: {', '.join(x for x in sizes if x)}.\n\n")
+    text += _main_section(m) if m else _missing("main")
+    text += _weak_section(runs) if runs else _missing("weak")
+    text += (_null_section(z, runs or [], results.get("workers", "?")) if z
+             else _missing("null"))
+    return text + (_time_section(m) if m else "")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=200)
     parser.add_argument("--snr", type=float, default=2.0)
     parser.add_argument("--weak-n", type=int, default=200)
-    parser.add_argument("--weak-snr", type=float, default=0.2)
+    parser.add_argument("--weak-snr", default="0.2,0.1,0.05",
+                        help="comma-separated strengths of the weak-effect fleets")
     parser.add_argument("--null-fleets", type=int, default=20)
     parser.add_argument("--null-n", type=int, default=30)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--parts", default="main,weak,null")
     parser.add_argument("--json-name", default="fleet.json",
-                        help="file of benchmarks/results/ the numbers go to")
-    parser.add_argument("--merge-weak", nargs="*", default=[],
-                        help="with --render: files of further weak-effect runs to add")
+                        help="file of benchmarks/results/ the numbers go to: the parts run "
+                             "replace theirs, the others are kept")
     parser.add_argument("--render", action="store_true",
-                        help="only write fleet.md again from the recorded fleet.json")
+                        help="only write fleet.md again from the recorded --json-name")
     args = parser.parse_args()
+    path = RESULTS / args.json_name
+    results: dict = json.loads(path.read_text()) if path.is_file() else {}
     if args.render:
-        results = json.loads((RESULTS / "fleet.json").read_text())
-        for name in args.merge_weak:
-            results.setdefault("weak_more", []).append(
-                json.loads((RESULTS / name).read_text())["weak"])
         (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
         return
-    results: dict = {"machine": f"{os.cpu_count()} cores", "argv": sys.argv[1:]}
+    results.update(machine=f"{os.cpu_count()} cores", workers=args.workers)
     with tempfile.TemporaryDirectory(prefix="svrqp-fleet-") as folder:
         root = Path(folder)
-        for part, function in (("main", main_fleet), ("weak", weak_fleet),
+        for part, function in (("main", main_fleet), ("weak", weak_fleets),
                                ("null", null_fleets)):
             if part in args.parts.split(","):
                 results[part] = function(args, root)
+                results.setdefault("argv_of", {})[part] = sys.argv[1:]
                 print(json.dumps(results[part], default=str)[:400], flush=True)
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / args.json_name).write_text(json.dumps(results, indent=2, default=str) + "\n")
-    if {"main", "weak", "null"} <= set(results):
-        (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
+    path.write_text(json.dumps(results, indent=2, default=str) + "\n")
+    (RESULTS / "fleet.md").write_text(markdown(results, args), encoding="utf-8")
 
 
 if __name__ == "__main__":

@@ -1,37 +1,34 @@
 r"""Pooled evidence: what no single record can show, from the transfer tests of many.
 
-Each record's diagnosis tests each of its candidates by transfer (:mod:`svrqp.gap.transfer`):
-``p_raw`` of its ``causes``, the surrogate test's p-value before the record's own
-false-discovery control. A record that did not test the column (its transfer gain below the
-effect floor of :mod:`svrqp.gap.contract`) enters with :math:`p = 1`: each :math:`p_{k,c}` is
-then at least as large as a valid p-value, so both rules below keep their level however many
-records leave a column untested. For a candidate :math:`c` listed by :math:`K_c` records
-(independent machines), the null is "no record carries :math:`c`", and the rule is one of:
+Each record's diagnosis tests its candidates by transfer (:mod:`svrqp.gap.transfer`), but only
+those whose transfer gain clears the effect floor (:mod:`svrqp.gap.contract`): below it an
+effect is too small to *name* on one record. A fleet's record also gives, for every candidate,
+``p_pool`` (:mod:`svrqp.gap.transfer.pooling`): the record's own test's ``p_raw`` where it
+tested the column, else the same test drawn on its own surrogate stream after the diagnosis
+(the record's answer unchanged). Each :math:`p_{k,c}` is a valid p-value of "record :math:`k`
+does not carry :math:`c`", below the floor too. For a candidate :math:`c` listed by :math:`K_c`
+records (independent machines), the null is "no record carries :math:`c`", and the rule is:
 
-``wilkinson`` (the default): the **count** of records whose own test rejects at level
-:data:`ALPHA`, :math:`N_c = \#\{k : p_{k,c} \le \alpha\}`. Under the null each record rejects
-with probability at most :math:`\alpha`, so :math:`N_c` is stochastically no larger than a
-binomial, and
+``fisher`` (the default): :math:`X_c = -2 \sum_k \ln p_{k,c}`,
+:math:`p_c = P(\chi^2_{2K_c} \ge X_c)` (Fisher's method). It adds every record's evidence,
+however weak: an effect that moves each carrier's p-value only a little, on many carriers, adds
+up. The Monte-Carlo p-values are at least as large as uniform ones under the null, so
+:math:`X_c` is at most a :math:`\chi^2_{2K_c}` and the rule keeps its level.
 
-.. math::
-
-   p_c = P\big(\mathrm{Bin}(K_c, \alpha) \ge N_c\big)
-
-(Wilkinson's method). It answers the fleet's question — does the effect *recur*, on more
-machines than chance would give? — and neither one strong record nor the untested records
-(which only lower :math:`N_c`) move it much.
-
-``fisher``: :math:`X_c = -2 \sum_k \ln p_{k,c}`, :math:`p_c = P(\chi^2_{2K_c} \ge X_c)`. It
-weighs how small each p-value is, so one record with a strong effect can carry it (its null
-is the same, its answer "at least one machine"), and every untested record, entering with
-:math:`p = 1`, adds degrees of freedom and nothing to :math:`X_c`: on effects that few records
-test it is the weaker rule.
+``wilkinson``: the **count** of records whose test rejects at level :data:`ALPHA`,
+:math:`N_c = \#\{k : p_{k,c} \le \alpha\}`, against the binomial,
+:math:`p_c = P\big(\mathrm{Bin}(K_c, \alpha) \ge N_c\big)` (Wilkinson's method): it asks
+whether the effect is *significant* on more machines than chance would give, and ignores the
+p-values between :math:`\alpha` and 1, so it needs an effect a record's test can reject.
 
 The pooled p-values of all candidates are adjusted by **Benjamini–Hochberg** (false discovery
 rate :data:`ALPHA` over the candidates) and the fleet names every candidate whose q-value is
-below it, best first. The records that *carry* a named candidate are those whose own test of it
-is at :math:`p \le \alpha` (about :math:`\alpha K_c` of them by chance alone): the machines to
-look at first. Both p-values are in the pooled table (``p_wilkinson``, ``p_fisher``).
+below it, best first. The records that *carry* a named candidate are those whose own
+:math:`p_{k,c} \le \alpha` (about :math:`\alpha K_c` of them by chance alone): the machines to
+look at first; below the floor a carrier's p-value is often above :math:`\alpha`, so the pooled
+verdict can name an effect on more machines than it lists. Both p-values are in the pooled
+table (``p_fisher``, ``p_wilkinson``), with ``tested``, the records whose own diagnosis tested
+the column.
 """
 
 from __future__ import annotations
@@ -46,10 +43,11 @@ from svrqp.exceptions import ProblemError
 
 #: The false-discovery rate over candidates, the same level as a record's own (DESIGN §4).
 ALPHA = 0.05
-#: The combination rules over records (:func:`pool`'s ``method``).
-METHODS = ("wilkinson", "fisher")
-RULES = {"wilkinson": "Wilkinson's count over records, Benjamini-Hochberg over candidates",
-         "fisher": "Fisher over records, Benjamini-Hochberg over candidates"}
+#: The combination rules over records (:func:`pool`'s ``method``), the default first.
+METHODS = ("fisher", "wilkinson")
+RULES = {"fisher": "Fisher over records' transfer tests, below the effect floor too; "
+                   "Benjamini-Hochberg over candidates",
+         "wilkinson": "Wilkinson's count over records, Benjamini-Hochberg over candidates"}
 
 
 @dataclass(frozen=True)
@@ -59,7 +57,7 @@ class PooledVerdict:
     table: pd.DataFrame
     named: list[str] = field(default_factory=list)
     carriers: dict[str, list[str]] = field(default_factory=dict)
-    rule: str = RULES["wilkinson"]
+    rule: str = RULES["fisher"]
 
     def summary(self) -> str:
         """One sentence: what the fleet names, on how many records."""
@@ -102,12 +100,12 @@ def benjamini_hochberg(p_values: np.ndarray) -> np.ndarray:
     return out
 
 
-def pool(tests: pd.DataFrame, method: str = "wilkinson") -> PooledVerdict:
+def pool(tests: pd.DataFrame, method: str = "fisher") -> PooledVerdict:
     """The fleet's pooled verdict from the per-record tests (:func:`svrqp.fleet.table.tests_of`).
 
-    ``tests`` has one row per record and candidate: ``name``, ``column``, ``tested``, ``p_raw``
-    (1 where not tested) and ``gain``. ``method`` is one of :data:`METHODS`; its p-value is
-    ``p_pooled``, the one adjusted over candidates.
+    ``tests`` has one row per record and candidate: ``name``, ``column``, ``tested``, ``gain``
+    and ``p_pool`` (without it, ``p_raw``: 1 where the record did not test the column). ``method``
+    is one of :data:`METHODS`; its p-value is ``p_pooled``, the one adjusted over candidates.
     """
     if method not in METHODS:
         raise ProblemError(f"pooled evidence: method must be one of {', '.join(METHODS)}, got "
@@ -116,9 +114,10 @@ def pool(tests: pd.DataFrame, method: str = "wilkinson") -> PooledVerdict:
                "p_fisher", "p_pooled", "q_value", "named"]
     if tests.empty:
         return PooledVerdict(pd.DataFrame(columns=columns), rule=RULES[method])
+    p_column = "p_pool" if "p_pool" in tests.columns else "p_raw"
     rows = []
     for column, part in tests.groupby("column", sort=True):
-        p = part["p_raw"].to_numpy(float)
+        p = part[p_column].to_numpy(float)
         rows.append({"column": column, "records": len(part), "tested": int(part["tested"].sum()),
                      "carriers": int((p <= ALPHA).sum()),
                      "median_gain": float(part["gain"].median()), "p_wilkinson": wilkinson(p),
@@ -130,6 +129,6 @@ def pool(tests: pd.DataFrame, method: str = "wilkinson") -> PooledVerdict:
     table = table.sort_values(["q_value", "p_pooled", "column"], kind="stable")
     table = table.reset_index(drop=True)[columns]
     named = table.loc[table["named"], "column"].tolist()
-    carriers = {c: sorted(tests.loc[(tests["column"] == c) & (tests["p_raw"] <= ALPHA),
+    carriers = {c: sorted(tests.loc[(tests["column"] == c) & (tests[p_column] <= ALPHA),
                                     "name"].tolist()) for c in named}
     return PooledVerdict(table, named, carriers, RULES[method])

@@ -123,10 +123,14 @@ def question_for(table: pd.DataFrame, options: GapOptions) -> GapQuestion:
 
 
 def diagnose_table(table: pd.DataFrame, options: GapOptions,
-                   progress: Callable[[str, float], None] | None = None) -> GapReport:
-    """The diagnosis ``svrqp gap`` makes of ``table`` with ``options``."""
+                   progress: Callable[[str, float], None] | None = None,
+                   pool: bool = False) -> GapReport:
+    """The diagnosis ``svrqp gap`` makes of ``table`` with ``options``; with ``pool`` (a fleet's
+    record), also every candidate's transfer-test p-value, ``report.pool_p``
+    (:mod:`svrqp.gap.transfer.pooling`: after the diagnosis, on its own stream, the JSON
+    unchanged)."""
     from svrqp.gap import diagnose
 
     return diagnose(table, question_for(table, options), seed=options.seed,
                     surrogates=options.surrogates, n_jobs=options.jobs,
-                    within_evidence=options.within_evidence, progress=progress)
+                    within_evidence=options.within_evidence, progress=progress, pool=pool)

@@ -3,9 +3,11 @@
 :func:`run_record` is what runs on a worker: it reads one record, diagnoses it through
 :func:`svrqp.fleet.record.diagnose_table` (the code path of ``svrqp gap``), writes
 ``records/NAME.json`` exactly as ``svrqp gap --json`` would, then the stamp
-``records/NAME.fleet.json`` (the input's SHA-256, the settings, the runtime). A record whose
-JSON and stamp are both there with the same checksum and settings is not diagnosed again
-(``resume``). Any error of one record is caught and becomes its row's reason; the others go on.
+``records/NAME.fleet.json`` (the input's SHA-256, the settings, the runtime, and ``pool``: every
+candidate's transfer-test p-value for the pooled evidence, :mod:`svrqp.gap.transfer.pooling`,
+which the gap JSON does not carry). A record whose JSON and stamp are both there with the same
+checksum and settings is not diagnosed again (``resume``). Any error of one record is caught
+and becomes its row's reason; the others go on.
 Every file is written to a temporary name and renamed (:mod:`svrqp.output`): a stopped run
 leaves whole files or none.
 
@@ -30,6 +32,15 @@ from svrqp.fleet.table import failed_row, row_of, tests_of
 
 RECORDS = "records"
 STAMP_SUFFIX = ".fleet.json"
+#: Dask settings of the local cluster's workers, which differ from Dask's defaults because a
+#: record is many small numpy allocations and a second of pure computation: Dask's nannies start
+#: workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which in glibc also fixes the mmap threshold at
+#: 128 KiB, so every larger array is a fresh mmap (ten times the page faults of a plain process,
+#: and 10-30 % more time per record); and Dask's statistical profiler samples the running thread
+#: every 10 ms. With both, a record took about 1.5 times its serial time on a worker; the
+#: nannies' thread caps (one BLAS/OpenMP thread per worker) are kept.
+LOCAL_CLUSTER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                        "distributed.worker.profile.enabled": False}
 
 
 @dataclass(frozen=True)
@@ -62,7 +73,7 @@ def _resumed(json_path: Path, stamp_path: Path, stamp: dict[str, Any]) -> dict |
     except (OSError, ValueError):
         return None
     same = all(earlier.get(key) == value for key, value in stamp.items())
-    return earlier if same else None
+    return earlier if same and isinstance(earlier.get("pool"), dict) else None
 
 
 def run_record(record: Record, options: GapOptions, out: Path, resume: bool = True) -> Outcome:
@@ -81,17 +92,18 @@ def run_record(record: Record, options: GapOptions, out: Path, resume: bool = Tr
             document = json.loads(json_path.read_text(encoding="utf-8"))
             return Outcome(row_of(record.name, record.path, document, status="resumed",
                                   runtime_s=earlier["runtime_s"], sha256=sha256),
-                           tests_of(record.name, document))
-        report = diagnose_table(read_table(record.path), options)
+                           tests_of(record.name, document, earlier["pool"]))
+        report = diagnose_table(read_table(record.path), options, pool=True)
         stamp_path.unlink(missing_ok=True)  # no stamp ever vouches for a stale JSON
         report.write_json(json_path, force=True)  # the fleet's own folder: a rerun replaces it
         runtime_s = time.perf_counter() - start
-        output.write_text(stamp_path, json.dumps(stamp | {"runtime_s": runtime_s}, indent=2),
-                          force=True)
+        pool = report.pool_p or {}
+        output.write_text(stamp_path, json.dumps(stamp | {"runtime_s": runtime_s, "pool": pool},
+                                                 indent=2), force=True)
         document = report.to_dict()
         return Outcome(row_of(record.name, record.path, document, status="ok",
                               runtime_s=runtime_s, sha256=sha256),
-                       tests_of(record.name, document))
+                       tests_of(record.name, document, pool))
     except Exception as err:  # noqa: BLE001  (a record's failure is its row's reason)
         reason = f"{type(err).__name__}: {err}"
         return Outcome(failed_row(record.name, record.path, reason,
@@ -135,8 +147,11 @@ def _on_dask(jobs: Iterable[Job], out: Path, execution: Execution,
 
     cluster = None
     if execution.scheduler is None:
-        cluster = LocalCluster(n_workers=execution.workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        import dask
+
+        with dask.config.set(LOCAL_CLUSTER_CONFIG):
+            cluster = LocalCluster(n_workers=execution.workers, threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
     client = Client(cluster if cluster is not None else execution.scheduler)
     try:
         window = 2 * max(len(client.scheduler_info()["workers"]), 1)

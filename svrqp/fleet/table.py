@@ -12,8 +12,10 @@ target, named μm here as for the simulated fleets and the embedded data.
 
 The test table has one row per record and candidate: ``name``, ``column``, ``transform`` (the
 column's best-transferring form), ``gain`` (its transfer gain), ``tested`` and ``p_raw`` (the
-transfer test's p-value before the record's own false-discovery control; 1 when the column was
-not tested, which only ever makes a pooled p-value larger).
+record's own transfer test's p-value before its false-discovery control; 1 when the record did
+not test the column, below the effect floor), and ``p_pool``: the transfer test's p-value for
+every candidate, the record's own where it tested the column, else the same test drawn for the
+fleet on its own stream (:mod:`svrqp.gap.transfer.pooling`); the pooled evidence combines it.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ ROW_COLUMNS = ("name", "path", "status", "reason", "n_rows", "n_real", "gap_dete
                "train_rmse_um", "real_rmse_um", "gap_ratio", "verdict_column",
                "verdict_transform", "shrink", "shrink_low", "shrink_high", "extrapolated",
                "runtime_s", "sha256")
-TEST_COLUMNS = ("name", "column", "transform", "gain", "tested", "p_raw")
+TEST_COLUMNS = ("name", "column", "transform", "gain", "tested", "p_raw", "p_pool")
 
 
 def row_of(name: str, path: Path, document: dict[str, Any], *, status: str, runtime_s: float,
@@ -55,17 +57,21 @@ def failed_row(name: str, path: Path, reason: str, runtime_s: float) -> dict[str
     return row
 
 
-def tests_of(name: str, document: dict[str, Any]) -> list[dict[str, Any]]:
-    """The per-candidate transfer tests of a record (its ``causes``), one row per column."""
+def tests_of(name: str, document: dict[str, Any],
+             pool: dict[str, float] | None = None) -> list[dict[str, Any]]:
+    """The per-candidate transfer tests of a record (its ``causes``), one row per column, with
+    ``pool`` (column -> p-value, :mod:`svrqp.gap.transfer.pooling`) as ``p_pool``; a column it
+    lacks counts as ``p_raw``."""
     rows, seen = [], set()
     for cause in document["causes"]:
         if cause["column"] in seen or cause.get("region") is not None:
             continue  # one test per column: its best global form (local windows stay apart)
         seen.add(cause["column"])
         tested = bool(cause["tested"]) and cause["p_raw"] is not None
+        p_raw = float(cause["p_raw"]) if tested else 1.0
         rows.append({"name": name, "column": cause["column"], "transform": cause["transform"],
-                     "gain": cause["gain"], "tested": tested,
-                     "p_raw": float(cause["p_raw"]) if tested else 1.0})
+                     "gain": cause["gain"], "tested": tested, "p_raw": p_raw,
+                     "p_pool": float((pool or {}).get(cause["column"], p_raw))})
     return rows
 
 

@@ -30,6 +30,11 @@
    the transfer shrink (leading with extrapolation when a model input is used outside its train
    range and the refit removes most of the gap), the reasoning in ``verdict.reason``, and every
    model input and candidate against its train range (:mod:`svrqp.gap.model`).
+
+With ``pool=True`` (``svrqp fleet``), after all of that, every candidate the record did not test
+is tested on its own surrogate stream (:mod:`svrqp.gap.transfer.pooling`): the p-values are the
+report's :attr:`~svrqp.gap.results.document.GapResult.pool_p`, for evidence pooled over records,
+and never enter the record's causes, verdict or JSON.
 """
 
 from __future__ import annotations
@@ -61,6 +66,7 @@ from svrqp.gap.transfer.linear import (
     transfer_shrink,
     transfer_units,
 )
+from svrqp.gap.transfer.pooling import pool_p_values
 from svrqp.gap.transfer.ranking import MAX_SURROGATES as MAX_TRANSFER_SURROGATES, TransferRanker
 from svrqp.gap.within.attribute import (
     MAX_SURROGATES,
@@ -91,11 +97,12 @@ class _Findings:
     errors_after: dict[str, np.ndarray]
     residual_gate: GateResult | None
     remaining: list[str]
+    pool_p: dict[str, float] | None = None
 
 
 def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
              surrogates: str = "rotation", n_jobs: int = 1, within_evidence: bool = False,
-             progress: Progress | None = None) -> GapReport:
+             progress: Progress | None = None, pool: bool = False) -> GapReport:
     """Diagnose the gap between a model (or a simulation) and real measurements.
 
     Parameters
@@ -126,6 +133,9 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
         and costs about a third of a diagnosis.
     progress : callable, optional
         Called as ``progress(stage, fraction_done)``.
+    pool : bool
+        Also give every candidate's transfer-test p-value, below the effect floor too
+        (:mod:`svrqp.gap.transfer.pooling`), as the report's ``pool_p`` (not in its JSON).
 
     Returns
     -------
@@ -167,7 +177,7 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
                                      np.random.default_rng(seed), surrogates,
                                      n_jobs)
         findings = _search_causes(problem, taus, context, seed, report_progress, question.local,
-                                  within_evidence)
+                                  within_evidence, pool)
     report_progress("reporting", 0.98)
     if findings.verdict.region is not None:  # a local verdict: where it acts comes first
         where = [region_of(region_axis(data, findings.verdict.region)[real], r,
@@ -186,9 +196,11 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
 
 def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: VerdictContext,
                    seed: int,
-                   report_progress: Progress, local: bool, within: bool) -> _Findings:
+                   report_progress: Progress, local: bool, within: bool,
+                   pool: bool = False) -> _Findings:
     """Rank and test by transfer (``local``: with the local form too), tabulate the causes and
-    decide the verdict; with ``within``, test within the real rows too.
+    decide the verdict; with ``within``, test within the real rows too; with ``pool``, test every
+    untested candidate on the pool's own stream, once all of that is decided.
 
     The findings carry ``context`` with its ``transfer``
     entry complete (the same-input refit's numbers).
@@ -222,7 +234,8 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     verdict = replace(verdict, reason=verdict.reason + extrapolation_text(context))
     remaining = [c.column for c in causes[1:] if verdict.column and c.significant
                  and (c.note or "").startswith("carries information beyond")]
-    return _Findings(context, causes, verdict, errors_after, residual_gate, remaining)
+    pooled = pool_p_values(ranker, seed) if pool else None
+    return _Findings(context, causes, verdict, errors_after, residual_gate, remaining, pooled)
 
 
 def _report(question: GapQuestion, where: list, findings: _Findings, text: str,
@@ -263,6 +276,7 @@ def _report(question: GapQuestion, where: list, findings: _Findings, text: str,
         settings=settings,
         runtime_s=0.0,
         series=series,
+        pool_p=findings.pool_p,
     )
 
 

@@ -96,10 +96,17 @@ def test_a_rerun_resumes_unchanged_records_and_redoes_a_changed_one(fleet_folder
     table = pd.read_csv(path)
     table.loc[0, "error_um"] += 0.5
     table.to_csv(path, index=False)
-    again = run_fleet(records, {}, tmp_path / "serial", resume=True).table.set_index("name")
-    assert again.at["m1", "status"] == "ok"
+    stamp = tmp_path / "serial" / "records" / "m2.fleet.json"  # a stamp without pooled p-values
+    stamp.write_text(json.dumps({k: v for k, v in json.loads(stamp.read_text()).items()
+                                 if k != "pool"}), encoding="utf-8")
+    rerun = run_fleet(records, {}, tmp_path / "serial", resume=True)
+    again = rerun.table.set_index("name")
+    assert again.at["m1", "status"] == "ok" and again.at["m2", "status"] == "ok"
     assert again.at["broken", "status"] == "failed"
-    assert (again.drop(index=["m1", "broken"])["status"] == "resumed").all()
+    assert (again.drop(index=["m1", "m2", "broken"])["status"] == "resumed").all()
+    kept = ~serial.tests["name"].isin(["m1"])  # a resumed record keeps its pooled p-values
+    pd.testing.assert_frame_equal(rerun.tests[kept].reset_index(drop=True),
+                                  serial.tests[kept].reset_index(drop=True))
     changed = {**DEFAULTS, "seed": 1}  # other settings: nothing is taken as it was
     records_changed = [r for r in records if r.name != "broken"]
     redo = run_fleet(records_changed, changed, tmp_path / "serial", resume=True)

@@ -11,6 +11,7 @@ The renderings and the file writer are in :mod:`svrqp.gap.words.report`.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import asdict, dataclass, field
@@ -69,12 +70,26 @@ def validate_document(document: dict[str, Any]) -> dict[str, Any]:
         If it names no known version or fails its schema.
     """
     version = document.get("schema") if isinstance(document, dict) else None
-    try:
-        jsonschema.validate(document, load_schema(version if isinstance(version, str) else ""))
-    except jsonschema.ValidationError as err:
-        raise SvrqpError(f"gap report fails its schema {version} at {list(err.absolute_path)}: "
-                         f"{err.message}") from err
+    validator = _validator(version if isinstance(version, str) else "")
+    error = jsonschema.exceptions.best_match(validator.iter_errors(document))
+    if error is not None:
+        raise SvrqpError(f"gap report fails its schema {version} at {list(error.absolute_path)}: "
+                         f"{error.message}") from error
     return document
+
+
+@functools.cache
+def _validator(version: str) -> jsonschema.protocols.Validator:
+    """The validator of ``version``'s schema, the schema itself checked once per process.
+
+    ``jsonschema.validate`` checks the schema against its metaschema on every call, which took
+    most of a document's validation time (and a third of a small record's diagnosis); this is
+    the same check and the same first error (``best_match``), made once.
+    """
+    schema = load_schema(version)
+    cls = jsonschema.validators.validator_for(schema)
+    cls.check_schema(schema)
+    return cls(schema)
 
 
 def read_document(path: str | Path) -> dict[str, Any]:
@@ -103,7 +118,8 @@ class GapResult:
     :class:`svrqp.gap.GapReport`, which adds the renderings and the writer).
 
     The attributes mirror the keys of the ``svrqp.gap/2`` JSON (:meth:`to_dict`); ``series``
-    holds the per-row data the figures draw and is not part of the JSON.
+    holds the per-row data the figures draw and ``pool_p`` the p-values pooled by ``svrqp
+    fleet``; neither is part of the JSON.
     """
 
     target: str
@@ -135,6 +151,9 @@ class GapResult:
     runtime_s: float
     series: Series = field(repr=False)
     order_sorted: list[str] = field(default_factory=list)
+    pool_p: dict[str, float] | None = field(default=None, repr=False)
+    """Every candidate's transfer-test p-value for pooling over records
+    (:mod:`svrqp.gap.transfer.pooling`; ``diagnose(pool=True)`` only): not part of the JSON."""
 
     def to_dict(self) -> dict[str, Any]:
         """The ``svrqp.gap/2`` document as plain Python (validated against the schema)."""
