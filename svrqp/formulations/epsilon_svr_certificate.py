@@ -187,8 +187,7 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     beta = np.asarray(beta, dtype=float)
     r = y - K_beta - b if residual is None else residual
     y_max = float(np.abs(y).max()) if y.size else 0.0
-    spread = _std(y)
-    s_y = spread if spread > 0 else (y_max or 1.0)
+    s_y = target_scale(y)
     k = kernel_scale if kernel_scale > 0 else 1.0
     magnitude = np.abs(beta)
     sign = np.sign(beta)
@@ -208,6 +207,13 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
 
 
 _EPS = float(np.finfo(float).eps)
+
+
+def target_scale(y: NDArray[np.float64]) -> float:
+    r""":math:`s_y`, the scale the model certificate's values are relative to: std(y), or
+    :math:`\max|y|` for a constant ``y``, or 1 when y is all zero."""
+    spread = _std(y)
+    return spread if spread > 0 else ((float(np.abs(y).max()) if y.size else 0.0) or 1.0)
 
 
 def _std(y: NDArray[np.float64]) -> float:

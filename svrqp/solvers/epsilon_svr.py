@@ -145,8 +145,7 @@ def prediction_rounding(y: NDArray[np.float64], l1: float, scale: float) -> floa
     :math:`\sum_i|\beta_i| =` ``l1`` and kernel values up to ``scale`` (:math:`\max_i K_{ii}`)
     round, relative to std(y): :math:`u\,k\,\lVert\beta\rVert_1 / s_y` (u the unit roundoff;
     Higham 2002, §3.1; :math:`s_y` as in the model certificate)."""
-    spread = float(np.std(y))
-    s_y = spread if spread > 0 else (float(np.max(np.abs(y))) or 1.0)
+    s_y = epsilon_svr_certificate.target_scale(y)
     return float(np.finfo(float).eps) * scale * l1 / s_y
 
 
