@@ -110,13 +110,18 @@ def permutation_floor(levels: np.ndarray) -> float:
     counts = np.diff(np.r_[np.flatnonzero(starts), levels.size])
     return float(np.exp(sum(math.lgamma(c + 1) for c in counts) - math.lgamma(levels.size + 1)))
 
+
+def within_sum_of_squares(x: np.ndarray, groups: np.ndarray) -> float:
+    """The sum of squares of ``x`` about each run's own mean."""
+    return sum(float(np.sum((x[rows] - x[rows].mean()) ** 2)) for rows in group_slices(groups))
+
+
 def within_share(x: np.ndarray, groups: np.ndarray) -> float:
     """Share of the variance of ``x`` that lies within runs (1.0 for a constant column)."""
     total = float(np.sum((x - x.mean()) ** 2))
     if total <= 1e-24 * (1.0 + float(np.sum(x**2))):
         return 1.0
-    within = sum(float(np.sum((x[rows] - x[rows].mean()) ** 2)) for rows in group_slices(groups))
-    return within / total
+    return within_sum_of_squares(x, groups) / total
 
 
 NOISE_RATIO = 4.0
@@ -146,9 +151,7 @@ def is_run_level(x: np.ndarray, groups: np.ndarray) -> bool:
 def moves_beyond_noise(x: np.ndarray, groups: np.ndarray) -> bool:
     """Whether ``x`` varies within runs by more than :data:`NOISE_RATIO` times its noise variance
     (:func:`noise_variance`): then its level is rotated within runs, not permuted between them."""
-    within = sum(float(np.sum((x[rows] - x[rows].mean()) ** 2))
-                 for rows in group_slices(groups)) / x.size
-    return within > NOISE_RATIO * noise_variance(x, groups)
+    return within_sum_of_squares(x, groups) / x.size > NOISE_RATIO * noise_variance(x, groups)
 
 
 def varies_within(x: np.ndarray, groups: np.ndarray) -> bool:

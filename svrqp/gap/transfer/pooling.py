@@ -96,13 +96,13 @@ def pool_p_values(ranker: TransferRanker, seed: int) -> dict[str, float]:
     forms = {c: e for c in ranker.data.candidates if (e := pooled_form(effects, c)) is not None}
     fitted = {c: Ranked(e, fit := probe.fit(e), probe.gain(fit), tau=probe._tau(e, fit))
               for c, e in forms.items()}
+    best = max(fitted.values(), key=lambda r: r.gain, default=None)
     p_values: dict[str, float] = {}
     for column, row in fitted.items():
         if probe.parametric(row.effect, len(ranker.data.candidates)):
             p = float(probe.between_p(row.effect))
         else:
             p = float(probe.p_value(row.effect, row.gain, POOL_SURROGATES))
-        best = max(fitted.values(), key=lambda r: r.gain)
         if best is not row and p <= RIVAL_CHECK:
             p = max(p, _beyond(probe, row, best))
         p_values[column] = p
