@@ -62,6 +62,15 @@ def _s0_rows(s0: dict[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
+def _compared_rows(seed: str, metric: str, rows: list[tuple[str, float, float]],
+                   comparison_holds: bool, note: str) -> list[dict[str, Any]]:
+    """Rows of one seed's ``(quantity, paper, ours)`` on one metric, under one comparison and
+    note (:func:`reproduction_row`)."""
+    return [reproduction_row(seed, quantity, metric, paper, ours,
+                             comparison_holds=comparison_holds, note=note)
+            for quantity, paper, ours in rows]
+
+
 def _s1_rows(s1: dict[str, Any]) -> list[dict[str, Any]]:
     paper, ours = s1["paper"], s1["sum_abs_um"]
     tuned_wins = ours["ga"] < ours["untuned"]
@@ -72,11 +81,9 @@ def _s1_rows(s1: dict[str, Any]) -> list[dict[str, Any]]:
             f"{s1['n_train']} training samples are support vectors.")
     edge = _edge(s1["edge_text"])
     metric = "sum of |residuals| on the 20 test samples (μm)"
-    return [reproduction_row("S1", "untuned SVR (C = 1, ε = 0.5)", metric,
-                             paper["sum_abs_untuned_um"], ours["untuned"],
-                             comparison_holds=tuned_wins, note=size + edge),
-            reproduction_row("S1", "GA-SVR", metric, paper["sum_abs_ga_um"], ours["ga"],
-                             comparison_holds=tuned_wins, note=size + edge)]
+    return _compared_rows("S1", metric, [
+        ("untuned SVR (C = 1, ε = 0.5)", paper["sum_abs_untuned_um"], ours["untuned"]),
+        ("GA-SVR", paper["sum_abs_ga_um"], ours["ga"])], tuned_wins, size + edge)
 
 
 def _s2_rows(s2: dict[str, Any]) -> list[dict[str, Any]]:
@@ -91,10 +98,9 @@ def _s2_rows(s2: dict[str, Any]) -> list[dict[str, Any]]:
         f"not describe. Leave-one-out: ε-SVR {mse['svr_loo']:.3g} vs polynomial "
         f"{mse['lsm_loo']:.3g} μm².") + _edge(s2["edge_text"])
     metric = "MSE of the fit at the 11 positions (μm²)"
-    return [reproduction_row("S2", "δx model, ε-SVR", metric, paper["mse_svr"], mse["svr_fit"],
-                             comparison_holds=svr_better, note=note),
-            reproduction_row("S2", "δx model, 5th-order polynomial", metric, paper["mse_lsm"],
-                             mse["lsm_fit"], comparison_holds=svr_better, note=note)]
+    return _compared_rows("S2", metric, [
+        ("δx model, ε-SVR", paper["mse_svr"], mse["svr_fit"]),
+        ("δx model, 5th-order polynomial", paper["mse_lsm"], mse["lsm_fit"])], svr_better, note)
 
 
 def _s3_rows(s3: dict[str, Any]) -> list[dict[str, Any]]:
@@ -102,13 +108,12 @@ def _s3_rows(s3: dict[str, Any]) -> list[dict[str, Any]]:
     rls_wins = ours["rls_max_um"] < ours["static_max_um"]
     note = ("The recursive model leaves less than the static one, as in S3; the sizes are the "
             "simulated turning centre's, which was not fitted to S3's.")
-    rows = []
-    for key, quantity in (("static_max_um", "static LS, max |r|"),
-                          ("static_mean_um", "static LS, mean |r|"),
-                          ("rls_max_um", "RLS, max |r|"), ("rls_mean_um", "RLS, mean |r|")):
-        rows.append(reproduction_row("S3", f"{quantity}, workpieces 16–50", "|residual| (μm)",
-                                     paper[key], ours[key], comparison_holds=rls_wins, note=note))
-    return rows
+    quantities = (("static_max_um", "static LS, max |r|"),
+                  ("static_mean_um", "static LS, mean |r|"),
+                  ("rls_max_um", "RLS, max |r|"), ("rls_mean_um", "RLS, mean |r|"))
+    return _compared_rows("S3", "|residual| (μm)", [
+        (f"{quantity}, workpieces 16–50", paper[key], ours[key]) for key, quantity in quantities],
+        rls_wins, note)
 
 
 def _s4_rows(s4: dict[str, Any]) -> list[dict[str, Any]]:
