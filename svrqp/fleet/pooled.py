@@ -88,16 +88,10 @@ def wilkinson(p_values: np.ndarray, alpha: float = ALPHA) -> float:
 
 
 def benjamini_hochberg(p_values: np.ndarray) -> np.ndarray:
-    """Benjamini–Hochberg q-values (step-up, monotone, capped at 1)."""
+    """Benjamini–Hochberg q-values (step-up, monotone, capped at 1): SciPy's
+    ``false_discovery_control``, as the diagnosis adjusts its own (an empty array for none)."""
     p = np.asarray(p_values, dtype=float)
-    if p.size == 0:
-        return p
-    order = np.argsort(p)
-    ranked = p[order] * p.size / np.arange(1, p.size + 1)
-    q = np.minimum.accumulate(ranked[::-1])[::-1]
-    out = np.empty_like(q)
-    out[order] = np.minimum(q, 1.0)
-    return out
+    return p if p.size == 0 else stats.false_discovery_control(p, method="bh")
 
 
 def pool(tests: pd.DataFrame, method: str = "fisher") -> PooledVerdict:
