@@ -21,8 +21,7 @@ import numpy as np
 
 from svrqp.exceptions import SolverError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN, THIN_UNITS
-from svrqp.gap.data import GapData
-from svrqp.gap.data.transforms import RISE
+from svrqp.gap.data import RISE, GapData
 from svrqp.gap.detect import gate, noise_pvalue
 from svrqp.gap.model import Baseline, offsets_text, refit_shrink
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
