@@ -10,7 +10,8 @@ the gap against the train rows' error on the same footing, then what fixes it on
 leading with extrapolation when a model input is used outside its train range and the same-input
 refit removes most of the gap (``docs/gap.md``, "The contract"), else the verdict's transfer shrink,
 or, without a verdict, whether the evidence was too thin for the best-transferring cause to be
-tested at all. :func:`extrapolation_text` is the reason's sentence on extrapolation.
+tested at all. :func:`extrapolation_text` is the reason's sentence on extrapolation, and
+:func:`effect_label` the effect as the report's before-and-after figure titles it.
 """
 
 from __future__ import annotations
@@ -368,6 +369,19 @@ def _short_effect(verdict: Verdict, order_name: str) -> str:
         return text + " (constant within each run)"
     return text + (f" (τ {quantity(verdict.tau, unit_of(order_name))})" if verdict.tau is not None
                    else "")
+
+
+def effect_label(v: Verdict) -> str:
+    """The verdict's effect as the before-and-after figure
+    titles it: ``lag of T4_C (τ = 78.3)``, "TRANSFORM of COLUMN"."""
+    if v.region is not None:
+        return (f"{v.column} within {v.region['low']:.3g} … {v.region['high']:.3g} "
+                f"of {v.region['column']}")
+    if v.transform == "lag":
+        return f"lag of {v.column} (τ = {v.tau:.3g})"
+    if v.transform == RISE:
+        return f"rise of {v.column}{RISE_WORDS}"
+    return f"{v.transform} of {v.column}"
 
 
 def extrapolation_text(context: VerdictContext) -> str:
