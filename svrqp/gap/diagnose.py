@@ -210,7 +210,7 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     numbers = {}
     if within:
         report_progress("computing candidate transforms", 0.2)
-        numbers = evidence_within(problem, data, taus, context.base,
+        numbers = evidence_within(problem, data, taus, context.base.rmse_after,
                                   lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
     report_progress("refitting on held-out runs", 0.6)
     ranker = TransferRanker(data, family_of(data, context.baseline, units), taus,
