@@ -220,7 +220,7 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     ranker.test(ranked)
     ranking = ranker.choose(ranked)
     report_progress("refitting the model family", 0.8)
-    family = same_family_errors(data, context.baseline, units, ranker, ranking)
+    family = same_family_errors(context.baseline, ranker, ranking)
     rmse_refit = float(rms(family.refit))
     context = replace(context, transfer=context.transfer | {
         "rmse_refit": rmse_refit, "shrink_refit": 1 - rmse_refit / context.transfer["rmse_before"],
