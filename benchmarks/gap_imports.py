@@ -21,7 +21,8 @@ PACKAGE = "svrqp.gap"
 
 
 def module_name(path: Path, root: Path) -> str:
-    """``svrqp/gap/transfer/linear.py`` → ``svrqp.gap.transfer.linear`` (a package by its ``__init__``)."""
+    """``svrqp/gap/transfer/linear.py`` → ``svrqp.gap.transfer.linear``
+    (a package by its ``__init__``)."""
     parts = list(path.relative_to(root).with_suffix("").parts)
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
@@ -56,7 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     pairs = edges(root)
     modules = {module_name(p, root) for p in (root / "svrqp" / "gap").rglob("*.py")}
     without_init = {(a, b) for a, b in pairs if a != PACKAGE}
-    print(f"{len(modules)} modules; {len(pairs)} import edges ({len(without_init)} without {PACKAGE}'s __init__)")
+    print(f"{len(modules)} modules; {len(pairs)} import edges "
+          f"({len(without_init)} without {PACKAGE}'s __init__)")
     return 0
 
 
