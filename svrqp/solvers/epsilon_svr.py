@@ -40,7 +40,7 @@ from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import training_gram
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Solution, check_limit, require_certificates
+from svrqp.solution import Solution, check_limit, rejected_coefficients, require_certificates
 from svrqp.solvers import dual_ipm, dual_qp
 from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
 from svrqp.solvers.dual_ipm.certified import DUAL_FORMULATIONS, DUAL_IPM, solve_dual_ipm
@@ -266,7 +266,7 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     solution = Solution.of_qp(problem, (x, record.y, z, z_box), dataclasses.replace(
         record.record, settings={**record.settings, "scaling": scaling._asdict()}))
     beta = epsilon_svr.beta_from_solution("primal", X.shape[0], solution.x, solution.z)
-    with dual_qp.rejected_coefficients(beta):
+    with rejected_coefficients(beta):
         require_certificates(solution, problem, record.settings["check_tol"])
     # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
     # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
@@ -279,7 +279,7 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, epsilon)
     certificate = epsilon_svr_certificate.model_certificate(y, beta, K_beta, b, C, epsilon, scale)
     solution.residuals.update(certificate)
-    with dual_qp.rejected_coefficients(beta):
+    with rejected_coefficients(beta):
         epsilon_svr_certificate.require_model_certificate(certificate,
                                                           solution.settings["check_tol"], solver)
     return SVRFit(beta, b, problem, solution, exact.exact, solver,
