@@ -189,8 +189,7 @@ def _solve_with_fallback(X: NDArray[np.float64], y: NDArray[np.float64], task: S
             errors.append(err)
             continue
         if not errors:
-            chosen = fit.solution.backend if solver == AUTO else solver  # auto: the path it chose
-            return dataclasses.replace(fit, solver=chosen)
+            return fit
         coef = fit.beta @ X if options.formulation == "primal" else None
         return dataclasses.replace(fit, fallback_reason=str(errors[0]), coef=coef)
     first, *second = errors
@@ -219,7 +218,8 @@ def _attempts(options: SolveOptions) -> list[tuple[str, DualSettings]]:
 def _solve_once(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, solver: str,
                 settings: DualSettings) -> SVRFit:
     """Certified (β, b) from one solver, with no fallback; the training Gram matrix is formed only
-    for the paths that take one (``auto`` and ``smo_crossover`` form kernel columns themselves)."""
+    for the paths that take one (``auto`` and ``smo_crossover`` form kernel columns themselves).
+    ``SVRFit.solver`` names ``solver``, or for ``"auto"`` the path it chose."""
     if settings.formulation == "primal":
         if solver in (SMO_CROSSOVER, DUAL_IPM):
             raise ProblemError(f"solver={solver!r} solves a kernel dual: formulation must be one "
@@ -242,7 +242,8 @@ def _solve_once(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, s
                              kernel_parameters=kernel_parameters)
     else:
         fit = dual_qp.solve_dual(K, y, task.C, task.epsilon, solver, settings)
-    return SVRFit(fit.beta, fit.intercept, fit.problem, fit.solution, fit.polished, solver)
+    chosen = fit.solution.backend if solver == AUTO else solver
+    return SVRFit(fit.beta, fit.intercept, fit.problem, fit.solution, fit.polished, chosen)
 
 
 def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, solver: str,
