@@ -4,11 +4,14 @@ Every solver path (the qpsolvers backends and cvxpy, the LU and Cholesky solves 
 system, the exact ε-SVR paths) returns one, built by :meth:`Solution.of_qp` or
 :meth:`Solution.of_linear_system` from the point and a :class:`SolverRecord` (who solved it and
 how); :func:`require_certificates` is the one check that a QP solution meets its relative primal
-residual, dual residual and duality gap.
+residual, dual residual and duality gap; :func:`rejected_coefficients` says how large an answer a
+failed check rejected.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -179,3 +182,13 @@ def require_certificates(solution: Solution, problem: QuadraticProgram | str,
                           f"{worst[:-4]} certificate is {solution.residuals[worst]:.2e} (relative) "
                           f"> {check_tol:.1e}", solution.backend, "inaccurate")
 
+
+@contextmanager
+def rejected_coefficients(beta: NDArray[np.float64]) -> Iterator[None]:
+    r"""A :class:`~svrqp.exceptions.SolverError` raised inside says how large the rejected answer
+    ``beta`` was (``coefficient_l1``, :math:`\sum_i|\beta_i|`)."""
+    try:
+        yield
+    except SolverError as error:
+        error.coefficient_l1 = float(np.abs(beta).sum())
+        raise

@@ -235,8 +235,9 @@ class EpsilonSVR(CompactFitMixin, _KernelModel):
             raise ProblemError(f"formulation='primal' needs kernel='linear', got "
                                f"kernel={self.kernel!r}")
         self.gamma_ = self._resolve_gamma(X)
-        check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
-        fit = solve_epsilon_svr(X, y, SVRTask(self.C, self.epsilon, self._kernel_parameters()),
+        kernel_parameters = self._kernel_parameters()
+        check_kernel_range(X, **kernel_parameters)
+        fit = solve_epsilon_svr(X, y, SVRTask(self.C, self.epsilon, kernel_parameters),
                                 SolveOptions(self.solver, self.formulation, self.tol,
                                              self.check_tol, self.fallback))
         self.problem_, self.solution_, self.polished_ = fit.problem, fit.solution, fit.polished
@@ -316,8 +317,9 @@ class LSSVR(CompactSystemMixin, _KernelModel):
         check_parameters(self, self._parameter_checks)
         X, y = self._validated_training_data(X, y)
         self.gamma_ = self._resolve_gamma(X)
-        check_kernel_range(X, self.kernel, self.gamma_, self.degree, self.coef0)
-        K = training_gram(X, self._kernel_parameters())
+        kernel_parameters = self._kernel_parameters()
+        check_kernel_range(X, **kernel_parameters)
+        K = training_gram(X, kernel_parameters)
         self._keep_fit_data(K if self.kernel == "precomputed" else None, y)
         self.problem_ = ls_svr.kkt_system(K, y, self.C,
                                           self.fit_intercept) if self.solver == "lu" else None

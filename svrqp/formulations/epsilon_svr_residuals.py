@@ -187,13 +187,12 @@ def stated_dual(formulation: str, y: NDArray[np.float64], C: float, epsilon: flo
     # times over in the gap.
     point = point._replace(z_box=box_multipliers(
         np.concatenate([point.alpha, point.alpha_star]), point.z_box, C))
-    if formulation == "split":
-        residuals, objective = _split_residuals(y, C, epsilon, point, Kbeta)
-    elif formulation == "stacked":
-        residuals, objective = _stacked_residuals(y, C, epsilon, point, Kbeta)
-    else:
+    residuals_of = {"split": _split_residuals, "stacked": _stacked_residuals}.get(formulation)
+    if residuals_of is None:
         raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
+    # What the certificate module gives, together: the QP's point and the model certificate.
     x, y_eq, z_box = dual_qp_point(formulation, point, C)
-    residuals.update(model_certificate(y, beta, Kbeta, b, C, epsilon, scale,
-                                       residual=point.residual))
+    certificate = model_certificate(y, beta, Kbeta, b, C, epsilon, scale, residual=point.residual)
+    residuals, objective = residuals_of(y, C, epsilon, point, Kbeta)
+    residuals.update(certificate)
     return StatedDual(_name(formulation), (x, y_eq, None, z_box), residuals, objective)

@@ -46,15 +46,25 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from svrqp.exceptions import ProblemError
+from svrqp.exceptions import ProblemError, SolverError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_AMPLITUDE, MIN_GAIN
 from svrqp.gap.data import GapData, blocked_folds, prepare, tau_grid
-from svrqp.gap.detect import gap_detected, gate, localise, region_of
-from svrqp.gap.model import Baseline, base_design, base_fit, fit_baseline, input_use, offset_columns
+from svrqp.gap.detect import gap_detected, gate, localise, refit_closes, region_of
+from svrqp.gap.model import (
+    Baseline,
+    base_design,
+    base_fit,
+    fit_baseline,
+    input_use,
+    offset_columns,
+    offsets_text,
+    refit_shrink,
+)
 from svrqp.gap.question import GapQuestion
 from svrqp.gap.results.records import Cause, GateResult, Ranking, Series, Units, Verdict
 from svrqp.gap.transfer.candidates import (
     constant_on_real_rows,
+    effect_columns,
     region_axis,
     untestable_between_runs,
 )
@@ -75,13 +85,7 @@ from svrqp.gap.within.attribute import (
     evidence_within,
 )
 from svrqp.gap.words.report import GapReport
-from svrqp.gap.words.verdict import (
-    VerdictContext,
-    decide,
-    extrapolation_text,
-    refit_closes,
-    summary,
-)
+from svrqp.gap.words.verdict import VerdictContext, decide, extrapolation_text, named, summary
 from svrqp.metrics import rms
 
 Progress = Callable[[str, float], None]
@@ -98,6 +102,20 @@ class _Findings:
     residual_gate: GateResult | None
     remaining: list[str]
     pool_p: dict[str, float] | None = None
+
+
+@dataclass(frozen=True)
+class _Search:
+    """How the cause search runs (:func:`_search_causes`): the ``lag`` time constants, the seed,
+    the progress callback, and whether to try the local form, test within the real rows, and
+    test every candidate for the pool."""
+
+    taus: np.ndarray
+    seed: int
+    progress: Progress
+    local: bool
+    within: bool
+    pool: bool
 
 
 def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
@@ -163,7 +181,8 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
     exact = _reproduced_exactly(r, data.y)
     units = transfer_units(data.groups, real, baseline.residual)
     context = VerdictContext(
-        data, baseline, gap, gap_detected(gap), base_fit(data, r, B, folds, exact), units,
+        data, baseline.kind, offsets_text(data), gap, gap_detected(gap),
+        base_fit(data, r, B, folds, exact), units,
         [] if exact else input_use(data, r, offset_columns(groups), folds),
         {"rmse_before": float(rms(r)), "rmse_refit": None, "shrink_refit": None,
          "refit_closes_gap": None, "units": units.n_units, "unit_kind": units.kind,
@@ -176,8 +195,9 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
         problem = AttributionProblem(r, B, folds, groups, gap.train_rmse,
                                      np.random.default_rng(seed), surrogates,
                                      n_jobs)
-        findings = _search_causes(problem, taus, context, seed, report_progress, question.local,
-                                  within_evidence, pool)
+        findings = _search_causes(problem, context, baseline,
+                                  _Search(taus, seed, report_progress, question.local,
+                                          within_evidence, pool))
     report_progress("reporting", 0.98)
     if findings.verdict.region is not None:  # a local verdict: where it acts comes first
         where = [region_of(region_axis(data, findings.verdict.region)[real], r,
@@ -188,39 +208,37 @@ def diagnose(df: pd.DataFrame, question: GapQuestion, *, seed: int = 0,
                 "local": question.local, "local_along": list(data.along),
                 "within_evidence": within_evidence}
     text = summary(findings.context, findings.verdict, exact)
-    report = _report(question, where, findings, text, settings)
+    report = _report(question, baseline, where, findings, text, settings)
     report.runtime_s = time.perf_counter() - started
     report_progress("done", 1.0)
     return report
 
 
-def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: VerdictContext,
-                   seed: int,
-                   report_progress: Progress, local: bool, within: bool,
-                   pool: bool = False) -> _Findings:
+def _search_causes(problem: AttributionProblem, context: VerdictContext, baseline: Baseline,
+                   search: _Search) -> _Findings:
     """Rank and test by transfer (``local``: with the local form too), tabulate the causes and
     decide the verdict; with ``within``, test within the real rows too; with ``pool``, test every
-    untested candidate on the pool's own stream, once all of that is decided.
+    untested candidate on the pool's own stream, once all of that is decided (``search``).
 
     The findings carry ``context`` with its ``transfer``
     entry complete (the same-input refit's numbers).
     """
     data, units = context.data, context.units
     real, r, groups = data.is_real, problem.r, problem.groups
+    taus, seed, report_progress = search.taus, search.seed, search.progress
     numbers = {}
-    if within:
+    if search.within:
         report_progress("computing candidate transforms", 0.2)
-        numbers = evidence_within(problem, data, taus, context.base,
+        numbers = evidence_within(problem, data, taus, context.base.rmse_after,
                                   lambda stage, done: report_progress(stage, 0.2 + 0.4 * done))
     report_progress("refitting on held-out runs", 0.6)
-    ranker = TransferRanker(data, family_of(data, context.baseline, units), taus,
-                            np.random.default_rng([seed, 19]),
-                            local=local)
+    ranker = TransferRanker(data, family_of(data, units), taus, np.random.default_rng([seed, 19]),
+                            local=search.local)
     ranked = ranker.rank()
     ranker.test(ranked)
     ranking = ranker.choose(ranked)
     report_progress("refitting the model family", 0.8)
-    family = same_family_errors(data, context.baseline, units, ranker, ranking)
+    family = same_family_errors(baseline, ranker, ranking)
     rmse_refit = float(rms(family.refit))
     context = replace(context, transfer=context.transfer | {
         "rmse_refit": rmse_refit, "shrink_refit": 1 - rmse_refit / context.transfer["rmse_before"],
@@ -230,19 +248,53 @@ def _search_causes(problem: AttributionProblem, taus: np.ndarray, context: Verdi
     notes = untestable_between_runs(data) | constant_on_real_rows(data) | family.kept_linear
     causes, errors_after = _causes(ranking, r, family, units, units.code[real], numbers, notes,
                                    np.random.default_rng([seed, 20]))
-    verdict, residual_gate = decide(ranking, causes, errors_after, context)
-    verdict = replace(verdict, reason=verdict.reason + extrapolation_text(context))
+    verdict, residual_gate = _verdict(ranking, causes, errors_after, context, baseline)
     remaining = [c.column for c in causes[1:] if verdict.column and c.significant
                  and (c.note or "").startswith("carries information beyond")]
-    pooled = pool_p_values(ranker, seed) if pool else None
+    pooled = pool_p_values(ranker, seed) if search.pool else None
     return _Findings(context, causes, verdict, errors_after, residual_gate, remaining, pooled)
 
 
-def _report(question: GapQuestion, where: list, findings: _Findings, text: str,
-            settings: dict) -> GapReport:
+def _verdict(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.ndarray],
+             context: VerdictContext, baseline: Baseline) -> tuple[Verdict, GateResult | None]:
+    """The verdict (:func:`svrqp.gap.words.verdict.decide`) with its reason, and for a named
+    cause the gate of the real rows' error once refitted with it (else None).
+
+    A named cause is checked the way a user would act on it: the model family refitted on the
+    train rows with its effect (:func:`_train_refit`), which the verdict's reason words.
+    """
+    data = context.data
+    outcome = decide(ranking, causes, context)
+    residual_gate = None
+    if isinstance(outcome, Cause):
+        refit, failure = _train_refit(data, baseline, outcome)
+        residual_gate = gate(errors_after[outcome.column], data.groups[data.is_real],
+                             baseline.train_reference, data.groups[data.is_train])
+        outcome = named(outcome, ranking, context, refit, failure)
+    return replace(outcome, reason=outcome.reason + extrapolation_text(context)), residual_gate
+
+
+def _train_refit(data: GapData, baseline: Baseline,
+                 cause: Cause) -> tuple[float | None, str | None]:
+    """The shrink of the model family refitted on the
+    train rows with the cause's effect (:func:`svrqp.gap.model.refit_shrink`), and why it failed.
+
+    A refit whose solver cannot certify its answer leaves the shrink None and gives the solver's
+    first line of error (at most 160 characters); it does not abort the diagnosis.
+    """
+    effect = effect_columns(data, cause.column, cause.transform, cause.tau, cause.evidence,
+                            cause.region)
+    try:
+        return refit_shrink(data, baseline, effect), None
+    except SolverError as err:
+        return None, (str(err) or type(err).__name__).splitlines()[0][:160]
+
+
+def _report(question: GapQuestion, baseline: Baseline, where: list, findings: _Findings,
+            text: str, settings: dict) -> GapReport:
     """The :class:`GapReport` of a diagnosis (``runtime_s`` set by the caller)."""
     context = findings.context
-    data, baseline, units = context.data, context.baseline, context.units
+    data, units = context.data, context.units
     series = Series(data.target, data.order_name, data.t, data.groups, data.group_labels,
                     data.is_train,
                     data.y, baseline.y_hat, findings.errors_after.get(findings.verdict.column))
@@ -289,7 +341,7 @@ def _reproduced_exactly(r: np.ndarray, y: np.ndarray) -> bool:
     return bool(rms(r) <= 1e-10 * np.max(np.abs(y)))
 
 
-def family_of(data: GapData, baseline: Baseline, units: Units) -> LinearTransfer:
+def family_of(data: GapData, units: Units) -> LinearTransfer:
     """The linear family the ranking and the tests refit (:mod:`svrqp.gap.transfer.linear`).
 
     Features mode: least squares of the target on an intercept and the features (the ``mlr``

@@ -2,9 +2,10 @@
 
 Solvers that touch only some columns of the Gram matrix — the support vectors in an active-set
 crossover, the pivots of a pivoted Cholesky factorisation — use this cache, so the memory is
-O(n · columns used) instead of O(n²). A block of columns is one matrix product with the left
-factor of :func:`svrqp.kernels.left_factor` (formed once for X) and an in-place finish, the same
-code as :func:`svrqp.kernels.gram`.
+O(n · columns used) instead of O(n²). A block of columns is one matrix product of the left and
+right factors of :func:`svrqp.kernels.left_factor` and :func:`svrqp.kernels.right_factor` (both
+formed once for X, the right one's rows picked per block) and an in-place finish, the same code as
+:func:`svrqp.kernels.gram`.
 """
 
 from __future__ import annotations
@@ -48,8 +49,9 @@ class KernelColumns:
         self.parameters = {"kernel": kernel, "gamma": gamma, "degree": degree, "coef0": coef0}
         self._points = centred(kernel, self.X)[0]  # as in gram(): RBF values from centred inputs
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            # shared by every column block
+            # shared by every column block; a block takes the right factor's rows of its columns
             self._left = left_factor(self._points, kernel, gamma, coef0)
+            self._right = right_factor(self._points, kernel, gamma)
         # The cache: column j of K is _store[:, _slot[j]]. One Fortran array (capacity doubled as it
         # fills) so that serving many cached columns is one gather, not a stack of small arrays.
         self._slot: dict[int, int] = {}
@@ -86,11 +88,9 @@ class KernelColumns:
     def uncached(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
         """:math:`K_{:, idx}` computed afresh and not stored
         (for a caller that reads each column once)."""
-        kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            block = self._left @ right_factor(self._points[np.asarray(idx, dtype=np.intp).ravel()],
-                                              kernel, gamma).T
-        finish_in_place(block, kernel, self.parameters["degree"])
+            block = self._left @ self._right[np.asarray(idx, dtype=np.intp).ravel()].T
+        finish_in_place(block, self.parameters["kernel"], self.parameters["degree"])
         return block
 
     def products(self, idx: NDArray[np.intp], v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -113,15 +113,14 @@ class KernelColumns:
             return np.zeros(self.n)
         v = np.bincount(inverse.ravel(), weights=np.asarray(v, dtype=float).ravel(),
                         minlength=idx.size)
-        kernel, gamma = self.parameters["kernel"], self.parameters["gamma"]
         with np.errstate(over="ignore", invalid="ignore"):  # checked on the result below
-            right = np.ascontiguousarray(right_factor(self._points[idx], kernel, gamma).T)
+            right = np.ascontiguousarray(self._right[idx].T)
             result = np.empty(self.n)
             others = np.ones(self.n, dtype=bool)
             others[idx] = False
             result[others] = self._rows_times(self._left[others], right, v)
             result[idx] = self._symmetric_times(self._left[idx], right, v)
-        require_finite_kernel(result, kernel)
+        require_finite_kernel(result, self.parameters["kernel"])
         return result
 
     def _finish(self, block: NDArray[np.float64]) -> None:

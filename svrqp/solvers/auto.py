@@ -33,10 +33,16 @@ from svrqp.formulations.epsilon_svr import DualScaling
 from svrqp.formulations.epsilon_svr_certificate import require_model_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale, stated_dual
 from svrqp.kernels import gram
-from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
+from svrqp.solution import (
+    Solution,
+    SolverRecord,
+    check_limit,
+    rejected_coefficients,
+    require_certificates,
+)
 from svrqp.solvers import dual_ipm
 from svrqp.solvers.dual_ipm.exact import ExactSettings
-from svrqp.solvers.dual_qp import DualFit, DualSettings, rejected_coefficients
+from svrqp.solvers.dual_qp import DualFit, DualSettings
 from svrqp.solvers.warm_start import solve_warm_started
 
 #: ``EpsilonSVR(solver=AUTO)``: choose the path (module docstring).

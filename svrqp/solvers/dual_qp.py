@@ -11,15 +11,12 @@ paths (``dual_ipm``, ``auto``) end in the same :class:`DualFit`.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from svrqp.exceptions import SolverError
 from svrqp.formulations.epsilon_svr import (
     DualScaling,
     beta_from_solution,
@@ -36,7 +33,13 @@ from svrqp.formulations.epsilon_svr_certificate import (
     require_model_certificate,
 )
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Solution, SolverRecord, check_limit, require_certificates
+from svrqp.solution import (
+    Solution,
+    SolverRecord,
+    check_limit,
+    rejected_coefficients,
+    require_certificates,
+)
 from svrqp.solvers import qp_backends
 from svrqp.solvers.dual_ipm.crossover import crossover
 
@@ -88,17 +91,6 @@ def _certified_solution(dual: DualProblem, beta: NDArray[np.float64], b: float,
         require_certificates(solution, dual.qp, check_tol)
         require_model_certificate(solution.residuals, check_tol, record.backend)
     return solution
-
-
-@contextmanager
-def rejected_coefficients(beta: NDArray[np.float64]) -> Iterator[None]:
-    r"""A :class:`~svrqp.exceptions.SolverError` raised inside says how large the rejected answer
-    ``beta`` was (``coefficient_l1``, :math:`\sum_i|\beta_i|`)."""
-    try:
-        yield
-    except SolverError as error:
-        error.coefficient_l1 = float(np.abs(beta).sum())
-        raise
 
 
 class DualFit(NamedTuple):

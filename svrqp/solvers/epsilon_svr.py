@@ -40,7 +40,7 @@ from svrqp.formulations import epsilon_svr, epsilon_svr_certificate
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import training_gram
 from svrqp.problems import QuadraticProgram
-from svrqp.solution import Solution, check_limit, require_certificates
+from svrqp.solution import Solution, check_limit, rejected_coefficients, require_certificates
 from svrqp.solvers import dual_ipm, dual_qp
 from svrqp.solvers.auto import AUTO, SMO_CROSSOVER, solve_auto, solve_path
 from svrqp.solvers.dual_ipm.certified import DUAL_FORMULATIONS, DUAL_IPM, solve_dual_ipm
@@ -189,8 +189,7 @@ def _solve_with_fallback(X: NDArray[np.float64], y: NDArray[np.float64], task: S
             errors.append(err)
             continue
         if not errors:
-            chosen = fit.solution.backend if solver == AUTO else solver  # auto: the path it chose
-            return dataclasses.replace(fit, solver=chosen)
+            return fit
         coef = fit.beta @ X if options.formulation == "primal" else None
         return dataclasses.replace(fit, fallback_reason=str(errors[0]), coef=coef)
     first, *second = errors
@@ -219,7 +218,8 @@ def _attempts(options: SolveOptions) -> list[tuple[str, DualSettings]]:
 def _solve_once(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, solver: str,
                 settings: DualSettings) -> SVRFit:
     """Certified (β, b) from one solver, with no fallback; the training Gram matrix is formed only
-    for the paths that take one (``auto`` and ``smo_crossover`` form kernel columns themselves)."""
+    for the paths that take one (``auto`` and ``smo_crossover`` form kernel columns themselves).
+    ``SVRFit.solver`` names ``solver``, or for ``"auto"`` the path it chose."""
     if settings.formulation == "primal":
         if solver in (SMO_CROSSOVER, DUAL_IPM):
             raise ProblemError(f"solver={solver!r} solves a kernel dual: formulation must be one "
@@ -242,7 +242,8 @@ def _solve_once(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, s
                              kernel_parameters=kernel_parameters)
     else:
         fit = dual_qp.solve_dual(K, y, task.C, task.epsilon, solver, settings)
-    return SVRFit(fit.beta, fit.intercept, fit.problem, fit.solution, fit.polished, solver)
+    chosen = fit.solution.backend if solver == AUTO else solver
+    return SVRFit(fit.beta, fit.intercept, fit.problem, fit.solution, fit.polished, chosen)
 
 
 def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask, solver: str,
@@ -266,7 +267,7 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     solution = Solution.of_qp(problem, (x, record.y, z, z_box), dataclasses.replace(
         record.record, settings={**record.settings, "scaling": scaling._asdict()}))
     beta = epsilon_svr.beta_from_solution("primal", X.shape[0], solution.x, solution.z)
-    with dual_qp.rejected_coefficients(beta):
+    with rejected_coefficients(beta):
         require_certificates(solution, problem, record.settings["check_tol"])
     # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
     # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
@@ -279,7 +280,7 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     b = epsilon_svr.intercept_from_residual(y - K_beta, beta, C, epsilon)
     certificate = epsilon_svr_certificate.model_certificate(y, beta, K_beta, b, C, epsilon, scale)
     solution.residuals.update(certificate)
-    with dual_qp.rejected_coefficients(beta):
+    with rejected_coefficients(beta):
         epsilon_svr_certificate.require_model_certificate(certificate,
                                                           solution.settings["check_tol"], solver)
     return SVRFit(beta, b, problem, solution, exact.exact, solver,

@@ -17,6 +17,7 @@ from svrqp.gap.data.runs import (
 )
 from svrqp.gap.data.transforms import (
     DYNAMIC,
+    RISE,
     TRANSFORMS,
     WITHIN_RUN,
     filter_coefficients,
@@ -32,7 +33,7 @@ from svrqp.gap.data.transforms import (
 )
 
 __all__ = [
-    "CrossValidatedDiscrepancy", "DYNAMIC", "GapData", "TRANSFORMS", "WITHIN_RUN",
+    "CrossValidatedDiscrepancy", "DYNAMIC", "GapData", "RISE", "TRANSFORMS", "WITHIN_RUN",
     "block_bootstrap",
     "block_length", "blocked_folds", "filter_coefficients", "group_slices", "holds_out_groups",
     "lag", "lag1_autocorrelation", "lift_steps", "lowpass_columns", "negligible", "nested_errors",

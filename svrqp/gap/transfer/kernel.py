@@ -50,7 +50,6 @@ import numpy as np
 
 from svrqp.exceptions import SolverError
 from svrqp.gap.contract import LINEAR
-from svrqp.gap.data import GapData
 from svrqp.gap.model import Baseline, fit_predict
 from svrqp.gap.results.records import Ranking, TransferFit, Units
 from svrqp.gap.transfer.ranking import TransferRanker
@@ -164,15 +163,18 @@ class FamilyErrors:
         return LINEAR, self.linear_refit, None
 
 
-def same_family_errors(data: GapData, baseline: Baseline, units: Units, ranker: TransferRanker,
+def same_family_errors(baseline: Baseline, ranker: TransferRanker,
                        ranking: Ranking) -> FamilyErrors:
     """The kernel family's refits of the same inputs and of the best causes (module docstring).
 
-    ``mlr`` and prediction mode: the linear screen is the family, nothing is refitted again.
+    The rows and the held-out units are the linear screen's (``ranker.data``,
+    ``ranker.family.units``). ``mlr`` and prediction mode: the linear screen is the family,
+    nothing is refitted again.
     """
     linear = ranker.refit.errors
     if baseline.kind not in ("svr", "lssvr"):
         return FamilyErrors(LINEAR, linear, linear)
+    data, units = ranker.data, ranker.family.units
     kernel = KernelTransfer(baseline.kind, baseline.gamma, data.X, data.y, units, data.is_real)
     try:
         refit = kernel.refit()

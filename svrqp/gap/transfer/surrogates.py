@@ -31,6 +31,7 @@ from typing import Protocol
 import numpy as np
 
 from svrqp.gap.data import (
+    RISE,
     GapData,
     group_slices,
     lift_steps,
@@ -38,7 +39,6 @@ from svrqp.gap.data import (
     shift_offsets,
     wrapped_part,
 )
-from svrqp.gap.data.transforms import RISE
 from svrqp.gap.transfer.between import permutation_floor
 
 

@@ -56,13 +56,12 @@ from scipy.stats import false_discovery_control
 
 from svrqp.gap.contract import ALPHA, MIN_AMPLITUDE, MIN_GAIN, N_BOOTSTRAP
 from svrqp.gap.data import CrossValidatedDiscrepancy, GapData, block_bootstrap, block_length
-from svrqp.gap.results.records import BaseFit
-from svrqp.gap.transfer.between import RunLevelBank
 from svrqp.gap.within.surrogate_tests import (
     MAX_SURROGATES,
     SURROGATE_KINDS,
     Bank,
     BetweenRunTest,
+    CandidateBank,
     SurrogateTest,
     TestOutcome,
     build_banks,
@@ -127,11 +126,11 @@ class AttributionProblem:
 
         ``scorer`` (of the same ``given``) may be passed to share it between the tests of a round.
         """
-        if isinstance(bank, RunLevelBank):
-            return BetweenRunTest(self.r, np.column_stack([self.B, *given]), self.folds,
-                                  self.groups, bank)
-        return SurrogateTest(scorer or self.scorer(given), bank, self.groups, self.rng,
-                             self.surrogates)
+        if isinstance(bank, CandidateBank):
+            return SurrogateTest(scorer or self.scorer(given), bank, self.groups, self.rng,
+                                 self.surrogates)
+        return BetweenRunTest(self.r, np.column_stack([self.B, *given]), self.folds, self.groups,
+                              bank)
 
 
 @dataclass(frozen=True)
@@ -290,10 +289,10 @@ def estimate_shrink(r: np.ndarray, after: np.ndarray, groups: np.ndarray,
 
 def within_numbers(
     attribution: Attribution,
-    r: np.ndarray, groups: np.ndarray, base: BaseFit, rng: np.random.Generator,
+    r: np.ndarray, groups: np.ndarray, base_rmse: float, rng: np.random.Generator,
 ) -> dict[str, tuple[float, tuple[float, float], float, float | None]]:
     """Per column: the within-real-rows shrink, its interval,
-    its p-value (BH) and its shrink beyond the base.
+    its p-value (BH) and its shrink beyond the base (whose out-of-sample RMSE is ``base_rmse``).
 
     These numbers come from discrepancy models fitted on the real rows themselves: they say
     what a per-run recalibration with the effect would remove, not what the effect buys on a
@@ -303,12 +302,12 @@ def within_numbers(
     for column in dict.fromkeys(e.test.column for e in attribution.evidence):
         ev = attribution.best(column)
         estimate = estimate_shrink(r, attribution.losses.errors(ev.test), groups, rng)
-        beyond = 1.0 - estimate.rmse_after / base.rmse_after if base.rmse_after > 0 else None
+        beyond = 1.0 - estimate.rmse_after / base_rmse if base_rmse > 0 else None
         out[column] = (estimate.shrink, (estimate.ci_low, estimate.ci_high), ev.q_value, beyond)
     return out
 
 
-def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray, base: BaseFit,
+def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray, base_rmse: float,
                     progress: Callable[[str, float], None] = lambda stage, done: None) -> dict:
     """The within-real-rows evidence of every candidate column, as the causes table carries it.
 
@@ -327,8 +326,10 @@ def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray
         Prepared rows (the candidates' transforms are built from them).
     taus : ndarray
         Time constants of the ``lag`` transform.
-    base : BaseFit
-        The per-run recalibration base alone (``shrink_beyond_base`` is against it).
+    base_rmse : float
+        Out-of-sample real-row RMSE of the per-run recalibration base alone
+        (``BaseFit.rmse_after`` of :mod:`svrqp.gap.results.records`; ``shrink_beyond_base`` is
+        against it).
     progress : callable
         Called as ``progress(stage, fraction_done)``.
 
@@ -338,4 +339,4 @@ def evidence_within(problem: AttributionProblem, data: GapData, taus: np.ndarray
         Column → ``(shrink, (low, high), q_value, beyond_base)``.
     """
     attribution = attribute(problem, build_banks(data, taus), progress)
-    return within_numbers(attribution, problem.r, problem.groups, base, problem.rng)
+    return within_numbers(attribution, problem.r, problem.groups, base_rmse, problem.rng)

@@ -16,11 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from svrqp import output
-from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.document import GapResult
-from svrqp.gap.results.records import Verdict
 from svrqp.gap.words.figures import before_after_figure, gap_figure
-from svrqp.gap.words.verdict import RISE_WORDS, interval_text
+from svrqp.gap.words.verdict import effect_label, interval_text
 from svrqp.units import probability, unit_of
 
 BOUND_DIGITS = 4
@@ -74,7 +72,7 @@ class GapReport(GapResult):
             # shaded where it is a stretch of the figure's axis, the order axis
             region = self.verdict.region
             along_order = region is not None and region["column"] == self.order
-            figures["before_after"] = before_after_figure(self.series, _effect_name(self.verdict),
+            figures["before_after"] = before_after_figure(self.series, effect_label(self.verdict),
                                                           (region["low"], region["high"])
                                                           if along_order else None)
         return figures
@@ -185,17 +183,6 @@ class GapReport(GapResult):
         return "<!doctype html><html><head><meta charset='utf-8'><title>svrqp gap</title>" \
                f"<style>{style}</style></head>" \
                f"<body>{''.join(parts)}</body></html>"
-
-
-def _effect_name(v: Verdict) -> str:
-    if v.region is not None:
-        return (f"{v.column} within {v.region['low']:.3g} … {v.region['high']:.3g} "
-                f"of {v.region['column']}")
-    if v.transform == "lag":
-        return f"lag of {v.column} (τ = {v.tau:.3g})"
-    if v.transform == RISE:
-        return f"rise of {v.column}{RISE_WORDS}"
-    return f"{v.transform} of {v.column}"
 
 
 def _num(x: float | None, digits: int = 3) -> str:

@@ -2,31 +2,27 @@
 
 :func:`decide` applies the contract's rules (``docs/gap.md``) to the ranked causes
 (:mod:`svrqp.gap.transfer.ranking`): no gap, no culprit; no culprit when refitting with the same
-inputs leaves only noise (:func:`refit_closes`); otherwise the best-transferring significant cause,
-if its transfer shrink is positive, its shrink beyond the refit (in the model's own family) is
-positive and, with enough held-out units, has an interval above zero.
+inputs leaves only noise (:func:`svrqp.gap.detect.refit_closes`); otherwise the best-transferring
+significant cause, if its transfer shrink is positive, its shrink beyond the refit (in the
+model's own family) is positive and, with enough held-out units, has an interval above zero.
+Words read records here, they compute nothing: the engine (:mod:`svrqp.gap.diagnose`) refits
+the model with the cause :func:`decide` returns, and :func:`named` words the verdict from it.
 The report's summary (:func:`summary`) is here too: at most two sentences and 60 words. It states
 the gap against the train rows' error on the same footing, then what fixes it on held-out units:
 leading with extrapolation when a model input is used outside its train range and the same-input
 refit removes most of the gap (``docs/gap.md``, "The contract"), else the verdict's transfer shrink,
 or, without a verdict, whether the evidence was too thin for the best-transferring cause to be
-tested at all. :func:`extrapolation_text` is the reason's sentence on extrapolation.
+tested at all. :func:`extrapolation_text` is the reason's sentence on extrapolation, and
+:func:`effect_label` the effect as the report's before-and-after figure titles it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from svrqp.exceptions import SolverError
 from svrqp.gap.contract import ALPHA, EVIDENCE_BETWEEN, LINEAR, MIN_BLOCKS, MIN_GAIN, THIN_UNITS
-from svrqp.gap.data import GapData
-from svrqp.gap.data.transforms import RISE
-from svrqp.gap.detect import gate, noise_pvalue
-from svrqp.gap.model import Baseline, offsets_text, refit_shrink
+from svrqp.gap.data import RISE, GapData
 from svrqp.gap.results.records import BaseFit, Cause, GateResult, InputUse, Ranking, Units, Verdict
-from svrqp.gap.transfer.candidates import effect_columns
 from svrqp.gap.transfer.windows import region_text
 from svrqp.units import probability_relation, quantity, unit_of
 
@@ -39,8 +35,12 @@ class VerdictContext:
     ----------
     data : GapData
         Prepared rows.
-    baseline : Baseline
-        The given model.
+    model : str
+        The given model's kind (``mlr``, ``svr``, ``lssvr``; ``prediction`` for a prediction
+        column): :attr:`svrqp.gap.model.Baseline.kind`.
+    offsets : str
+        The offsets of the per-run recalibration base in words
+        (:func:`svrqp.gap.model.offsets_text`).
     gap : GateResult
         The gate's numbers (train and real RMSE).
     detected : bool
@@ -59,7 +59,8 @@ class VerdictContext:
     """
 
     data: GapData
-    baseline: Baseline
+    model: str
+    offsets: str
     gap: GateResult
     detected: bool
     base: BaseFit
@@ -68,8 +69,14 @@ class VerdictContext:
     transfer: dict
 
 
-def refit_text(refit: float | None, column: str) -> str:
-    """The verdict's refit of the model family on the train rows, in words (a loss said as one)."""
+def refit_text(refit: float | None, column: str, failure: str | None = None) -> str:
+    """The verdict's refit of the model family on the train rows, in words (a loss said as one).
+
+    ``failure`` is why its solver could not certify an answer (the refit is then None).
+    """
+    if failure is not None:
+        return ("the model could not be refitted with it as an input: its solver failed "
+                f"({failure}).")
     if refit is None:
         return (f"the model cannot be refitted with it as an input, since {column} is not "
                 "recorded on every train row.")
@@ -109,7 +116,7 @@ def family_text(cause: Cause, context: VerdictContext) -> str:
     when that is not the linear screen (else empty)."""
     transfer = context.transfer
     if transfer["family_note"]:
-        return f" The model is {context.baseline.kind}, but {transfer['family_note']}."
+        return f" The model is {context.model}, but {transfer['family_note']}."
     if transfer["family"] == LINEAR:
         return ""
     if cause.family == LINEAR:
@@ -120,22 +127,7 @@ def family_text(cause: Cause, context: VerdictContext) -> str:
             "the ranking and the transfer test use the linear family.")
 
 
-def refit_closes(refit_real: np.ndarray, groups: np.ndarray) -> bool:
-    """Whether the refit alone, same inputs, leaves nothing but noise on the real rows.
-
-    The contract (``docs/gap.md``): a candidate is the gap's cause only if it explains what more
-    data does not. When the leave-one-unit-out refit leaves a real-row error no larger than the
-    noise level beyond chance (the gate's excess-over-noise test,
-    :func:`svrqp.gap.detect.noise_pvalue`), the gap was the model used outside its data; a candidate
-    that still trims the remaining noise improves the model everywhere, it is not the gap's cause.
-    (The train rows are no reference here: a withheld effect that
-    acts on them as well inflates their error as much as the refit's.)
-    """
-    return noise_pvalue(refit_real, groups) >= ALPHA
-
-
-def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.ndarray],
-           context: VerdictContext) -> tuple[Verdict, GateResult | None]:
+def decide(ranking: Ranking, causes: list[Cause], context: VerdictContext) -> Verdict | Cause:
     """The cause the engine stands behind: the best-transferring
     significant one (:mod:`svrqp.gap.transfer.ranking`).
 
@@ -146,22 +138,24 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
     (:data:`svrqp.gap.contract.THIN_UNITS`) — its shrink beyond the refit must have an interval
     above zero. With thin evidence the reason and the
     summary say so instead.
-    """
-    data, base, units = context.data, context.base, context.units
-    thin = thin_text(units)
-    recalibration = (f" A per-run recalibration fitted on the real rows themselves "
-                     f"({base.description}) would "
-                     f"remove {base.shrink:.0%} of the real-row error; no new run gets that.")
-    everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
-    unexplained = _no_gap_to_explain(context, everywhere, thin)
-    if unexplained is not None:
-        return unexplained, None
-    top = ranking.top
-    thin = (ranking.too_thin or "") + thin
 
-    def no_cause(reason: str) -> tuple[Verdict, None]:
+    Returns
+    -------
+    Verdict or Cause
+        The verdict naming no cause, with its reason; or the cause to name, which the engine
+        refits on the train rows before :func:`named` words its verdict.
+    """
+    data, units = context.data, context.units
+    everywhere = [c.column for c in causes if c.significant and c.shrink_beyond_refit > 0]
+    unexplained = _no_gap_to_explain(context, everywhere, thin_text(units))
+    if unexplained is not None:
+        return unexplained
+    top = ranking.top
+    thin, recalibration = _caveats(ranking, context)
+
+    def no_cause(reason: str) -> Verdict:
         return Verdict(column=None, reason=reason, thin=units.thin,
-                       untestable=ranking.untestable), None
+                       untestable=ranking.untestable)
 
     if top is None:
         reason = ("No candidate improves the model on held-out runs beyond chance (transfer "
@@ -191,10 +185,20 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                   f"{interval_text(cause.shrink_beyond_refit_ci, ' (95 % CI ', ')')}; no cause is "
                   f"named.{family_text(cause, context)}{thin}{recalibration}")
         return no_cause(reason)
-    train_refit, train_refit_text = _train_refit(data, context.baseline, cause)
-    after = errors_after[cause.column]
-    residual_gate = gate(after, data.groups[data.is_real], context.baseline.train_reference,
-                         data.groups[data.is_train])
+    return cause
+
+
+def named(cause: Cause, ranking: Ranking, context: VerdictContext, refit: float | None,
+          failure: str | None = None) -> Verdict:
+    """The verdict naming ``cause`` (as :func:`decide` returned it), with its reason.
+
+    ``refit`` is the shrink of the model family refitted on the train rows with the cause's
+    effect (:func:`svrqp.gap.model.refit_shrink`; None where it cannot be, with ``failure``
+    saying why when its solver could not certify an answer).
+    """
+    data, units = context.data, context.units
+    thin, recalibration = _caveats(ranking, context)
+    top = ranking.top
     reason = (f"The {effect_text(cause, data.order_name)} transfers: refitting the model with it, "
               f"leave-one-{unit_word(units)}-out over all rows, shrinks the real-row RMSE from "
               f"{cause.rmse_before:.3g} to {cause.rmse_after:.3g} ({cause.shrink:.0%}"
@@ -203,7 +207,8 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
               f"({cause.rmse_refit:.3g}{interval_text(cause.shrink_beyond_refit_ci, '; CI ', '')})"
               "; transfer test q "
               f"{probability_relation(cause.p_value)}. "
-              + capitalised(train_refit_text) + family_text(cause, context) + thin + recalibration)
+              + capitalised(refit_text(refit, cause.column, failure)) + family_text(cause, context)
+              + thin + recalibration)
     # a level too few runs can permute, tested through its dynamics within runs
     if top.tested_by is not None:
         reason += (" Its run levels are too few for any ordering of them to reach significance; "
@@ -215,13 +220,23 @@ def decide(ranking: Ranking, causes: list[Cause], errors_after: dict[str, np.nda
                    "transfer test); it stays named because it transfers best.")
     return Verdict(column=cause.column, reason=reason, transform=cause.transform, tau=cause.tau,
                    evidence=cause.evidence, shrink=cause.shrink, shrink_ci=cause.shrink_ci,
-                   refit_shrink=train_refit, rmse_before=cause.rmse_before,
+                   refit_shrink=refit, rmse_before=cause.rmse_before,
                    rmse_after=cause.rmse_after,
                    p_value=cause.p_value, ambiguous_with=list(ranking.ambiguous_with),
                    rmse_refit=cause.rmse_refit, shrink_beyond_refit=cause.shrink_beyond_refit,
                    shrink_beyond_refit_ci=cause.shrink_beyond_refit_ci, thin=units.thin,
                    family=cause.family, untestable=ranking.untestable,
-                   region=cause.region), residual_gate
+                   region=cause.region)
+
+
+def _caveats(ranking: Ranking, context: VerdictContext) -> tuple[str, str]:
+    """The sentences every reason about a ranked cause ends with: thin evidence, and what a
+    per-run recalibration fitted on the real rows would remove."""
+    base = context.base
+    recalibration = (f" A per-run recalibration fitted on the real rows themselves "
+                     f"({base.description}) would "
+                     f"remove {base.shrink:.0%} of the real-row error; no new run gets that.")
+    return (ranking.too_thin or "") + thin_text(context.units), recalibration
 
 
 def _no_gap_to_explain(context: VerdictContext, everywhere: list[str],
@@ -248,24 +263,6 @@ def _no_gap_to_explain(context: VerdictContext, everywhere: list[str],
                        f"held-out {unit_word(units)}s everywhere (see the causes table).")
         return Verdict(column=None, reason=reason + thin, thin=units.thin)
     return None
-
-
-def _train_refit(data: GapData, baseline: Baseline, cause: Cause) -> tuple[float | None, str]:
-    """The verdict's refit of the model family on the
-    train rows with the cause's effect, and it in words.
-
-    A refit whose solver cannot certify its answer leaves the shrink null and says so; it does not
-    abort the diagnosis.
-    """
-    effect = effect_columns(data, cause.column, cause.transform, cause.tau, cause.evidence,
-                            cause.region)
-    try:
-        refit = refit_shrink(data, baseline, effect)
-    except SolverError as err:
-        why = (str(err) or type(err).__name__).splitlines()[0][:160]
-        return None, ("the model could not be refitted with it as an input: its solver failed "
-                      f"({why}).")
-    return refit, refit_text(refit, cause.column)
 
 
 def capitalised(text: str) -> str:
@@ -371,9 +368,22 @@ def _short_effect(verdict: Verdict, order_name: str) -> str:
                    else "")
 
 
+def effect_label(v: Verdict) -> str:
+    """The verdict's effect as the before-and-after figure
+    titles it: ``lag of T4_C (τ = 78.3)``, "TRANSFORM of COLUMN"."""
+    if v.region is not None:
+        return (f"{v.column} within {v.region['low']:.3g} … {v.region['high']:.3g} "
+                f"of {v.region['column']}")
+    if v.transform == "lag":
+        return f"lag of {v.column} (τ = {v.tau:.3g})"
+    if v.transform == RISE:
+        return f"rise of {v.column}{RISE_WORDS}"
+    return f"{v.transform} of {v.column}"
+
+
 def extrapolation_text(context: VerdictContext) -> str:
     """The reason's sentence on model inputs used outside their train range (empty when none is)."""
-    data, units, transfer = context.data, context.units, context.transfer
+    units, transfer = context.units, context.transfer
     extrapolated = [u for u in context.inputs if u.role == "input" and u.extrapolated]
     if not extrapolated:
         return ""
@@ -386,7 +396,7 @@ def extrapolation_text(context: VerdictContext) -> str:
                if transfer["shrink_refit"] > 0
                else f"does not reduce the real-row error (the held-out {unit_word(units)}s lie "
                     "outside the others' range too)"))
-    offsets = offsets_text(data)
+    offsets = context.offsets
     if worst.beyond_offsets is not None and worst.beyond_offsets <= 0:
         return text + (", and recalibrating it removes nothing out of sample beyond what "
                        f"{offsets} alone does.")

@@ -177,13 +177,16 @@ def test_a_failed_refit_of_one_cause_keeps_its_linear_numbers(monkeypatch):
 
 
 def test_a_failed_train_refit_of_the_verdict_is_said_not_raised(monkeypatch):
+    import importlib
+
     from svrqp.exceptions import SolverError
-    from svrqp.gap.words import verdict
+
+    engine = importlib.import_module("svrqp.gap.diagnose")  # the module, not the function
 
     def refit_shrink(data, baseline, effect):
         raise SolverError("gap certificate 2.31e-06 > 1e-06")
 
-    monkeypatch.setattr(verdict, "refit_shrink", refit_shrink)
+    monkeypatch.setattr(engine, "refit_shrink", refit_shrink)
     report = diagnose(kernel_problem(), GapQuestion(**QUESTION, model="svr"))
     assert report.verdict.column == "c_C" and report.verdict.refit_shrink is None
     assert "could not be refitted with it as an input: its solver failed (gap certificate" in report.verdict.reason
