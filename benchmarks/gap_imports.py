@@ -6,7 +6,7 @@ module level or inside a function. The package's own ``__init__`` counts like an
 count without it is printed too (issue #35 counted 109 before the reorganisation, which is this
 count without ``svrqp/gap/__init__.py``: 112 with it; 82 after the sub-packages, and 72, 76 with
 it, once the words read records instead of computing and no step passed through what another
-already held).
+already held; 71, 75 with it, once the ranking took ``RISE`` from ``svrqp.gap.data`` too).
 
 Run: ``python benchmarks/gap_imports.py [ROOT]`` (ROOT: a checkout, by default this one).
 """

@@ -100,6 +100,7 @@ from scipy.stats import false_discovery_control
 from svrqp.gap.contract import ALPHA, MIN_GAIN, MIN_RUNS
 from svrqp.gap.data import (
     DYNAMIC,
+    RISE,
     TRANSFORMS as CANDIDATE_TRANSFORMS,
     WITHIN_RUN,
     GapData,
@@ -108,7 +109,6 @@ from svrqp.gap.data import (
     lag,
     lowpass_columns,
 )
-from svrqp.gap.data.transforms import RISE
 from svrqp.gap.results.records import Effect, Ranked, Ranking, TransferFit
 from svrqp.gap.transfer.between import (
     PARAMETRIC_MIN_RUNS,
