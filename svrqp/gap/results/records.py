@@ -11,6 +11,7 @@ are refitted, tested and ranked.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -105,6 +106,15 @@ class Ranked:
     @property
     def significant(self) -> bool:
         return self.q_value < ALPHA and self.above_floor
+
+    def fixed_effect(self) -> Effect:
+        """Its effect with the time constant (or window) fixed at the one its fits chose most."""
+        if self.region is not None:
+            return dataclasses.replace(
+                self.effect, windows=np.array([[self.region["low"], self.region["high"]]]))
+        if self.tau is None:
+            return self.effect
+        return dataclasses.replace(self.effect, taus=np.array([self.tau]))
 
 
 @dataclass

@@ -46,7 +46,7 @@ import copy
 import numpy as np
 
 from svrqp.gap.results.records import Effect, Ranked
-from svrqp.gap.transfer.ranking import TransferRanker, _fixed
+from svrqp.gap.transfer.ranking import TransferRanker
 from svrqp.gap.transfer.surrogates import TransferSurrogates
 
 POOL_STREAM = 21
@@ -112,7 +112,7 @@ def pool_p_values(ranker: TransferRanker, seed: int) -> dict[str, float]:
 def _beyond(probe: TransferRanker, row: Ranked, rival: Ranked) -> float:
     """The p-value of ``row``'s gain with ``rival`` already in the family's inputs, against
     surrogates of ``row``'s column (as :meth:`TransferRanker.adds`)."""
-    given, _, known = probe.columns(_fixed(rival))
+    given, _, known = probe.columns(rival.fixed_effect())
     base = probe.family.errors(given, [np.arange(given.shape[1])], known)
     reference = float(base.errors @ base.errors)
     observed = probe.gain(probe.fit(row.effect, given=given), reference)

@@ -82,6 +82,11 @@ Stronger causes that cannot be tested
     than :data:`svrqp.gap.contract.MIN_RUNS` real runs to permute) is conditioned on: the candidate
     stands only if it adds beyond it, else no verdict is named.
 
+Confined to one stretch
+    A global cause that transfers only inside the stretch where a disturbance of every run sits,
+    and worse than the same-input refit elsewhere, is withheld
+    (:func:`svrqp.gap.transfer.windows.confined_to`).
+
 Confounded pairs
     A rival whose gain reaches :data:`RIVAL_FRACTION` of the top cause's is checked by
     conditional tests both ways: the gain of one with the other already in the family's
@@ -91,8 +96,6 @@ Confounded pairs
 """
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 from scipy.stats import false_discovery_control
@@ -126,6 +129,8 @@ from svrqp.gap.transfer.windows import (
     LOCAL_MARGIN,
     WindowAlone,
     chosen_region,
+    confined_reason,
+    confined_to,
     local_columns,
     local_note,
     permutations_can_reject,
@@ -333,7 +338,7 @@ class TransferRanker:
         for row in best.values():
             # the window it chose most: collinear with the design, or no better alone
             if row.region is not None:
-                E, _, known = self.columns(_fixed(row))
+                E, _, known = self.columns(row.fixed_effect())
                 row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
         self.unpermutable = sorted(untestable, key=lambda r: -r.gain)
         return sorted(best.values(), key=lambda r: -r.gain)
@@ -459,10 +464,10 @@ class TransferRanker:
         Both enter with the time constant their fits chose most (:attr:`Ranked.tau`): a second
         free time constant would let two readings of one source "add" a two-pole filter.
         """
-        given, _, known = self.columns(_fixed(b))
+        given, _, known = self.columns(b.fixed_effect())
         base = self.family.errors(given, [np.arange(given.shape[1])], known)
         reference = float(base.errors @ base.errors)
-        effect = _fixed(a)
+        effect = a.fixed_effect()
         observed = self.gain(self.fit(effect, given=given), reference)
         if observed < MIN_GAIN:
             return False
@@ -503,6 +508,11 @@ class TransferRanker:
                 f"the {stronger.effect.transform} of {stronger.effect.column} transfers better and "
                 f"it adds nothing beyond it on held-out runs, while {stronger.effect.column}, one "
                 f"level per run, {untested}: no cause is named.")
+            return result
+        stretch = confined_to(self.family, self.data, top.effect, self.refit, top.fit)
+        if stretch is not None:  # a disturbance at one place of every run, not a cause
+            top.note = f"transfers only {region_text(stretch).removeprefix('acting only ')}"
+            result.withheld = confined_reason(top.effect, stretch)
             return result
         result.top = top
         return result
@@ -577,16 +587,6 @@ class TransferRanker:
             if row.effect.run_level and row.above_floor and not self.adds(top, row):
                 return row
         return None
-
-
-def _fixed(row: Ranked) -> Effect:
-    """The row's effect with its time constant (or window) fixed at the one its fits chose most."""
-    if row.region is not None:
-        return dataclasses.replace(row.effect,
-                                   windows=np.array([[row.region["low"], row.region["high"]]]))
-    if row.tau is None:
-        return row.effect
-    return dataclasses.replace(row.effect, taus=np.array([row.tau]))
 
 
 def _better(row: Ranked, held: Ranked) -> bool:

@@ -61,6 +61,20 @@ Windows along another column
     search repeated in every surrogate, the window alone as the nested null — is as along the
     order axis, and the verdict's region names that column.
 
+A global cause must transfer outside one stretch
+    A disturbance at one place of every run whose size is random from run to run is read by no
+    column; over two real runs, a reading that warms up in every run can follow its sizes by
+    chance, and its transfer test passes (surrogates rotated within runs do not reproduce the
+    coincidence: 15 of 160 simulated thermal records named a column,
+    ``benchmarks/results/gap_local_null_size.md``). Such a column transfers where the disturbance
+    sits and worse than the same-input refit everywhere else, which no effect acting along the
+    whole run does. So before a cause of a global form (not ``local``) is named, the window of
+    :func:`window_dictionary` whose offset alone the leave-one-unit-out fits choose most is found
+    (where the disturbance sits, if it sits at one place of every run), and a cause whose real-row
+    squared error outside that window exceeds the refit's is withheld, its reason saying where it
+    transfers (:func:`confined_to`). An effect confined to a stretch is still named in its
+    ``local`` form, judged beyond its window alone.
+
 Limits: the window is one interval of the order axis shared by runs (an effect at the
 end of passes of unequal length is not one interval). A window is tried only where it is a
 stretch of at least two runs' own axis (it lies inside the order range of two groups): on a
@@ -81,6 +95,7 @@ import math
 import numpy as np
 
 from svrqp.gap.data import GapData
+from svrqp.gap.results.records import Effect, TransferFit
 from svrqp.gap.transfer.linear import LinearTransfer, shrink_of_gain
 from svrqp.units import quantity, unit_of
 
@@ -293,6 +308,39 @@ class WindowAlone:
             fit = self.family.errors(np.where(known[:, None], W, np.nan), variants, known)
             self._sse[key] = float(fit.errors @ fit.errors)
         return self._sse[key]
+
+
+def confined_to(family: LinearTransfer, data: GapData, effect: Effect, refit: TransferFit,
+                fit: TransferFit) -> dict | None:
+    """The stretch of the order axis outside which a global ``effect`` (``fit``: its
+    leave-one-unit-out errors; ``refit``: the same-input refit's) transfers worse than the refit,
+    or None (module docstring, "A global cause must transfer outside one stretch").
+
+    The stretch is the window of :func:`window_dictionary` whose offset alone the fits choose
+    most (:func:`indicator_columns`): where a disturbance no column reads sits, if it sits at one
+    place of every run.
+    """
+    if effect.windows is not None:
+        return None
+    windows = window_dictionary(data.t, family.units.code, data.groups)
+    if not len(windows):
+        return None
+    W, variants = indicator_columns(data.t, windows)
+    alone = family.errors(W, variants, np.ones(data.t.size, dtype=bool))
+    region = chosen_region(windows, data.order_name, alone.variant)
+    t = data.t[data.is_real]
+    outside = (t < region["low"]) | (t > region["high"])
+    before, after = refit.errors[outside], fit.errors[outside]
+    return region if float(after @ after) > float(before @ before) else None
+
+
+def confined_reason(effect: Effect, region: dict) -> str:
+    """The verdict's reason when :func:`confined_to` withholds a cause."""
+    where = region_text(region).removeprefix("acting only ")
+    return (f"The {effect.transform} of {effect.column} passes the transfer test, but it transfers "
+            f"only {where}, where the error sits in every run, and worse than the same-input refit "
+            "everywhere else: a disturbance at that place of every run, whose size it follows by "
+            "chance over so few runs, fits that as well. No cause is named.")
 
 
 def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
