@@ -481,8 +481,14 @@ SEALED = {"seed": 210000, "snr": (1.5, 4.0, 0.75, 2.5, 1.0), "runs": (5, 4, 3), 
 """A sixth grid, generated after the local form of a run-level reading that drifts within runs was settled on the
 development grid (the blind grid had shown the localised targets missed): run once, committed as it came."""
 
+UNSEEN = {"seed": 260000, "snr": (3.0, 1.0, 6.0, 0.75, 2.0), "runs": (4, 3, 5), "run_min": (360.0, 250.0, 430.0),
+          "ar": 3}
+"""A seventh grid, generated after a global cause confined to one stretch was withheld (settled on the development
+grid and on 400 localised nulls of their own seeds; the sealed grid had been looked at): run once, committed as it
+came."""
+
 GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH, "confirm": CONFIRM, "blind": BLIND,
-         "sealed": SEALED}
+         "sealed": SEALED, "unseen": UNSEEN}
 """Every grid by name."""
 
 ORACLE_BLOCKS = 8
