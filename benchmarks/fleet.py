@@ -244,7 +244,7 @@ def _main_section(m: dict) -> str:
   **{m['identical']} of {m['compared']}**; the 2-worker Dask run's documents equal the serial
   run's: {m['dask_identical']} of {m['n']}. Failed records: {m['failed']}.
 - Wall time (`svrqp fleet` in a child process, start-up included): serial {m['serial_s']:.1f} s,
-  2 Dask workers {m['dask2_s']:.1f} s: **speed-up {m['speedup']:.2f}×**. Mean record
+  2 Dask workers {m['dask2_s']:.1f} s: **speed-up {m['speedup']:.3f}×**. Mean record
   {t_record:.2f} s (longest {m['record_s_max']:.2f} s).
 - Reading the speed-up: a record took {t_record:.2f} s on average serially and
   {m['dask_record_s_mean']:.2f} s on a Dask worker, so the workers' records ran
