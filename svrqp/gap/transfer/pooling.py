@@ -112,8 +112,5 @@ def pool_p_values(ranker: TransferRanker, seed: int) -> dict[str, float]:
 def _beyond(probe: TransferRanker, row: Ranked, rival: Ranked) -> float:
     """The p-value of ``row``'s gain with ``rival`` already in the family's inputs, against
     surrogates of ``row``'s column (as :meth:`TransferRanker.adds`)."""
-    given, _, known = probe.columns(rival.fixed_effect())
-    base = probe.family.errors(given, [np.arange(given.shape[1])], known)
-    reference = float(base.errors @ base.errors)
-    observed = probe.gain(probe.fit(row.effect, given=given), reference)
+    observed, given, reference = probe.given(row.effect, rival)
     return float(probe.p_value(row.effect, observed, POOL_SURROGATES, given, reference))

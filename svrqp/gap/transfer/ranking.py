@@ -82,11 +82,6 @@ Stronger causes that cannot be tested
     than :data:`svrqp.gap.contract.MIN_RUNS` real runs to permute) is conditioned on: the candidate
     stands only if it adds beyond it, else no verdict is named.
 
-Confined to one stretch
-    A global cause that transfers only inside the stretch where a disturbance of every run sits,
-    and worse than the same-input refit elsewhere, is withheld
-    (:func:`svrqp.gap.transfer.windows.confined_to`).
-
 Confounded pairs
     A rival whose gain reaches :data:`RIVAL_FRACTION` of the top cause's is checked by
     conditional tests both ways: the gain of one with the other already in the family's
@@ -464,17 +459,22 @@ class TransferRanker:
         Both enter with the time constant their fits chose most (:attr:`Ranked.tau`): a second
         free time constant would let two readings of one source "add" a two-pole filter.
         """
-        given, _, known = self.columns(b.fixed_effect())
-        base = self.family.errors(given, [np.arange(given.shape[1])], known)
-        reference = float(base.errors @ base.errors)
         effect = a.fixed_effect()
-        observed = self.gain(self.fit(effect, given=given), reference)
+        observed, given, reference = self.given(effect, b)
         if observed < MIN_GAIN:
             return False
         return self.p_value(effect, observed, CONDITIONAL_SURROGATES, given, reference) < ALPHA
 
+    def given(self, effect: Effect, b: Ranked) -> tuple[float, np.ndarray, float]:
+        """``effect``'s gain with ``b`` (fixed) in the family's inputs, ``b``'s columns, the SSE."""
+        given, _, known = self.columns(b.fixed_effect())
+        base = self.family.errors(given, [np.arange(given.shape[1])], known)
+        reference = float(base.errors @ base.errors)
+        return self.gain(self.fit(effect, given=given), reference), given, reference
+
     def choose(self, ranked: list[Ranked]) -> Ranking:
-        """The verdict candidate among the significant causes, confounded rivals checked."""
+        """The verdict candidate among the significant causes, confounded rivals checked; one
+        confined to a stretch is withheld (:func:`svrqp.gap.transfer.windows.confined_to`)."""
         result = Ranking(ranked)
         significant = [r for r in ranked if r.significant]
         self.thin_evidence(ranked, result)
@@ -511,8 +511,7 @@ class TransferRanker:
             return result
         stretch = confined_to(self.family, self.data, top.effect, self.refit, top.fit)
         if stretch is not None:  # a disturbance at one place of every run, not a cause
-            top.note = f"transfers only {region_text(stretch).removeprefix('acting only ')}"
-            result.withheld = confined_reason(top.effect, stretch)
+            top.note, result.withheld = confined_reason(top.effect, stretch)
             return result
         result.top = top
         return result

@@ -334,13 +334,14 @@ def confined_to(family: LinearTransfer, data: GapData, effect: Effect, refit: Tr
     return region if float(after @ after) > float(before @ before) else None
 
 
-def confined_reason(effect: Effect, region: dict) -> str:
-    """The verdict's reason when :func:`confined_to` withholds a cause."""
-    where = region_text(region).removeprefix("acting only ")
-    return (f"The {effect.transform} of {effect.column} passes the transfer test, but it transfers "
-            f"only {where}, where the error sits in every run, and worse than the same-input refit "
-            "everywhere else: a disturbance at that place of every run, whose size it follows by "
-            "chance over so few runs, fits that as well. No cause is named.")
+def confined_reason(effect: Effect, region: dict) -> tuple[str, str]:
+    """The cause's note and the verdict's reason when :func:`confined_to` withholds a cause."""
+    where = stretch_text(region)
+    return f"transfers only {where}", (
+        f"The {effect.transform} of {effect.column} passes the transfer test, but it transfers "
+        f"only {where}, where the error sits in every run, and worse than the same-input refit "
+        "everywhere else: a disturbance at that place of every run, whose size it follows by "
+        "chance over so few runs, fits that as well. No cause is named.")
 
 
 def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
@@ -350,10 +351,15 @@ def chosen_region(windows: np.ndarray, axis: str, variant: np.ndarray) -> dict:
     return {"column": axis, "low": float(low), "high": float(high)}
 
 
+def stretch_text(region: dict) -> str:
+    """``between 0 and 12 mm of x_mm`` — a stretch of an axis."""
+    high = quantity(region["high"], unit_of(region["column"]))
+    return f"between {region['low']:.3g} and {high} of {region['column']}"
+
+
 def region_text(region: dict) -> str:
     """``acting only between 0 and 12 mm of x_mm`` — a local effect's stretch of its axis."""
-    high = quantity(region["high"], unit_of(region["column"]))
-    return f"acting only between {region['low']:.3g} and {high} of {region['column']}"
+    return f"acting only {stretch_text(region)}"
 
 
 def local_note(A: np.ndarray, E: np.ndarray, beyond_window: float, floor: float) -> str | None:
