@@ -11,7 +11,10 @@ gate or from an oracle that shares its design:
   (:data:`gap_suite_cases.RUN_LEVEL_EFFECTS`) needs six runs and its driver at two levels or more;
 * **nameable** — the truth, under the best form of :mod:`generating_oracle` (lags up to τ = ∞, two-τ lags,
   the between-run block, the simulator's own physics for a noise-free driver), beats the same-input
-  refit by at least :data:`generating_oracle.NAMEABLE_GAIN` of that refit's real-row RMSE.
+  refit by at least :data:`generating_oracle.NAMEABLE_GAIN` of that refit's real-row RMSE, and beats its
+  own surrogates (rotated within runs, run means exchanged) with that form at a p-value below
+  :data:`generating_oracle.NAMEABLE_P` (:func:`truth_p`); a localised truth the same in its true stretch
+  with the effect's true profile (:func:`local_gain`, :func:`local_p`).
 
 A scenario failing one of these leaves the denominator with its reason (:func:`exclusion`), never counted
 right. For a scenario with nothing withheld, the same oracle says whether any offered column transfers
@@ -23,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from generating_oracle import NAMEABLE_GAIN, best_rmse, gain_over_refit, refit_rmse
-from local_oracle import stretch_rmse
+from generating_oracle import NAMEABLE_DRAWS, NAMEABLE_GAIN, NAMEABLE_P, best_rmse, form_p, gain_over_refit, refit_rmse
+from local_oracle import stretch_p, stretch_rmse
 
 from gap_suite_cases import RUN_LEVEL_EFFECTS, Scenario
 
@@ -87,6 +90,16 @@ def truth_gain(table: pd.DataFrame, family: Family, truth: tuple[str, ...], orde
     return best
 
 
+def truth_p(table: pd.DataFrame, family: Family, column: str, form: str, order: str, real: np.ndarray,
+            seed: int) -> float:
+    """The surrogate p-value of the truth column under the form :func:`truth_gain` chose for it
+    (:func:`generating_oracle.form_p`; rows sorted by run and ``order``)."""
+    y, own, predict, _ = family
+    physics = table["true_effect_um"].to_numpy(float) if form == "physics" else None
+    return form_p(y, own, table[column].to_numpy(float), table[order].to_numpy(float), table["run"].to_numpy(),
+                  real, form, np.random.default_rng(seed), predict, physics)
+
+
 def best_candidate(table: pd.DataFrame, family: Family, candidates: tuple[str, ...], order: str,
                    real: np.ndarray) -> tuple[float, str]:
     """The best gain over the same-input refit of any offered column under the generating forms (no physics:
@@ -111,12 +124,22 @@ def local_gain(table: pd.DataFrame, family: Family, truth: tuple[str, ...], prof
                for c in truth)
 
 
+def local_p(table: pd.DataFrame, family: Family, truth: tuple[str, ...], profile: np.ndarray,
+            real: np.ndarray, seed: int) -> float:
+    """The smallest surrogate p-value of a localised truth column entered in its true stretch as ``[w, x w]``
+    (:func:`local_oracle.stretch_p`), unadjusted for the other offered columns."""
+    y, own, predict, _ = family
+    runs, rng = table["run"].to_numpy(), np.random.default_rng(seed)
+    return min(stretch_p(y, own, table[c].to_numpy(float), profile, runs, real, rng, predict, draws=NAMEABLE_DRAWS)
+               for c in truth)
+
+
 def run_levels(table: pd.DataFrame, truth: tuple[str, ...]) -> int:
     """Distinct run means of the truth columns (the most any of them has), over every run."""
     return max(table.groupby("run")[c].mean().round(9).nunique() for c in truth)
 
 
-def exclusion(s: Scenario, gap: bool, gain: float, levels: int | None) -> str | None:
+def exclusion(s: Scenario, gap: bool, gain: float, levels: int | None, p: float | None = None) -> str | None:
     """Why a withheld scenario leaves the denominator, or None when it stays (module docstring)."""
     if s.model != "mlr" and s.family == "thermal/features":
         return "kernel-family model (reported apart)"
@@ -126,4 +149,6 @@ def exclusion(s: Scenario, gap: bool, gain: float, levels: int | None) -> str | 
         return "run-level truth with fewer than six runs or one level"
     if gain < NAMEABLE_GAIN:
         return f"truth cannot transfer (generating-form oracle gain {gain:.3f} < {NAMEABLE_GAIN})"
+    if p is not None and p >= NAMEABLE_P:
+        return f"truth does not transfer beyond chance (generating-form oracle p {p:.3f} ≥ {NAMEABLE_P})"
     return None

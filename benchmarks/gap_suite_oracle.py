@@ -36,7 +36,16 @@ from gap_suite_cases import (
     train_query,
     window_bounds,
 )
-from gap_suite_denominator import best_candidate, exclusion, local_gain, noise_free_gap, run_levels, truth_gain
+from gap_suite_denominator import (
+    best_candidate,
+    exclusion,
+    local_gain,
+    local_p,
+    noise_free_gap,
+    run_levels,
+    truth_gain,
+    truth_p,
+)
 from generating_oracle import NAMEABLE_GAIN
 from local_oracle import stretch_rmse, told_test, told_verdict
 from transfer_oracle import (
@@ -126,11 +135,17 @@ def _denominator(s: Scenario, case: Case) -> dict:
     offered = tuple(c for c in case.truth if c in case.candidates)
     if s.kind in ("withheld", "local") and not kernel:
         if s.kind == "local":
-            gain, form = local_gain(table, family, offered, _true_profile(table, s), real), "true profile"
+            profile = _true_profile(table, s)
+            gain, form = local_gain(table, family, offered, profile, real), "true profile"
         else:
-            gain, _, form = truth_gain(table, family, offered, order, real)
+            gain, column, form = truth_gain(table, family, offered, order, real)
         levels = run_levels(table, offered) if s.effect in RUN_LEVEL_EFFECTS else None
-        out |= {"truth_gain": gain, "truth_form": form, "excluded": exclusion(s, out["gap_true"], gain, levels)}
+        excluded, p = exclusion(s, out["gap_true"], gain, levels), None
+        if excluded is None:  # the permutation test only where it decides
+            p = (local_p(table, family, offered, profile, real, s.seed) if s.kind == "local"
+                 else truth_p(table, family, column, form, order, real, s.seed))
+            excluded = exclusion(s, out["gap_true"], gain, levels, p)
+        out |= {"truth_gain": gain, "truth_form": form, "truth_p": p, "excluded": excluded}
     elif s.kind in ("withheld", "local"):
         out["excluded"] = exclusion(s, out["gap_true"], float("nan"), None)
     elif s.kind in NOTHING_CARRIED and not kernel:

@@ -19,7 +19,8 @@ each fit by its own rows' squared error) and keeps the best on the real rows:
   from that column (``true_effect_um``).
 
 The truth *can* be named when its best form beats the same-input refit by at least
-:data:`NAMEABLE_GAIN` of that refit's real-row RMSE. None of this is the engine's τ grid, transform
+:data:`NAMEABLE_GAIN` of that refit's real-row RMSE and beats the column's surrogates with that form
+below :data:`NAMEABLE_P` (:func:`form_p`). None of this is the engine's τ grid, transform
 set or test: the grid, the forms and the criterion are written here from DESIGN §4's definitions.
 """
 
@@ -28,6 +29,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+from local_oracle import surrogate_p
 from transfer_oracle import (
     Predict,
     between_block,
@@ -40,6 +42,13 @@ from transfer_oracle import (
 
 NAMEABLE_GAIN = 0.05
 """Least relative RMSE gain over the same-input refit for a truth to count as nameable (DESIGN §4)."""
+
+NAMEABLE_P = 0.05
+"""Surrogate p-value at or above which a truth counts as not transferring beyond chance (DESIGN §4)."""
+
+NAMEABLE_DRAWS = 99
+"""Random surrogates behind that p-value: its smallest value, 0.01, is well below :data:`NAMEABLE_P`, and a
+refit of every form variant per surrogate keeps the count low."""
 
 N_TAU, N_TAU_PAIRS = 10, 5
 """Time constants of the one-τ lag grid, and of the coarser grid whose pairs form ``lag2``."""
@@ -93,3 +102,21 @@ def refit_rmse(y: np.ndarray, own: np.ndarray, runs: np.ndarray, real: np.ndarra
 def gain_over_refit(best: float, refit: float) -> float:
     """Relative RMSE gain of a form over the same-input refit, ``1 - best / refit``."""
     return 1.0 - best / refit if refit > 0 else 0.0
+
+
+def form_p(y: np.ndarray, own: np.ndarray, x: np.ndarray, t: np.ndarray, runs: np.ndarray, real: np.ndarray,
+           form: str, rng: np.random.Generator, predict: Predict = lstsq_predict,
+           physics: np.ndarray | None = None) -> float:
+    """Surrogate p-value of the column ``x`` under the form ``form`` (:func:`forms`), by
+    :func:`local_oracle.surrogate_p`: ``x`` rotated within runs with its run means exchanged (for ``physics``,
+    the simulator's effect itself), its form rebuilt from the surrogate and refitted leave one run out.
+
+    The form stays the one the observed column chose (:func:`best_rmse`); a test that chose again on every
+    surrogate could only give a larger p, so this one leaves no more truths out of the denominator than it.
+    """
+    def rmse(column: np.ndarray) -> float:
+        variants = [column[:, None]] if form == "physics" else forms(column, t, runs)[form]
+        return logo_rmse(y, own, variants, runs, real, predict)
+
+    column = np.asarray(physics if form == "physics" else x, dtype=float)
+    return surrogate_p(rmse, column, runs, rng, draws=NAMEABLE_DRAWS)

@@ -63,12 +63,21 @@ def stretch_rmse(y: np.ndarray, base: np.ndarray, x: np.ndarray, w: np.ndarray, 
 
 
 def stretch_p(y: np.ndarray, base: np.ndarray, x: np.ndarray, w: np.ndarray, groups: np.ndarray, real: np.ndarray,
-              rng: np.random.Generator, predict: Predict = lstsq_predict, observed: float | None = None) -> float:
+              rng: np.random.Generator, predict: Predict = lstsq_predict, observed: float | None = None,
+              draws: int = DRAWS) -> float:
     """Permutation p-value of the column ``x`` with the profile ``w`` (module docstring); rows sorted within runs.
     ``observed``: its :func:`stretch_rmse`, when the caller has it already."""
     def rmse(column: np.ndarray) -> float:
         return stretch_rmse(y, base, column, w, groups, real, predict)
 
+    return surrogate_p(rmse, x, groups, rng, observed, draws)
+
+
+def surrogate_p(rmse, x: np.ndarray, groups: np.ndarray, rng: np.random.Generator,
+                observed: float | None = None, draws: int = DRAWS) -> float:
+    """Permutation p-value of a statistic ``rmse(column)`` (smaller is better) of the column ``x`` against its
+    surrogates (:func:`surrogate`; module docstring): every ordering of a run-constant column's levels when there
+    are at most :data:`EXACT_MAX`, else ``draws`` random rotations and orderings."""
     observed = (rmse(x) if observed is None else observed) * (1 + 1e-12)
     runs = pd.unique(groups)
     k = runs.size
@@ -80,8 +89,8 @@ def stretch_p(y: np.ndarray, base: np.ndarray, x: np.ndarray, w: np.ndarray, gro
         return hits / math.factorial(k)
     sizes = np.array([np.sum(groups == g) for g in runs])
     hits = sum(rmse(surrogate(x, groups, rng.permutation(k), rng.integers(0, sizes))) <= observed
-               for _ in range(DRAWS))
-    return (1 + hits) / (1 + DRAWS)
+               for _ in range(draws))
+    return (1 + hits) / (1 + draws)
 
 
 def told_test(table: pd.DataFrame, y: np.ndarray, base: np.ndarray, w: np.ndarray, columns: tuple[str, ...],

@@ -137,18 +137,50 @@ def test_run_level_truths_have_six_runs(suite):
         assert not short, (grid, short)
 
 
-@pytest.mark.parametrize(("gap", "gain", "levels", "runs", "model", "reason"), [
-    (True, 0.2, None, 3, "mlr", None),
-    (False, 0.2, None, 3, "mlr", "no gap in the noise-free residual"),
-    (True, 0.01, None, 3, "mlr", "truth cannot transfer"),
-    (True, 0.2, 1, 6, "mlr", "run-level truth with fewer than six runs or one level"),
-    (True, 0.2, None, 3, "lssvr", "kernel-family model (reported apart)"),
+@pytest.mark.parametrize(("gap", "gain", "levels", "runs", "model", "reason", "p"), [
+    (True, 0.2, None, 3, "mlr", None, None),
+    (False, 0.2, None, 3, "mlr", "no gap in the noise-free residual", None),
+    (True, 0.01, None, 3, "mlr", "truth cannot transfer", None),
+    (True, 0.2, 1, 6, "mlr", "run-level truth with fewer than six runs or one level", None),
+    (True, 0.2, None, 3, "lssvr", "kernel-family model (reported apart)", None),
+    (True, 0.2, None, 3, "mlr", "truth does not transfer beyond chance", 0.3),
+    (True, 0.2, None, 3, "mlr", None, 0.01),
 ])
 def test_a_scenario_leaves_the_denominator_only_with_its_reason(suite, denominator, gap, gain, levels, runs, model,
-                                                               reason):
+                                                               reason, p):
     effect = "load_deflection" if levels is not None else "bed_C"
     family = "axis/prediction" if levels is not None else "thermal/features"
     scenario = suite.Scenario("x", family, "withheld", effect, snr=1.0, runs=runs, run_min=0.0, ar=False, seed=1,
                               model=model)
-    got = denominator.exclusion(scenario, gap, gain, levels)
-    assert got == reason if reason is None or "cannot" not in reason else got.startswith(reason)
+    got = denominator.exclusion(scenario, gap, gain, levels, p)
+    assert got == reason if reason is None or "(" not in got else got.startswith(reason)
+
+
+def test_a_run_level_truth_s_surrogate_p_is_its_rank_among_every_ordering(oracle):
+    """Four runs, y the column's run level plus noise: of the 4! orderings of the levels only the observed one
+    is an affine map of y's (the levels are not symmetric, so not even reversed), so the exact p-value is 1/24
+    (closed form); a column whose levels are not y's ordering ranks lower."""
+    rng = np.random.default_rng(5)
+    runs = np.repeat(np.arange(4), 50)
+    t = np.tile(np.arange(50.0), 4)
+    x = np.array([1.0, 7.0, 2.0, 3.0])[runs]
+    y = 2.0 * x + 0.05 * rng.standard_normal(x.size)
+    real, own = runs >= 2, np.ones((x.size, 1))
+    assert oracle.form_p(y, own, x, t, runs, real, "level", rng) == pytest.approx(1 / 24)
+    shuffled = np.array([3.0, 1.0, 7.0, 2.0])[runs]
+    assert oracle.form_p(y, own, shuffled, t, runs, real, "level", rng) > 0.05
+
+
+def test_a_reading_that_carries_nothing_does_not_beat_its_surrogates(oracle):
+    """A random walk per run that y does not depend on: its best form may beat the refit by chance, but not
+    its own rotations (p ≥ 0.05); the same walk carrying y's drift gives the smallest p, 1/(1 + draws)."""
+    rng = np.random.default_rng(8)
+    runs = np.repeat(np.arange(4), 120)
+    t = np.tile(np.arange(120.0), 4)
+    walk = np.cumsum(rng.standard_normal(t.size))
+    real, own = runs >= 2, np.ones((t.size, 1))
+    y = 0.5 * rng.standard_normal(t.size)
+    _, form = oracle.best_rmse(y, own, walk, t, runs, real)
+    assert oracle.form_p(y, own, walk, t, runs, real, form, rng) >= oracle.NAMEABLE_P
+    y = y + walk
+    assert oracle.form_p(y, own, walk, t, runs, real, "level", rng) == pytest.approx(1 / (1 + oracle.NAMEABLE_DRAWS))
