@@ -30,8 +30,8 @@ from gap_suite_cases import local_scenarios  # noqa: E402
 from gap_suite_oracle import evaluate  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
-BATCHES = 10
-"""Batches of 20 localised nulls (200 records)."""
+BATCHES = 20
+"""Batches of 20 localised nulls (400 records: the committed results)."""
 SEED = 300000
 """First seed; batch ``k`` starts at ``SEED + 1000 k`` (no grid uses this range)."""
 SNR = (0.75, 1.0, 1.5, 2.5, 4.0, 6.0)

@@ -22,7 +22,8 @@ The checker's answer (DESIGN §4, "What shrink means")
     error on the fit's own rows; ``local`` adds :math:`\\mathbb{1}_W` and :math:`x\\mathbb{1}_W`,
     the indicator of a window :math:`W` of ``time_min`` and the candidate inside it, with
     :math:`W` taken from the same tile dictionary as the engine's (:func:`windows`, written
-    here from its definition: tiles of 5, 10 and 20 % of the axis's range, each bounded by
+    here from its definition: tiles of 5, 10 and 20 % of the axis's range, the 10 and 20 % tiles
+    also shifted by half a tile, each bounded by
     the smallest and largest order value of its rows, kept once, and dropped when it holds
     fewer than 5 rows in every held-out unit, rows in fewer than two of them — the units are
     the real cycles and the train cycles together, which every fit keeps — or when it does not
@@ -90,11 +91,12 @@ def windows(table: pd.DataFrame) -> list[np.ndarray]:
     unit = table["cycle"].where(table["cycle"].isin(ASSESS_CYCLES), "train").to_numpy()  # units held out
     spans = table.groupby("cycle")["time_min"].agg(["min", "max"]).to_numpy()
     out, seen = [], set()
-    for width in TILE_WIDTHS:
-        n = int(round(1 / width))
-        edges = t.min() + np.ptp(t) * np.linspace(0.0, 1.0, n + 1)
+    tilings = [(width, shift) for width in TILE_WIDTHS for shift in (0.0, width / 2)[: 1 + (width >= 0.1)]]
+    for width, shift in tilings:
+        n = int(round(1 / width)) - (shift > 0)  # a shifted tiling ends half a tile before the axis does
+        edges = t.min() + np.ptp(t) * (shift + width * np.arange(n + 1))
         for i in range(n):
-            inside = (t >= edges[i]) & ((t < edges[i + 1]) | (i == n - 1))
+            inside = (t >= edges[i]) & ((t < edges[i + 1]) | (i == n - 1 and shift == 0))
             counts = pd.Series(unit[inside]).value_counts()
             if len(counts) < 2 or counts.max() < TILE_MIN_ROWS:
                 continue

@@ -401,7 +401,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="Run every tenth scenario only.")
     parser.add_argument("--grid", choices=tuple(GRIDS), default="development",
                         help="Scenario grid: development (to tune), or holdout, fresh, confirm, blind, sealed, unseen, "
-                             "pristine (to check).")
+                             "pristine, reserve (to check).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
     parser.add_argument("--only", default="", help="Comma-separated name prefixes: run only those scenarios "
                                                       "(files suffixed _only).")
@@ -421,7 +421,8 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh",
             "confirm": "gap_suite_confirm", "blind": "gap_suite_blind",
-            "sealed": "gap_suite_sealed", "unseen": "gap_suite_unseen", "pristine": "gap_suite_pristine"}[args.grid]
+            "sealed": "gap_suite_sealed", "unseen": "gap_suite_unseen", "pristine": "gap_suite_pristine",
+            "reserve": "gap_suite_reserve"}[args.grid]
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
     name += "_local_everywhere" if args.local else ""
     name += "_quick" if args.quick else ""
@@ -430,7 +431,7 @@ def main(argv: list[str] | None = None) -> int:
     title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid",
              "confirm": "confirmation grid (run once)", "blind": "blind grid (run once)",
              "sealed": "sealed grid (run once)", "unseen": "unseen grid (run once)",
-             "pristine": "pristine grid (run once)"}[args.grid]
+             "pristine": "pristine grid (run once)", "reserve": "reserve grid (run once)"}[args.grid]
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
     title += ", local form on every scenario" if args.local else ""
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"

@@ -493,8 +493,14 @@ PRISTINE = {"seed": 320000, "snr": (2.5, 0.75, 1.5, 4.0, 1.0), "runs": (5, 3, 4)
 not beat its surrogates, p ≥ 0.05; DESIGN §4) was added, with the engine unchanged since the unseen grid: run once,
 committed as it came."""
 
+RESERVE = {"seed": 380000, "snr": (1.25, 3.0, 0.75, 2.0, 5.0), "runs": (4, 5, 3), "run_min": (320.0, 230.0, 410.0),
+           "ar": 2}
+"""A ninth grid, generated after the window dictionary's half-shifted tiles were settled on the development grid,
+400 localised nulls and the localised scenarios of the pristine and unseen grids (both looked at, so development):
+run once, committed as it came."""
+
 GRIDS = {"development": DEVELOPMENT, "holdout": HOLDOUT, "fresh": FRESH, "confirm": CONFIRM, "blind": BLIND,
-         "sealed": SEALED, "unseen": UNSEEN, "pristine": PRISTINE}
+         "sealed": SEALED, "unseen": UNSEEN, "pristine": PRISTINE, "reserve": RESERVE}
 """Every grid by name."""
 
 ORACLE_BLOCKS = 8

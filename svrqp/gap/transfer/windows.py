@@ -102,6 +102,11 @@ from svrqp.units import quantity, unit_of
 WINDOW_WIDTHS = (0.05, 0.1, 0.2)
 """Widths of the dictionary's tiles, as fractions of the order axis's range."""
 
+SHIFTED_MIN_WIDTH = 0.1
+"""Tiles at least this wide are laid a second time, half a tile on: a stretch that starts in the
+middle of a tile (a quarter of a run from 50 %) is otherwise split between two tiles that each
+hold half of it."""
+
 MIN_REGION_ROWS = 5
 """Fewest rows a window must span along the axis (in the unit where it holds most) to be tried."""
 
@@ -113,7 +118,8 @@ for the column (it has the most parameters: two columns and the window's two bou
 def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """The windows tried, as rows ``[low, high]`` of order values (inclusive).
 
-    Tiles of :data:`WINDOW_WIDTHS` of the range of ``t``; each window's bounds are the smallest
+    Tiles of :data:`WINDOW_WIDTHS` of the range of ``t``, those of at least
+    :data:`SHIFTED_MIN_WIDTH` also shifted by half a tile; each window's bounds are the smallest
     and largest order value of the rows in its tile, windows holding the same rows are kept
     once, and a window narrower than :data:`MIN_REGION_ROWS` rows (in the unit where it holds
     most), with rows in fewer than two units, or inside the order range of fewer than two
@@ -138,17 +144,21 @@ def window_dictionary(t: np.ndarray, units: np.ndarray, groups: np.ndarray) -> n
         return np.zeros((0, 2))
     ranges = np.array([(t[groups == g].min(), t[groups == g].max()) for g in np.unique(groups)])
     for width in WINDOW_WIDTHS:
-        edges = start + span * np.linspace(0.0, 1.0, round(1 / width) + 1)
-        for i, (a, b) in enumerate(itertools.pairwise(edges)):
-            inside = (t >= a) & ((t < b) | (i == edges.size - 2))
-            per_unit = np.unique(units[inside], return_counts=True)[1]
-            if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
-                continue
-            bounds = (float(t[inside].min()), float(t[inside].max()))
-            shared = np.sum((ranges[:, 0] <= bounds[0]) & (ranges[:, 1] >= bounds[1]))
-            if shared >= 2 and bounds not in seen:
-                seen.add(bounds)
-                out.append(bounds)
+        fractions = np.linspace(0.0, 1.0, round(1 / width) + 1)
+        for shift in (0.0, width / 2) if width >= SHIFTED_MIN_WIDTH else (0.0,):
+            tiling = fractions + shift
+            edges = start + span * tiling[tiling <= 1.0 + 1e-12]
+            closed = shift == 0.0  # the last of the unshifted tiles holds the axis's last row
+            for i, (a, b) in enumerate(itertools.pairwise(edges)):
+                inside = (t >= a) & ((t < b) | (closed and i == edges.size - 2))
+                per_unit = np.unique(units[inside], return_counts=True)[1]
+                if not per_unit.size or per_unit.max() < MIN_REGION_ROWS or per_unit.size < 2:
+                    continue
+                bounds = (float(t[inside].min()), float(t[inside].max()))
+                shared = np.sum((ranges[:, 0] <= bounds[0]) & (ranges[:, 1] >= bounds[1]))
+                if shared >= 2 and bounds not in seen:
+                    seen.add(bounds)
+                    out.append(bounds)
     return np.array(out).reshape(-1, 2)
 
 

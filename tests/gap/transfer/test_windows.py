@@ -15,6 +15,7 @@ from support.benchmark_modules import load_benchmark
 from svrqp.exceptions import ProblemError
 from svrqp.gap import GapQuestion, diagnose
 from svrqp.gap.transfer.surrogates import exchange_run_levels
+from svrqp.gap.transfer import windows as windows_module
 from svrqp.gap.transfer.windows import MIN_REGION_ROWS, collinear, threshold_dictionary, window_dictionary
 
 PATCH_MM = (20.0, 34.0)
@@ -140,6 +141,23 @@ def test_windows_narrower_than_five_rows_are_not_tried():
     assert one_unit.shape == (0, 2)  # a window seen in one unit only cannot be refitted without it
 
 
+def test_a_stretch_that_starts_mid_tile_is_covered(monkeypatch):
+    """A quarter of every run from its middle (rows 50–74 of 0–99): the unshifted 10 % and 20 % tiles
+    each hold at most half of it (best IoU 15/30, the tile of rows 60–79); the 20 % tile laid half a
+    tile on holds rows 50–69, IoU 20/25 (counted here row by row)."""
+    t = np.tile(np.arange(100.0), 3)
+    runs = np.repeat([0, 1, 2], 100)
+    truth = (t[:100] >= 50) & (t[:100] <= 74)
+
+    def best_iou() -> float:
+        found = [(t[:100] >= a) & (t[:100] <= b) for a, b in window_dictionary(t, runs, runs)]
+        return max(np.sum(truth & f) / np.sum(truth | f) for f in found)
+
+    assert best_iou() == pytest.approx(0.8)
+    monkeypatch.setattr(windows_module, "SHIFTED_MIN_WIDTH", 1.0)  # no shifted tiles: the dictionary before
+    assert best_iou() == pytest.approx(0.5)
+
+
 def test_a_clock_that_runs_on_through_the_runs_offers_no_window():
     runs = np.repeat([0, 1, 2], 60)
     shared = window_dictionary(np.tile(np.arange(60.0), 3), runs, runs)
@@ -185,7 +203,7 @@ def test_the_real_data_checker_tiles_the_axis_as_the_engine_does(shared):
     units = np.where(table["cycle"] == "5000", 0, np.where(table["cycle"] == "mixed", 1, -1))  # train rows: one unit
     engine = [((t >= low) & (t <= high)).astype(float) for low, high in window_dictionary(t, units, groups)]
     mine = checker.windows(table)
-    assert len(mine) == len(engine) == (28 if shared else 0)
+    assert len(mine) == len(engine) == (40 if shared else 0)  # 28 before the half-shifted tiles
     assert all(np.array_equal(a, b) for a, b in zip(mine, engine))
 
 
