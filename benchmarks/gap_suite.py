@@ -146,7 +146,7 @@ from gap_suite_cases import (
     train_query,
     window_bounds,
 )
-from gap_suite_oracle import diagnose_case, evaluate, local_as_well
+from gap_suite_oracle import NO_RIGHT_ANSWER, diagnose_case, evaluate, local_as_well
 from local_oracle import FDR
 
 __all__ = ["FDR", "GRIDS", "MIN_RUN_LEVEL_RUNS", "NODE_SENSORS", "RUN_LEVEL_EFFECTS", "Case", "Scenario", "case_for", "diagnose_case", "evaluate", "local_as_well",
@@ -224,6 +224,8 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
     if rows.empty:
         return f"# svrqp gap — validation suite, {title}, localised scenarios only\n" + local_text
     withheld = rows[rows.kind == "withheld"]
+    unanswerable = withheld[withheld["excluded"].eq(NO_RIGHT_ANSWER)] if "excluded" in withheld else withheld[:0]
+    withheld, rows = withheld.drop(unanswerable.index), rows.drop(unanswerable.index)  # never diagnosed: listed only
     nulls = rows[rows.kind != "withheld"]
     top1 = withheld.top1.astype(bool)
     correct = withheld[top1]
@@ -290,7 +292,7 @@ def summarise(rows: pd.DataFrame, title: str) -> str:
     lines = [f"# svrqp gap — validation suite, {title} ({counts})", "", machine, "",
              "| metric | value | target |", "|---|---|---|"]
     lines += [f"| {name} | {value:.3f} | {target} |" for name, (value, target) in metric.items()]
-    lines += _denominator_lines(withheld, nulls, proxies)
+    lines += _denominator_lines(pd.concat([withheld, unanswerable]), nulls, proxies)
     lines += ["", "## By family and withheld effect", "",
               "| family | kind | effect | n | top-1 | top-3 | named | decoy | IoU | mean abs shrink err |",
               "|---|---|---|---|---|---|---|---|---|---|"]

@@ -98,6 +98,11 @@ class Scenario:
     shape: str = "indicator"  # local kinds: indicator, bump (half sine) or transient (decaying exponential)
 
 
+class NoRightAnswer(ValueError):
+    """The simulator drew a withheld scenario in which no offered column carries the effect on the real rows:
+    it has no right answer, and the suite leaves it out of every target before the engine runs."""
+
+
 @dataclass(frozen=True)
 class Case:
     """A simulated scenario: the table, the candidates offered and the right answers."""
@@ -233,7 +238,7 @@ def thermal_case(s: Scenario) -> Case:
             same = _simulate_runs(configs, seeds, s.run_min, sensor_noise=0.0, **(scales | dict.fromkeys(sharing, 1.0)))
             truth, decoys = label_columns(s.effect, df, alone, same, real)
             if not truth:
-                raise ValueError(f"{s.name}: no column carries the withheld effect on the real rows (share < "
+                raise NoRightAnswer(f"{s.name}: no column carries the withheld effect on the real rows (share < "
                                  f"{TRUTH_SHARE_MIN}); the scenario has no right answer")
             picked = rng.choice(decoys, min(s.n_decoys, len(decoys)), replace=False)
             candidates = tuple(rng.permutation([truth[0], *picked]))

@@ -29,6 +29,7 @@ from gap_suite_cases import (
     ORACLE_TRANSFORMS,
     ORDER,
     Case,
+    NoRightAnswer,
     Scenario,
     case_for,
     local_axis,
@@ -66,6 +67,10 @@ LSSVR_C = 10.0
 # ----------------------------------------------------------------------- evaluation
 
 
+NO_RIGHT_ANSWER = "no offered column carries the effect (the simulator's own check)"
+"""Why a withheld scenario the simulator drew without a right answer (:class:`gap_suite_cases.NoRightAnswer`) is left
+out: before the engine runs, of every statistic but the list of scenarios left out."""
+
 NOTHING_CARRIED = ("null", "unmeasured", "extrapolation", "local-null")
 """Kinds whose error no offered column carries: any verdict there is a false attribution, unless the
 column is a proxy of an unmeasured effect."""
@@ -90,8 +95,11 @@ def diagnose_case(s: Scenario, case: Case, surrogates: str = "rotation", local_e
 
 
 def evaluate(s: Scenario, surrogates: str = "rotation", local_everywhere: bool = False) -> dict:
-    """Simulate, diagnose and score one scenario."""
-    case = case_for(s)
+    """Simulate, diagnose and score one scenario (one the simulator gives no right answer is left out, with why)."""
+    try:
+        case = case_for(s)
+    except NoRightAnswer:
+        return dataclasses.asdict(s) | {"verdict": None, "named": False, "excluded": NO_RIGHT_ANSWER}
     started = time.perf_counter()
     report = diagnose_case(s, case, surrogates, local_everywhere)
     runtime = time.perf_counter() - started

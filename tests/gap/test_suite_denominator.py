@@ -184,3 +184,12 @@ def test_a_reading_that_carries_nothing_does_not_beat_its_surrogates(oracle):
     assert oracle.form_p(y, own, walk, t, runs, real, form, rng) >= oracle.NAMEABLE_P
     y = y + walk
     assert oracle.form_p(y, own, walk, t, runs, real, "level", rng) == pytest.approx(1 / (1 + oracle.NAMEABLE_DRAWS))
+
+
+def test_a_scenario_drawn_without_a_right_answer_is_left_out_not_diagnosed(suite):
+    """The reserve grid's tp-coolant_chiller-0: no offered column carries the chiller on the real rows, so the
+    simulator's own check refuses the case; the suite lists it with that reason and runs no diagnosis (a grid run
+    once must not stop on one such draw)."""
+    oracle = load_benchmark("gap_suite_oracle")
+    row = suite.evaluate(_scenario(suite, "tp-coolant_chiller-0", grid="reserve"))
+    assert row["excluded"] == oracle.NO_RIGHT_ANSWER and row["verdict"] is None and row["named"] is False
