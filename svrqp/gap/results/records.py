@@ -55,6 +55,13 @@ class Effect:
             return 2 * PROFILE_DEGREE + 1
         return {"lag": 3, "local": 4}.get(self.transform, 1)  # level and the one-column dynamics: 1
 
+    def chosen_tau(self, variant: np.ndarray) -> float | None:
+        """The time constant the units' fits chose most often (``variant``: each fit's index in
+        :attr:`taus`), or None without a grid."""
+        if self.taus is None:
+            return None
+        return float(self.taus[np.bincount(variant, minlength=self.taus.size).argmax()])
+
 
 @dataclass
 class Ranked:

@@ -94,7 +94,7 @@ def pool_p_values(ranker: TransferRanker, seed: int) -> dict[str, float]:
                                           lift=ranker.family.units.kind == "blocks")
     effects = ranker.effects()
     forms = {c: e for c in ranker.data.candidates if (e := pooled_form(effects, c)) is not None}
-    fitted = {c: Ranked(e, fit := probe.fit(e), probe.gain(fit), tau=probe._tau(e, fit))
+    fitted = {c: Ranked(e, fit := probe.fit(e), probe.gain(fit), tau=e.chosen_tau(fit.variant))
               for c, e in forms.items()}
     best = max(fitted.values(), key=lambda r: r.gain, default=None)
     p_values: dict[str, float] = {}

@@ -309,7 +309,7 @@ class TransferRanker:
         untestable: list[Ranked] = []
         for effect in self.effects():
             fit = self.fit(effect)
-            row = Ranked(effect, fit, self.gain(fit), tau=self._tau(effect, fit),
+            row = Ranked(effect, fit, self.gain(fit), tau=effect.chosen_tau(fit.variant),
                          region=self._region(effect, fit))
             if effect.windows is not None:  # what the candidate buys beyond its window's own offset
                 row.beyond_window = self.gain(
@@ -337,11 +337,6 @@ class TransferRanker:
                 row.note = local_note(self.family.A[known], E[known], row.beyond_window, MIN_GAIN)
         self.unpermutable = sorted(untestable, key=lambda r: -r.gain)
         return sorted(best.values(), key=lambda r: -r.gain)
-
-    def _tau(self, effect: Effect, fit: TransferFit) -> float | None:
-        if effect.taus is None:
-            return None
-        return float(effect.taus[np.bincount(fit.variant, minlength=effect.taus.size).argmax()])
 
     def _region(self, effect: Effect, fit: TransferFit) -> dict | None:
         return None if effect.windows is None else chosen_region(effect.windows, effect.axis,
