@@ -15,10 +15,10 @@ crossover of :func:`svrqp.solvers.dual_ipm.crossover` solves the free-set system
 exactly and frees or fixes coefficients until every KKT condition of the dual (S0 eq. 6) holds to
 rounding. SMO pays per support vector and per iteration, so a loose run is cheap; its tail to
 1e-8 is what costs on smooth data, and the crossover replaces that tail by one or a few solves of
-size :math:`|F|`. Only kernel columns of support vectors are formed
-(:class:`svrqp.linalg.kernel_columns.KernelColumns`), never the n×n Gram matrix — except up to
-``DENSE_MAX_POINTS`` points, where one product forms it faster than a column cache serves it. On
-large problems the loose run first holds the points a pilot fit settles at zero or at ±C
+size :math:`|F|`. Up to ``DENSE_MAX_POINTS`` points (below the sizes where screening starts) the
+n×n Gram matrix is formed once and both the loose run and the crossover read it; above, only kernel
+columns of support vectors are formed (:class:`svrqp.linalg.kernel_columns.KernelColumns`), and the
+loose run first holds the points a pilot fit settles at zero or at ±C
 (:mod:`svrqp.solvers.screening`).
 
 The result is exact only when the crossover says so (``exact``); the caller certifies it on the
@@ -39,7 +39,7 @@ from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, crossover
-from svrqp.solvers.screening import decomposition_fit, screened_fit
+from svrqp.solvers.screening import SCREEN_MIN_POINTS, decomposition_fit, screened_fit
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
 #: answer needs; the crossover finishes the job. (1e-2 saves SMO iterations at large C but costs
@@ -70,12 +70,16 @@ class WarmStartFit:
     times_s: dict[str, float] = field(default_factory=dict)
 
 
-#: Up to this many points the crossover reads its columns from the whole Gram matrix, formed at
-#: once by one product of the column factors: below it a column cache's and a product's
-#: bookkeeping cost more than the matrix (measured at n = 50, interleaved: 0.82–0.95× the fit's
-#: time with the cache on the noisy sinc set, 0.97–0.99× on the thermal set, whose support
-#: vectors are all free).
-DENSE_MAX_POINTS = 128
+#: Below the size where screening starts, the whole Gram matrix is formed at once by one product
+#: of the column factors, and both the loose run (libsvm on it as a precomputed kernel: each value
+#: looked up, not computed again) and the crossover read it. A column cache's and a product's
+#: bookkeeping cost more than the matrix at n = 50 (0.82–0.95× the fit's time), and from n = 100
+#: to 1500 libsvm's own kernel evaluations are most of a loose run on smooth data, where its
+#: tolerance hardly matters (issue 38, `benchmarks/results/epsilon_svr_small_smooth.md` against
+#: `..._before_dense.md`, the same machine minutes apart: thermal generator 0.85× and 0.82×
+#: libsvm's time at n = 200 and 1000, 1.01× and 1.11× before; noisy sinc 0.61× and 0.41×, 0.77×
+#: and 0.39× before; n = 50 unchanged, 1.06–1.17×). At 1999 points the matrix is 32 MB.
+DENSE_MAX_POINTS = SCREEN_MIN_POINTS - 1
 
 
 def precomputed_columns(K: NDArray[np.float64]):
@@ -108,17 +112,19 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     C, epsilon = float(C), float(epsilon)
     start = time.perf_counter()
     screened = None
+    smo_X, smo_kernel = X, kernel_parameters
     if kernel_parameters["kernel"] == "precomputed":
         columns, products = precomputed_columns(X), None
-    elif y.size <= DENSE_MAX_POINTS:  # screening starts far above this size
-        all_columns = KernelColumns(X, **kernel_arguments(kernel_parameters))
+    elif y.size <= DENSE_MAX_POINTS:  # below screening's sizes: one Gram matrix for both stages
         # checked finite as it is formed (KernelColumns.uncached)
-        columns, products = precomputed_columns(all_columns.uncached(np.arange(y.size))), None
+        K = KernelColumns(X, **kernel_arguments(kernel_parameters)).uncached(np.arange(y.size))
+        columns, products = precomputed_columns(K), None
+        smo_X, smo_kernel = K, {**kernel_parameters, "kernel": "precomputed"}
     else:
         columns = KernelColumns(X, **kernel_arguments(kernel_parameters))
         products = columns.products
         screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, products)
-    warm = screened or decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
+    warm = screened or decomposition_fit(smo_X, y, C, epsilon, smo_kernel, smo_tol)
     middle = time.perf_counter()
     scale = kernel_scale(X, kernel_parameters)
     result = crossover(columns, y, C, epsilon, warm.beta, products=products,

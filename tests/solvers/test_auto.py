@@ -76,11 +76,13 @@ def test_smo_crossover_many_free_support_vectors(C):
 
 @pytest.mark.parametrize("kernel", ["rbf", "poly", "linear"])
 def test_small_fits_read_the_whole_gram_matrix_and_agree_with_the_column_cache(kernel, monkeypatch):
-    """Up to DENSE_MAX_POINTS the crossover reads the Gram matrix formed at once: the same exact
-    answer as through the column cache, to rounding."""
+    """Up to DENSE_MAX_POINTS the loose run and the crossover read the Gram matrix formed at once
+    (libsvm on it as a precomputed kernel): the same exact answer as libsvm on the inputs and the
+    crossover through the column cache, to rounding."""
     from svrqp.solvers import warm_start
 
-    X, y = sinc_case(n=warm_start.DENSE_MAX_POINTS)
+    X, y = sinc_case(n=300)
+    assert y.size <= warm_start.DENSE_MAX_POINTS
     settings = {"C": 10.0, "epsilon": 0.05, "kernel": kernel, "gamma": 0.3, "solver": "smo_crossover"}
     dense = EpsilonSVR(**settings).fit(X, y)
     monkeypatch.setattr(warm_start, "DENSE_MAX_POINTS", 0)
