@@ -75,8 +75,9 @@ EVERY = 4
 """Every fourth sample (one a minute), as the case study."""
 PAIRS_PER_CHANNEL = 4
 N_TAU = 8
-TILE_WIDTHS, TILE_MIN_ROWS = (0.05, 0.1, 0.2), 5
-"""The ``local`` family's tile dictionary (module docstring)."""
+TILE_WIDTHS, TILE_MIN_ROWS, TILE_SHIFTED_MIN = (0.05, 0.1, 0.2), 5, 0.1
+"""The ``local`` family's tile dictionary (module docstring): widths, fewest rows, and the least width also
+laid half a tile on."""
 TRANSFERS = 0.05
 AS_WELL = 0.005
 TOP = 3
@@ -91,7 +92,8 @@ def windows(table: pd.DataFrame) -> list[np.ndarray]:
     unit = table["cycle"].where(table["cycle"].isin(ASSESS_CYCLES), "train").to_numpy()  # units held out
     spans = table.groupby("cycle")["time_min"].agg(["min", "max"]).to_numpy()
     out, seen = [], set()
-    tilings = [(width, shift) for width in TILE_WIDTHS for shift in (0.0, width / 2)[: 1 + (width >= 0.1)]]
+    tilings = [(width, shift) for width in TILE_WIDTHS
+               for shift in ((0.0, width / 2) if width >= TILE_SHIFTED_MIN else (0.0,))]
     for width, shift in tilings:
         n = int(round(1 / width)) - (shift > 0)  # a shifted tiling ends half a tile before the axis does
         edges = t.min() + np.ptp(t) * (shift + width * np.arange(n + 1))

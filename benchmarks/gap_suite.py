@@ -398,12 +398,17 @@ def timing_case() -> tuple[int, int, float]:
     return report.n_real, n_tests, seconds
 
 
+GRID_TITLES = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid",
+               "confirm": "confirmation grid (run once)"}
+"""Titles of the grids that are not "NAME grid (run once)": the two tuned on or run many times, and one
+named otherwise in its title."""
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="Run every tenth scenario only.")
     parser.add_argument("--grid", choices=tuple(GRIDS), default="development",
-                        help="Scenario grid: development (to tune), or holdout, fresh, confirm, blind, sealed, unseen, "
-                             "pristine, reserve (to check).")
+                        help=f"Scenario grid: development (to tune), or {', '.join(list(GRIDS)[1:])} (to check).")
     parser.add_argument("--jobs", type=int, default=2, help="Parallel worker processes.")
     parser.add_argument("--only", default="", help="Comma-separated name prefixes: run only those scenarios "
                                                       "(files suffixed _only).")
@@ -421,19 +426,13 @@ def main(argv: list[str] | None = None) -> int:
     rows = Parallel(n_jobs=args.jobs, verbose=5)(delayed(evaluate)(s, args.surrogates, args.local) for s in grid)
     table = pd.DataFrame(rows)
     args.out.mkdir(parents=True, exist_ok=True)
-    name = {"development": "gap_suite", "holdout": "gap_suite_holdout", "fresh": "gap_suite_fresh",
-            "confirm": "gap_suite_confirm", "blind": "gap_suite_blind",
-            "sealed": "gap_suite_sealed", "unseen": "gap_suite_unseen", "pristine": "gap_suite_pristine",
-            "reserve": "gap_suite_reserve"}[args.grid]
+    name = "gap_suite" if args.grid == "development" else f"gap_suite_{args.grid}"
     name += "" if args.surrogates == "rotation" else f"_{args.surrogates}"
     name += "_local_everywhere" if args.local else ""
     name += "_quick" if args.quick else ""
     name += "_" + args.only.replace(",", "_").replace("-", "").strip("_") if args.only else ""
     table.to_csv(args.out / f"{name}.csv", index=False)
-    title = {"development": "development grid", "holdout": "held-out grid", "fresh": "fresh grid",
-             "confirm": "confirmation grid (run once)", "blind": "blind grid (run once)",
-             "sealed": "sealed grid (run once)", "unseen": "unseen grid (run once)",
-             "pristine": "pristine grid (run once)", "reserve": "reserve grid (run once)"}[args.grid]
+    title = GRID_TITLES.get(args.grid, f"{args.grid} grid (run once)")
     title += "" if args.surrogates == "rotation" else f", surrogates={args.surrogates}"
     title += ", local form on every scenario" if args.local else ""
     text = summarise(table, title) + f"\nTotal wall time {time.perf_counter() - started:.0f} s with {args.jobs} workers.\n"
