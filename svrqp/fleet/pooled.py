@@ -22,8 +22,11 @@ whether the effect is *significant* on more machines than chance would give, and
 p-values between :math:`\alpha` and 1, so it needs an effect a record's test can reject.
 
 The pooled p-values of all candidates are adjusted by **Benjamini–Hochberg** (false discovery
-rate :data:`ALPHA` over the candidates) and the fleet names every candidate whose q-value is
-below it, best first. The records that *carry* a named candidate are those whose own
+rate :data:`FLEET_ALPHA` over the candidates) and the fleet names every candidate whose q-value is
+below it, best first. That level is stricter than a record's own (:data:`ALPHA`): a fleet verdict
+says an effect recurs on a machine type, the ground for changing the compensation of every
+machine of it, and with nothing carried it names something in about :data:`FLEET_ALPHA` of fleets
+(one in 100, where 5 % would name something in about two of three sets of 20 null fleets). The records that *carry* a named candidate are those whose own
 :math:`p_{k,c} \le \alpha` (about :math:`\alpha K_c` of them by chance alone): the machines to
 look at first; below the floor a carrier's p-value is often above :math:`\alpha`, so the pooled
 verdict can name an effect on more machines than it lists. Both p-values are in the pooled
@@ -41,8 +44,10 @@ from scipy import stats
 
 from svrqp.exceptions import ProblemError
 
-#: The false-discovery rate over candidates, the same level as a record's own (DESIGN §4).
+#: A record's own level (DESIGN §4): the p-value at which a record is listed as a carrier.
 ALPHA = 0.05
+#: The false-discovery rate over candidates at which the fleet names an effect (module docstring).
+FLEET_ALPHA = 0.01
 #: The combination rules over records (:func:`pool`'s ``method``), the default first.
 METHODS = ("fisher", "wilkinson")
 RULES = {"fisher": "Fisher over records' transfer tests, below the effect floor too; "
@@ -119,7 +124,7 @@ def pool(tests: pd.DataFrame, method: str = "fisher") -> PooledVerdict:
     table = pd.DataFrame(rows)
     table["p_pooled"] = table[f"p_{method}"]
     table["q_value"] = benjamini_hochberg(table["p_pooled"].to_numpy())
-    table["named"] = table["q_value"] < ALPHA
+    table["named"] = table["q_value"] < FLEET_ALPHA
     table = table.sort_values(["q_value", "p_pooled", "column"], kind="stable")
     table = table.reset_index(drop=True)[columns]
     named = table.loc[table["named"], "column"].tolist()

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from svrqp.fleet.pooled import ALPHA, METHODS, benjamini_hochberg, fisher, pool, wilkinson
+from svrqp.fleet.pooled import ALPHA, FLEET_ALPHA, METHODS, benjamini_hochberg, fisher, pool, wilkinson
 
 
 def _tests(p: dict[str, np.ndarray]) -> pd.DataFrame:
@@ -43,15 +43,15 @@ def test_benjamini_hochberg_by_its_definition():
 
 @pytest.mark.parametrize("method", METHODS)
 def test_nothing_is_named_beyond_the_level_on_null_fleets(method):
-    """Uniform p-values, a third of them untested (p = 1): at most ALPHA of the fleets name a
-    candidate (with the binomial's 3-sigma slack over 300 fleets)."""
+    """Uniform p-values, a third of them untested (p = 1): at most FLEET_ALPHA of the fleets name
+    a candidate (with the binomial's 3-sigma slack over 300 fleets)."""
     rng = np.random.default_rng(1)
     named = 0
     for _ in range(300):
         p = rng.uniform(size=(4, 40))
         p[rng.uniform(size=p.shape) < 1 / 3] = 1.0
         named += bool(pool(_tests({f"c{i}": p[i] for i in range(4)}), method).named)
-    assert named / 300 <= ALPHA + 3 * np.sqrt(ALPHA * (1 - ALPHA) / 300)
+    assert named / 300 <= FLEET_ALPHA + 3 * np.sqrt(FLEET_ALPHA * (1 - FLEET_ALPHA) / 300)
 
 
 @pytest.mark.parametrize("method", METHODS)
