@@ -80,7 +80,9 @@ def fleet(
                 "local_along": local_along}
     records = read_records(source)
     columns = (TextColumn("records"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with Progress(*columns, transient=True) as progress:
+    # Redrawn once a second, not rich's ten: a record takes about a second, and each redraw of a
+    # serial run takes the GIL from the record's thread (benchmarks/results/fleet.md).
+    with Progress(*columns, transient=True, refresh_per_second=1) as progress:
         task = progress.add_task("records", total=len(records))
         result = run_fleet(records, defaults, out, resume=resume, force=force,
                            execution=Execution(workers=workers, scheduler=scheduler),
