@@ -15,7 +15,7 @@ Four parts, each on fleets of :mod:`svrqp.machine.fleet` (written to a temporary
    ``--weak-snr``, the same machines at each): how often a single record tests and names it, and
    what the pooled evidence (every record's transfer test, below the effect floor too) names.
 3. **Null fleets** (``--null-fleets`` fleets of ``--null-n`` records, nothing withheld, 10 % a
-   faulty sensor): how many the pooled evidence names anything in, and the distribution of
+   faulty sensor; fleet seeds from ``--null-seed``): how many the pooled evidence names anything in, and the distribution of
    their records' pooled p-values.
 4. The time model: ``T(n, w) = t0(w) + n * t_record / (w * e)``, from the measured runs.
 
@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from svrqp.fleet import Execution, pool, read_records, run_fleet
+from svrqp.fleet.pooled import FLEET_ALPHA
 from svrqp.machine.fleet import FleetDesign, write_fleet
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -191,9 +192,10 @@ def null_fleets(args, root: Path) -> dict:
     """``--null-fleets`` fleets with nothing withheld: what the pool names, and how the pooled
     p-values of their records are distributed (valid: at most a share u at or below u)."""
     start = time.perf_counter()
-    named, other_named, records_naming, p_values = [], [], [], []
-    for k in range(args.null_fleets):
-        design = FleetDesign(n=args.null_n, seed=1000 + k, shares={"faulty": 0.1, "none": 0.9})
+    named, other_named, records_naming, p_values, smallest_q = [], [], [], [], []
+    seeds = [args.null_seed + k for k in range(args.null_fleets)]
+    for k, seed in enumerate(seeds):
+        design = FleetDesign(n=args.null_n, seed=seed, shares={"faulty": 0.1, "none": 0.9})
         manifest = draw(root / f"null{k}", design)
         result = run_in_process(manifest, root / f"null{k}_out", args.workers)
         named.append(result.pooled.named)
@@ -201,11 +203,13 @@ def null_fleets(args, root: Path) -> dict:
         single = int((result.table["verdict_column"].fillna("") != "").sum())
         records_naming.append(single)
         p_values += result.tests["p_pool"].tolist()
+        smallest_q.append(float(result.pooled.table["q_value"].min()))
         print(f"null fleet {k}: pooled names {result.pooled.named}, {single} records name one, "
               f"smallest q {result.pooled.table['q_value'].min():.3g}", flush=True)
     p = pd.Series(p_values)
-    return {"fleets": args.null_fleets, "n": args.null_n,
+    return {"fleets": args.null_fleets, "n": args.null_n, "seeds": seeds,
             "fleets_naming": sum(bool(x) for x in named), "named": named,
+            "smallest_q": smallest_q,
             "wilkinson_naming": sum(bool(x) for x in other_named),
             "records_naming": sum(records_naming), "p_tests": len(p),
             "p_share": {str(u): float((p <= u).mean()) for u in (0.01, 0.05, 0.1, 0.5)},
@@ -247,9 +251,8 @@ def _main_section(m: dict) -> str:
   2 Dask workers {m['dask2_s']:.1f} s: **speed-up {m['speedup']:.3f}×**. Mean record
   {t_record:.2f} s (longest {m['record_s_max']:.2f} s).
 - Reading the speed-up: a record took {t_record:.2f} s on average serially and
-  {m['dask_record_s_mean']:.2f} s on a Dask worker, so the workers' records ran
-  {m['dask_record_s_mean'] / t_record:.2f}× slower than the serial ones: they did not get two
-  cores' time. The workers were busy with records {m['dask_record_s_sum'] / (2 * m['dask2_s']):.0%}
+  {m['dask_record_s_mean']:.2f} s on a Dask worker ({_pace(m['dask_record_s_mean'] / t_record)}).
+  The workers were busy with records {m['dask_record_s_sum'] / (2 * m['dask2_s']):.0%}
   of the wall time (Σ record time / (2 × wall)), the serial process
   {m['record_s_sum'] / m['serial_s']:.0%}: the rest is the start (imports, the cluster) and the
   writing of the fleet's files.
@@ -262,6 +265,13 @@ def _main_section(m: dict) -> str:
 {rows}
 
 """
+
+
+def _pace(ratio: float) -> str:
+    """How a worker's records compare with the serial process's (time ratio)."""
+    if ratio > 1.0:
+        return f"{ratio:.2f}× the serial time: the workers did not get two cores' time"
+    return f"{ratio:.2f}× the serial time: the workers lost nothing to each other"
 
 
 def _weak_section(runs: list[dict]) -> str:
@@ -290,12 +300,26 @@ At strength {w['snr']}: {w['pooled_summary']}
 """
 
 
+def _seeds(z: dict) -> str:
+    seeds = z.get("seeds", [1000, 1000 + z["fleets"] - 1])  # runs before seeds were recorded
+    return f"{seeds[0]}–{seeds[-1]}"
+
+
+def _smallest_q(z: dict) -> str:
+    if "smallest_q" not in z:
+        return ""
+    q = np.sort(z["smallest_q"])
+    return (f" Each fleet's smallest q-value: {q[0]:.3g} at the least, {np.median(q):.2g} "
+            f"the median.")
+
+
 def _null_section(z: dict, runs: list[dict], workers) -> str:
     return f"""## Null fleets
 
-The pooled evidence names a candidate in **{z['fleets_naming']} of {z['fleets']}** fleets where
-nothing is withheld ({z['n']} records each, 10 % with a faulty `coolant_C`); Wilkinson's count
-instead, in {z['wilkinson_naming']} of {z['fleets']}. Single records name a cause on
+The pooled evidence (q < {FLEET_ALPHA}) names a candidate in **{z['fleets_naming']} of
+{z['fleets']}** fleets where nothing is withheld ({z['n']} records each, 10 % with a faulty
+`coolant_C`; fleet seeds {_seeds(z)}); Wilkinson's count instead, in {z['wilkinson_naming']} of
+{z['fleets']}.{_smallest_q(z)} Single records name a cause on
 {z['records_naming']} of the {z['fleets'] * z['n']} null records. The pooled p-values of those
 records' {z['p_tests']} tests (a valid p-value is at or below u at most a share u of the time; its
 Fisher term −2 ln p averages at most 2): at or below 0.01, 0.05, 0.1, 0.5 in
@@ -359,6 +383,8 @@ def main() -> None:
                         help="comma-separated strengths of the weak-effect fleets")
     parser.add_argument("--null-fleets", type=int, default=20)
     parser.add_argument("--null-n", type=int, default=30)
+    parser.add_argument("--null-seed", type=int, default=1000,
+                        help="seed of the first null fleet (fleet k: this + k)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--parts", default="main,weak,null")
