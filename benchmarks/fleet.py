@@ -15,8 +15,8 @@ Four parts, each on fleets of :mod:`svrqp.machine.fleet` (written to a temporary
    ``--weak-snr``, the same machines at each): how often a single record tests and names it, and
    what the pooled evidence (every record's transfer test, below the effect floor too) names.
 3. **Null fleets** (``--null-fleets`` fleets of ``--null-n`` records, nothing withheld, 10 % a
-   faulty sensor; fleet seeds from ``--null-seed``): how many the pooled evidence names anything in, and the distribution of
-   their records' pooled p-values.
+   faulty sensor; fleet seeds from ``--null-seed``): how many the pooled evidence names anything
+   in, and the distribution of their records' pooled p-values.
 4. The time model: ``T(n, w) = t0(w) + n * t_record / (w * e)``, from the measured runs.
 
 Run: ``python benchmarks/fleet.py [--parts main,weak,null] [--n 200] [--null-fleets 20] ...``;

@@ -26,7 +26,8 @@ rate :data:`FLEET_ALPHA` over the candidates) and the fleet names every candidat
 below it, best first. That level is stricter than a record's own (:data:`ALPHA`): a fleet verdict
 says an effect recurs on a machine type, the ground for changing the compensation of every
 machine of it, and with nothing carried it names something in about :data:`FLEET_ALPHA` of fleets
-(one in 100, where 5 % would name something in about two of three sets of 20 null fleets). The records that *carry* a named candidate are those whose own
+(one in 100, where 5 % would name something in about two of three sets of 20 null fleets).
+The records that *carry* a named candidate are those whose own
 :math:`p_{k,c} \le \alpha` (about :math:`\alpha K_c` of them by chance alone): the machines to
 look at first; below the floor a carrier's p-value is often above :math:`\alpha`, so the pooled
 verdict can name an effect on more machines than it lists. Both p-values are in the pooled

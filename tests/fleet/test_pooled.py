@@ -8,7 +8,15 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from svrqp.fleet.pooled import ALPHA, FLEET_ALPHA, METHODS, benjamini_hochberg, fisher, pool, wilkinson
+from svrqp.fleet.pooled import (
+    ALPHA,
+    FLEET_ALPHA,
+    METHODS,
+    benjamini_hochberg,
+    fisher,
+    pool,
+    wilkinson,
+)
 
 
 def _tests(p: dict[str, np.ndarray]) -> pd.DataFrame:
