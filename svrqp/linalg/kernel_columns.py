@@ -70,6 +70,19 @@ class KernelColumns:
     def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
         """:math:`K_{:, idx}`, shape ``(n, len(idx))``;
         columns not yet cached are computed in one block."""
+        slots = self._slots(idx)  # first: computing a missing column may grow the store
+        return self._store[:, slots]
+
+    def block(self, rows: NDArray[np.intp], idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        """:math:`K_{rows, idx}`, shape ``(len(rows), len(idx))``, from the cached columns
+        (computed and cached first where missing): a caller that needs only these rows, such as
+        the crossover's :math:`K_{FF}`, gathers them without the whole columns."""
+        slots = self._slots(idx)  # first: computing a missing column may grow the store
+        return self._store[np.ix_(np.asarray(rows, dtype=np.intp).ravel(), slots)]
+
+    def _slots(self, idx: NDArray[np.intp]) -> list[int]:
+        """The cache slots of the columns ``idx``; columns
+        not yet cached are computed in one block."""
         idx = np.asarray(idx, dtype=np.intp).ravel()
         missing = [j for j in dict.fromkeys(idx.tolist()) if j not in self._slot]
         if missing:
@@ -83,7 +96,7 @@ class KernelColumns:
             self._store[:, used:used + len(missing)] = block
             self._slot.update((j, used + k) for k, j in enumerate(missing))
             self.evaluated += len(missing)
-        return self._store[:, [self._slot[j] for j in idx.tolist()]]
+        return [self._slot[j] for j in idx.tolist()]
 
     def uncached(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
         """:math:`K_{:, idx}` computed afresh and not stored

@@ -32,6 +32,19 @@ def test_cached_columns_are_not_recomputed():
     assert columns(np.array([], dtype=int)).shape == (X.shape[0], 0)
 
 
+def test_a_block_of_rows_equals_scikit_learn_and_the_cached_columns():
+    """``block`` serves K[rows, idx] from the cache; its first call also has to grow the store,
+    the later ones read what earlier calls cached."""
+    X = diabetes().X
+    columns = KernelColumns(X, gamma=5.0)
+    rows, idx = np.array([40, 3, 7, 3]), np.array([7, 3, 40, 11])
+    np.testing.assert_allclose(columns.block(rows, idx), rbf_kernel(X[rows], X[idx], gamma=5.0),
+                               rtol=1e-12, atol=1e-14)
+    grown = np.arange(0, X.shape[0], 3)  # more columns than the store holds after the first call
+    assert np.array_equal(columns.block(idx, grown), columns(grown)[idx])
+    assert columns.evaluated == len(set(idx.tolist()) | set(grown.tolist()))
+
+
 def test_columns_equal_scikit_learn_kernels():
     X = diabetes().X
     idx = np.array([3, 40, 7])

@@ -159,6 +159,13 @@ class _KernelAccess:
         self._scratch_columns = 0  # columns of the last product from scratch
         self._changed_columns = 0  # columns changed by updates since then
 
+    def free_block(self, free: NDArray[np.intp]) -> NDArray[np.float64]:
+        """:math:`K_{FF}`: from the columns' own ``block(rows, idx)`` where they offer one
+        (:meth:`svrqp.linalg.kernel_columns.KernelColumns.block`), which gathers
+        :math:`|F|^2` cached entries instead of the :math:`n|F|` of the whole free columns."""
+        block = getattr(self.free_columns, "block", None)
+        return block(free, free) if block is not None else self.free_columns(free)[free]
+
     @property
     def accurate(self) -> bool:
         """Whether the bounded term's rounding is within
@@ -188,17 +195,18 @@ class _KernelAccess:
 
 
 def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False):
-    """The equality-constrained optimum on the free set (module docstring), K_{:,F}, K_{:,bounded}
-    beta_bounded, and the direction in which the free-set
-    objective is unbounded below (None when it is not)."""
+    """The equality-constrained optimum on the free set (module docstring), K_{:,bounded}
+    beta_bounded, and the direction in which the free-set objective is unbounded below (None
+    when it is not). Only K_FF is read: the whole free columns K_{:,F}, which the residuals of
+    every point need, are the caller's to fetch (a blocked step of the feasible method needs none).
+    """
     magnitude = np.abs(states)
     free = np.flatnonzero(magnitude == 1)
     fixed = np.where(magnitude == 2, np.sign(states) * C, 0.0)
-    K_free = kernel.free_columns(free)
     bounded_term = kernel.update_bounded(fixed, fresh=fresh)
     rhs = y[free] - epsilon * states[free] - bounded_term[free]
-    target, b, unbounded = _bordered_solve(K_free[free], rhs, -float(fixed.sum()))
-    return free, fixed, K_free, bounded_term, target, b, unbounded
+    target, b, unbounded = _bordered_solve(kernel.free_block(free), rhs, -float(fixed.sum()))
+    return free, fixed, bounded_term, target, b, unbounded
 
 
 #: At most this many KKT violators (the worst ones) enter the free set in one step, beyond the
@@ -248,13 +256,14 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps,
     """
     beta, b, fresh, fewest_changes, stalls = np.zeros(y.size), 0.0, False, y.size + 1, 0
     for step in range(1, max_steps + 1):
-        free, fixed, K_free, bounded_term, target, b, unbounded = _free_set_solution(
+        free, fixed, bounded_term, target, b, unbounded = _free_set_solution(
             kernel, y, C, epsilon, states, fresh)
         # no free-set optimum to jump to: the feasible method moves along it
         if unbounded is not None:
             return CrossoverResult(beta, b, step, False, int(free.size))
         beta = fixed.copy()
         beta[free] = target
+        K_free = kernel.free_columns(free)
         rho, b = _residuals(y, K_free, target, bounded_term, states, epsilon, b, free)
         new_states = states.copy()
         positive, negative = states == 1, states == -1
@@ -288,7 +297,7 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
     current = np.where(np.abs(states) == 2, np.sign(states) * C, np.where(states == 0, 0.0, beta))
     b, fresh = 0.0, False
     for step in range(1, max_steps + 1):
-        free, _, K_free, bounded_term, target, b, unbounded = _free_set_solution(
+        free, _, bounded_term, target, b, unbounded = _free_set_solution(
             kernel, y, C, epsilon, states, fresh)
         if unbounded is None:
             direction = target - current[free]
@@ -304,6 +313,7 @@ def _feasible_active_set(kernel, y, C, epsilon, beta, states, slack, max_steps) 
             current[hit] = np.where(at_bound, np.sign(states[hit]) * C, 0.0)
             fresh = False
             continue
+        K_free = kernel.free_columns(free)  # a full step: every point's residual is checked
         rho, b = _residuals(y, K_free, current[free], bounded_term, states, epsilon, b, free)
         entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack,
                                                              free.size)
