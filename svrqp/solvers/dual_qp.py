@@ -41,7 +41,7 @@ from svrqp.solution import (
     require_certificates,
 )
 from svrqp.solvers import qp_backends
-from svrqp.solvers.dual_ipm.crossover import crossover
+from svrqp.solvers.dual_ipm.crossover import DenseColumns, crossover
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,7 +149,7 @@ def solve_dual(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     if polished is None:
         # The exact crossover of svrqp.solvers.dual_ipm: polish guesses the active sets once, the
         # crossover corrects them (coefficients a few 1e-6·C inside a bound, for instance).
-        exact = crossover(lambda idx: K_scaled[:, idx], y_scaled, C_scaled, epsilon_scaled,
+        exact = crossover(DenseColumns(K_scaled), y_scaled, C_scaled, epsilon_scaled,
                           beta_scaled,
                           kernel_scale=float(np.max(np.diagonal(K_scaled), initial=0.0)))
         polished = exact.beta if exact.exact else None

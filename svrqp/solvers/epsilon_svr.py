@@ -360,7 +360,8 @@ def _exact_dual_along_c(K: NDArray[np.float64], y: NDArray[np.float64], C: float
         at_bound = np.abs(beta_previous) >= C_previous * (1.0 - epsilon_svr.SV_TOLERANCE)
         guess = np.where(at_bound, np.sign(beta_previous) * C, beta_previous)  # same states, new C
         few_steps = dual_ipm.CrossoverSettings(fast_steps=WARM_CROSSOVER_STEPS, max_steps=0)
-        warm = dual_ipm.crossover(lambda idx: K[:, idx], y, C, epsilon, guess, settings=few_steps,
+        warm = dual_ipm.crossover(dual_ipm.DenseColumns(K), y, C, epsilon, guess,
+                                  settings=few_steps,
                                   kernel_scale=float(np.max(np.diagonal(K), initial=0.0)))
         if warm.exact and _certified(K, y, warm.beta, warm.intercept, C, epsilon, check_tol):
             return warm.beta, warm.intercept

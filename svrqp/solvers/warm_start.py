@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
-from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, crossover
+from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, DenseColumns, crossover
 from svrqp.solvers.screening import SCREEN_MIN_POINTS, decomposition_fit, screened_fit
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
@@ -82,11 +82,6 @@ class WarmStartFit:
 DENSE_MAX_POINTS = SCREEN_MIN_POINTS - 1
 
 
-def precomputed_columns(K: NDArray[np.float64]):
-    """Column access ``idx -> K[:, idx]`` for a Gram matrix the caller already holds."""
-    return lambda idx: K[:, idx]
-
-
 def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon: float,
                        kernel_parameters: Mapping[str, Any], *,
                        smo_tol: float = WARM_START_TOL) -> WarmStartFit:
@@ -114,11 +109,11 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     screened = None
     smo_X, smo_kernel = X, kernel_parameters
     if kernel_parameters["kernel"] == "precomputed":
-        columns, products = precomputed_columns(X), None
+        columns, products = DenseColumns(X), None
     elif y.size <= DENSE_MAX_POINTS:  # below screening's sizes: one Gram matrix for both stages
         # checked finite as it is formed (KernelColumns.uncached)
         K = KernelColumns(X, **kernel_arguments(kernel_parameters)).uncached(np.arange(y.size))
-        columns, products = precomputed_columns(K), None
+        columns, products = DenseColumns(K), None
         smo_X, smo_kernel = K, {**kernel_parameters, "kernel": "precomputed"}
     else:
         columns = KernelColumns(X, **kernel_arguments(kernel_parameters))

@@ -10,6 +10,7 @@ certified on a stated QP, as ``EpsilonSVR`` runs it).
 from svrqp.solvers.dual_ipm.crossover import (
     CrossoverResult,
     CrossoverSettings,
+    DenseColumns,
     crossover,
 )
 from svrqp.solvers.dual_ipm.exact import (
@@ -25,7 +26,7 @@ from svrqp.solvers.dual_ipm.kernel_operators import (
     KernelOperator,
 )
 
-__all__ = ["CrossoverResult", "CrossoverSettings", "DenseKernel", "ExactFit", "ExactSettings",
-           "FactoredKernel",
+__all__ = ["CrossoverResult", "CrossoverSettings", "DenseColumns", "DenseKernel", "ExactFit",
+           "ExactSettings", "FactoredKernel",
            "IPMResult", "KernelOperator", "crossover", "interior_point", "solve_exact",
            "solve_exact_from_data"]

@@ -58,6 +58,21 @@ class CrossoverSettings:
     stalled_steps: int = 0
 
 
+class DenseColumns:
+    """The ``columns`` of :func:`crossover` for a Gram matrix the caller already holds:
+    ``K[:, idx]``, and ``block(rows, idx)`` = ``K[rows, idx]`` (:meth:`_KernelAccess.free_block`).
+    """
+
+    def __init__(self, K: NDArray[np.float64]) -> None:
+        self.K = K
+
+    def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        return self.K[:, idx]
+
+    def block(self, rows: NDArray[np.intp], idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        return self.K[np.ix_(rows, idx)]
+
+
 @dataclass
 class CrossoverResult:
     """Outcome of :func:`crossover`: the coefficients, bias,
@@ -88,7 +103,9 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     ----------
     columns
         ``columns(idx)`` returns the exact kernel columns :math:`K_{:, idx}` (shape
-        ``(n, len(idx))``), so only the columns of support vectors are ever formed.
+        ``(n, len(idx))``), so only the columns of support vectors are ever formed. Columns that
+        also offer ``block(rows, idx)`` (:class:`DenseColumns`,
+        :class:`svrqp.linalg.kernel_columns.KernelColumns`) serve :math:`K_{FF}` from it.
     y, C, epsilon
         Targets and SVR parameters.
     beta
@@ -161,8 +178,8 @@ class _KernelAccess:
 
     def free_block(self, free: NDArray[np.intp]) -> NDArray[np.float64]:
         """:math:`K_{FF}`: from the columns' own ``block(rows, idx)`` where they offer one
-        (:meth:`svrqp.linalg.kernel_columns.KernelColumns.block`), which gathers
-        :math:`|F|^2` cached entries instead of the :math:`n|F|` of the whole free columns."""
+        (:meth:`svrqp.linalg.kernel_columns.KernelColumns.block`, :class:`DenseColumns`), which
+        gathers :math:`|F|^2` entries instead of the :math:`n|F|` of the whole free columns."""
         block = getattr(self.free_columns, "block", None)
         return block(free, free) if block is not None else self.free_columns(free)[free]
 

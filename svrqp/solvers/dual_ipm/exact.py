@@ -18,6 +18,7 @@ from svrqp.solvers.dual_ipm.crossover import (
     CROSSOVER_THRESHOLD,
     CrossoverResult,
     CrossoverSettings,
+    DenseColumns,
     crossover,
 )
 from svrqp.solvers.dual_ipm.interior_point import IPMResult, check_inputs, interior_point
@@ -49,7 +50,7 @@ def solve_exact(K: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilo
     When the crossover does not settle (``crossover.exact`` false) the interior-point solution is
     returned; its certificates say how accurate it is.
     """
-    return _interior_point_then_crossover(DenseKernel(K), lambda idx: K[:, idx], y, C, epsilon, tol,
+    return _interior_point_then_crossover(DenseKernel(K), DenseColumns(K), y, C, epsilon, tol,
                                           max_iter, float(np.max(np.diagonal(K), initial=0.0)))
 
 
