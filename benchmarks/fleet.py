@@ -300,14 +300,7 @@ At strength {w['snr']}: {w['pooled_summary']}
 """
 
 
-def _seeds(z: dict) -> str:
-    seeds = z.get("seeds", [1000, 1000 + z["fleets"] - 1])  # runs before seeds were recorded
-    return f"{seeds[0]}–{seeds[-1]}"
-
-
 def _smallest_q(z: dict) -> str:
-    if "smallest_q" not in z:
-        return ""
     q = np.sort(z["smallest_q"])
     return (f" Each fleet's smallest q-value: {q[0]:.3g} at the least, {np.median(q):.2g} "
             f"the median.")
@@ -318,7 +311,7 @@ def _null_section(z: dict, runs: list[dict], workers) -> str:
 
 The pooled evidence (q < {FLEET_ALPHA}) names a candidate in **{z['fleets_naming']} of
 {z['fleets']}** fleets where nothing is withheld ({z['n']} records each, 10 % with a faulty
-`coolant_C`; fleet seeds {_seeds(z)}); Wilkinson's count instead, in {z['wilkinson_naming']} of
+`coolant_C`; fleet seeds {z['seeds'][0]}–{z['seeds'][-1]}); Wilkinson's count instead, in {z['wilkinson_naming']} of
 {z['fleets']}.{_smallest_q(z)} Single records name a cause on
 {z['records_naming']} of the {z['fleets'] * z['n']} null records. The pooled p-values of those
 records' {z['p_tests']} tests (a valid p-value is at or below u at most a share u of the time; its
