@@ -68,7 +68,7 @@ def test_products_equal_scikit_learn_kernel_times_vector(monkeypatch, parameters
 
     monkeypatch.setattr(kernel_columns, "PRODUCT_BLOCK_ENTRIES", 200)  # several row blocks, a short last one
     X = diabetes().X
-    idx = np.array([3, 40, 7, 100, 119, 3])
+    idx = np.array([3, 40, 7, 100, 119, 3])  # few columns: plain row blocks over all points
     v = np.random.default_rng(0).uniform(-2.0, 2.0, idx.size)
     reference = {"rbf": lambda A, B: rbf_kernel(A, B, gamma=5.0), "linear": lambda A, B: A @ B.T,
                  "poly": lambda A, B: polynomial_kernel(A, B, degree=3, gamma=0.5, coef0=1.0)}[parameters["kernel"]]
@@ -85,7 +85,8 @@ def test_products_over_most_columns_use_symmetry_and_equal_numpy(monkeypatch, pa
     monkeypatch.setattr(kernel_columns, "PRODUCT_BLOCK_ENTRIES", 200)  # 14 x 14 tiles, short last ones
     X = diabetes().X
     rng = np.random.default_rng(1)
-    idx = np.concatenate([rng.permutation(X.shape[0])[:100], [5, 5, 17]])  # most rows, some repeated
+    idx = np.concatenate([rng.permutation(X.shape[0])[:250], [5, 5, 17]])  # most rows, some repeated
+    assert np.unique(idx).size >= kernel_columns.SYMMETRIC_MIN_SHARE * X.shape[0]  # the tiled path
     v = rng.uniform(-2.0, 2.0, idx.size)
     K = gram(X, **parameters)
     columns = KernelColumns(X, **parameters)
@@ -93,7 +94,8 @@ def test_products_over_most_columns_use_symmetry_and_equal_numpy(monkeypatch, pa
     assert np.array_equal(columns.products(np.array([], dtype=int), np.zeros(0)), np.zeros(X.shape[0]))
 
 
-def test_products_reject_an_overflowing_kernel():
-    X = np.full((4, 2), 1e160)  # checked once on the product, not on every block
+@pytest.mark.parametrize("idx", [[0], [0, 1, 2, 3, 4]])  # plain row blocks, symmetric tiles
+def test_products_reject_an_overflowing_kernel(idx):
+    X = np.full((20, 2), 1e160)  # checked once on the product, not on every block
     with pytest.raises(ProblemError, match="overflows"):
-        KernelColumns(X, kernel="linear").products(np.array([0, 1]), np.array([1.0, 0.0]))
+        KernelColumns(X, kernel="linear").products(np.array(idx), np.eye(len(idx))[0])
