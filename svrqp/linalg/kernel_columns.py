@@ -96,14 +96,14 @@ class KernelColumns:
         slots = self._slot[idx]
         if (slots < 0).any():
             missing = np.unique(idx[slots < 0])
-            block = self.uncached(missing)
             used = self._used
             if used + missing.size > self._store.shape[1]:
                 grown = np.empty((self.n, max(2 * self._store.shape[1], used + missing.size)),
                                  order="F")
                 grown[:, :used] = self._store[:, :used]
                 self._store = grown
-            self._store[:, used:used + missing.size] = block
+            # formed in place: a fresh n × |missing| block and its copy cost as much as the kernel
+            self._columns_into(missing, self._store[:, used:used + missing.size])
             self._slot[missing] = np.arange(used, used + missing.size)
             self._used += missing.size
             self.evaluated += missing.size
@@ -113,10 +113,16 @@ class KernelColumns:
     def uncached(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
         """:math:`K_{:, idx}` computed afresh and not stored
         (for a caller that reads each column once)."""
-        with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
-            block = self._left @ self._right[np.asarray(idx, dtype=np.intp).ravel()].T
-        finish_in_place(block, self.parameters["kernel"], self.parameters["degree"])
+        idx = np.asarray(idx, dtype=np.intp).ravel()
+        block = np.empty((self.n, idx.size))
+        self._columns_into(idx, block)
         return block
+
+    def _columns_into(self, idx: NDArray[np.intp], out: NDArray[np.float64]) -> None:
+        """Write the columns ``idx`` of K into ``out``, shape ``(n, len(idx))``, in either order."""
+        with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
+            np.matmul(self._left, self._right[idx].T, out=out)
+        finish_in_place(out, self.parameters["kernel"], self.parameters["degree"])
 
     def products(self, idx: NDArray[np.intp], v: NDArray[np.float64]) -> NDArray[np.float64]:
         r""":math:`K_{:, idx}\, v` in blocks, the columns neither cached nor kept.
