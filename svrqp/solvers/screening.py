@@ -99,6 +99,9 @@ class DecompositionFit:
     rounds: int = 1
     #: points held at zero or ±C in the last run (None: no hold)
     held: NDArray[np.bool_] | None = None
+    #: ``(v, K v)``: the values at ±C the last run held and :math:`Kv`, the product from scratch
+    #: its targets were formed with (None: no hold); the crossover's bounded term starts from it
+    held_term: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @property
     def screened(self) -> int:
@@ -219,7 +222,9 @@ def screened_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
         return None
     for rounds in range(1, MAX_ROUNDS + 1):  # noqa: B007 (read after the loop)
         bounded = np.flatnonzero(value)
-        target = y - products(bounded, value[bounded]) if bounded.size else y
+        held_term = (value.copy(),  # value may still change below, after the last run
+                     products(bounded, value[bounded]) if bounded.size else np.zeros(n))
+        target = y - held_term[1]
         fit = decomposition_fit(X, target, C, epsilon, kernel_parameters, tol,
                                 rows=np.flatnonzero(~held))
         iterations += fit.iterations
@@ -231,7 +236,7 @@ def screened_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
         held &= ~contradicted
         value[contradicted] = 0.0
         _balance(held, value, residual)
-    return DecompositionFit(fit.beta + value, fit.intercept, iterations, rounds, held)
+    return DecompositionFit(fit.beta + value, fit.intercept, iterations, rounds, held, held_term)
 
 
 class _Pilot(NamedTuple):

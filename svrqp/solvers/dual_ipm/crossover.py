@@ -92,7 +92,9 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
               products: Callable[[NDArray[np.intp], NDArray[np.float64]],
                                  NDArray[np.float64]] | None = None,
               settings: CrossoverSettings = CrossoverSettings(),
-              kernel_scale: float = 0.0) -> CrossoverResult:
+              kernel_scale: float = 0.0,
+              bounded_start: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+              ) -> CrossoverResult:
     """Active-set steps from an approximate ``beta`` to the exact optimum (module docstring).
 
     First up to ``settings.fast_steps`` primal–dual active-set steps (every state updated at once: a
@@ -124,12 +126,19 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
         (:func:`rounding_slack`): with a linear kernel on inputs of 1e3, the products of 20
         coefficients at C = 10 round by 1e-7 of y, and a slack of 1e-9 never let the crossover
         settle (issue #39, finding 15).
+    bounded_start
+        ``(v, K v)`` for coefficients ``v`` at ±C or zero, :math:`Kv` formed from scratch by the
+        caller (the screening's held values, :mod:`svrqp.solvers.screening`): the bounded term
+        is then updated from it by the change only, instead of formed again from every bounded
+        column.
     """
     beta = np.asarray(beta, dtype=float)
     C = float(C)  # an integer C times the int8 states would overflow
     slack = (settings.kkt_tol * (1.0 + float(np.max(np.abs(y))))
              + rounding_slack(beta, C, kernel_scale))
     kernel = _KernelAccess(columns, products or (lambda idx, v: columns(idx) @ v), y.size)
+    if bounded_start is not None:
+        kernel.start_from(*bounded_start)
     start = certificate.states(beta, C, settings.threshold)
     fast = _primal_dual_active_set(kernel, y, C, epsilon, start.copy(), slack, settings.fast_steps,
                                    settings.stalled_steps)
@@ -175,6 +184,13 @@ class _KernelAccess:
         self.bounded_term = np.zeros(n)
         self._scratch_columns = 0  # columns of the last product from scratch
         self._changed_columns = 0  # columns changed by updates since then
+
+    def start_from(self, fixed: NDArray[np.float64], product: NDArray[np.float64]) -> None:
+        r"""Take ``product`` = :math:`K \cdot` ``fixed``, formed from scratch, as the bounded
+        term of the values ``fixed``."""
+        self._fixed = np.array(fixed, dtype=float)
+        self.bounded_term = np.array(product, dtype=float)
+        self._scratch_columns, self._changed_columns = int(np.count_nonzero(fixed)), 0
 
     def free_block(self, free: NDArray[np.intp]) -> NDArray[np.float64]:
         """:math:`K_{FF}`: from the columns' own ``block(rows, idx)`` where they offer one
