@@ -99,9 +99,10 @@ class DecompositionFit:
     rounds: int = 1
     #: points held at zero or ±C in the last run (None: no hold)
     held: NDArray[np.bool_] | None = None
-    #: ``(v, K v)``: the values at ±C the last run held and :math:`Kv`, the product from scratch
-    #: its targets were formed with (None: no hold); the crossover's bounded term starts from it
-    held_term: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    #: ``(v, K v)``: the coefficients at ±C of ``beta`` (held, or put there by the last run) and
+    #: :math:`Kv`, a product from scratch that the residuals of the last run were formed with
+    #: (None: no hold); the crossover's bounded term starts from it
+    bounded_term: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @property
     def screened(self) -> int:
@@ -221,14 +222,14 @@ def screened_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
     if held.mean() < MIN_SCREENED or held.sum() > n - 2:
         return None
     for rounds in range(1, MAX_ROUNDS + 1):  # noqa: B007 (read after the loop)
-        bounded = np.flatnonzero(value)
-        held_term = (value.copy(),  # value may still change below, after the last run
-                     products(bounded, value[bounded]) if bounded.size else np.zeros(n))
-        target = y - held_term[1]
-        fit = decomposition_fit(X, target, C, epsilon, kernel_parameters, tol,
+        held_term = _times(products, value)
+        fit = decomposition_fit(X, y - held_term, C, epsilon, kernel_parameters, tol,
                                 rows=np.flatnonzero(~held))
         iterations += fit.iterations
-        residual = _residuals(target, fit.beta, fit.intercept, products)
+        # the run's residuals, the product of its coefficients at ±C kept apart for the crossover
+        at_bound = np.where(np.abs(fit.beta) >= C, fit.beta, 0.0)
+        bounded_term = (value + at_bound, held_term + _times(products, at_bound))
+        residual = y - bounded_term[1] - _times(products, fit.beta - at_bound) - fit.intercept
         contradicted = held & np.where(value == 0.0, np.abs(residual) > epsilon,
                                        value * residual < C * epsilon)
         if contradicted.sum() <= CROSSOVER_VIOLATORS:
@@ -236,7 +237,8 @@ def screened_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsil
         held &= ~contradicted
         value[contradicted] = 0.0
         _balance(held, value, residual)
-    return DecompositionFit(fit.beta + value, fit.intercept, iterations, rounds, held, held_term)
+    return DecompositionFit(fit.beta + value, fit.intercept, iterations, rounds, held,
+                            bounded_term)
 
 
 class _Pilot(NamedTuple):
@@ -286,6 +288,12 @@ def _balance(held: NDArray[np.bool_], value: NDArray[np.float64],
     released = side[np.argsort(np.abs(residual[side]))[:abs(excess)]]
     held[released] = False
     value[released] = 0.0
+
+
+def _times(products, v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:math:`Kv` over all points from the columns of the nonzero entries of ``v`` only."""
+    idx = np.flatnonzero(v)
+    return products(idx, v[idx]) if idx.size else np.zeros(v.size)
 
 
 def _residuals(y, beta, intercept, products, points=None):

@@ -125,8 +125,8 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     result = crossover(columns, y, C, epsilon, warm.beta, products=products,
                        settings=HELD_START if screened is not None else CrossoverSettings(),
                        kernel_scale=scale,
-                       # the held values' product is formed already: the bounded term starts there
-                       bounded_start=None if screened is None else screened.held_term)
+                       # the bounds' product is formed already: the bounded term starts there
+                       bounded_start=None if screened is None else screened.bounded_term)
     iterations = warm.iterations
     if screened is not None and not result.exact:  # the held start misled it: start from all points
         warm = decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)

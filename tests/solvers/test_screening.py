@@ -143,21 +143,21 @@ def test_crossover_from_a_held_start_reaches_the_same_optimum_with_or_without_pa
 
 # the second: one round, ended without a break, so that holds are released after its product
 @pytest.mark.parametrize(("violators", "rounds"), [(screening.CROSSOVER_VIOLATORS, screening.MAX_ROUNDS), (-1, 1)])
-def test_held_term_is_the_product_of_the_values_it_names(monkeypatch, violators, rounds):
+def test_bounded_term_is_the_product_of_the_values_it_names(monkeypatch, violators, rounds):
     from sklearn.metrics.pairwise import rbf_kernel
 
     monkeypatch.setattr(screening, "CROSSOVER_VIOLATORS", violators)
     monkeypatch.setattr(screening, "MAX_ROUNDS", rounds)
     case = noise_case()  # most points held at ±C
     start = _screened(case)
-    values, product = start.held_term
+    values, product = start.bounded_term
     bounded = np.flatnonzero(values)
     assert bounded.size and np.all(np.abs(values[bounded]) == case.C)
     np.testing.assert_allclose(product, rbf_kernel(case.X, case.X[bounded], gamma=case.gamma) @ values[bounded],
                                rtol=1e-12, atol=1e-12 * case.C * bounded.size)
 
 
-def test_crossover_started_from_the_held_term_forms_fewer_columns_for_the_same_optimum():
+def test_crossover_started_from_the_bounded_term_forms_fewer_columns_for_the_same_optimum():
     case = noise_case()  # most points held at ±C
     parameters = {**RBF, "gamma": case.gamma}
     columns = KernelColumns(case.X, **parameters)
@@ -174,11 +174,11 @@ def test_crossover_started_from_the_held_term_forms_fewer_columns_for_the_same_o
         return crossover(columns, case.y, case.C, case.epsilon, start.beta, products=counted,
                          settings=warm_start.HELD_START, **kwargs)
 
-    plain, seeded = run("plain"), run("seeded", bounded_start=start.held_term)
+    plain, seeded = run("plain"), run("seeded", bounded_start=start.bounded_term)
     assert plain.exact and seeded.exact
     np.testing.assert_allclose(seeded.beta, plain.beta, rtol=0, atol=1e-9 * case.C)
     np.testing.assert_allclose(seeded.Kbeta, plain.Kbeta, rtol=0, atol=1e-9 * np.abs(case.y).max())
-    assert formed["seeded"] + np.count_nonzero(start.held_term[0]) // 2 <= formed["plain"]
+    assert formed["seeded"] + np.count_nonzero(start.bounded_term[0]) // 2 <= formed["plain"]
 
 
 @pytest.mark.parametrize("kernel", ["rbf", "linear", "poly", "precomputed"])
