@@ -38,21 +38,13 @@ from numpy.typing import NDArray
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
-from svrqp.solvers.dual_ipm.crossover import CrossoverSettings, DenseColumns, crossover
+from svrqp.solvers.dual_ipm.crossover import DenseColumns, crossover
 from svrqp.solvers.screening import SCREEN_MIN_POINTS, decomposition_fit, screened_fit
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
 #: answer needs; the crossover finishes the job. (1e-2 saves SMO iterations at large C but costs
 #: crossover steps at small C, where SMO is cheap anyway: measured on the benchmark panel.)
 WARM_START_TOL = 1e-3
-
-
-#: The crossover from a held start (:mod:`svrqp.solvers.screening`): the few holds a run left
-#: contradicted enter with the loose run's own misfits, and the primal–dual steps often change as
-#: many states twice before they settle; given up at once they handed 11–50 steps to the feasible
-#: method on the benchmark panel's C = 1 cells. Two such steps allowed: 13 → 5 steps on the thermal
-#: set at n = 2000, 16 → 5 on the sinc set (measured; up to 1.2× the crossover's time at C = 100).
-HELD_START = CrossoverSettings(stalled_steps=2)
 
 
 @dataclass
@@ -122,9 +114,7 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     warm = screened or decomposition_fit(smo_X, y, C, epsilon, smo_kernel, smo_tol)
     middle = time.perf_counter()
     scale = kernel_scale(X, kernel_parameters)
-    result = crossover(columns, y, C, epsilon, warm.beta, products=products,
-                       settings=HELD_START if screened is not None else CrossoverSettings(),
-                       kernel_scale=scale,
+    result = crossover(columns, y, C, epsilon, warm.beta, products=products, kernel_scale=scale,
                        # the bounds' product is formed already: the bounded term starts there
                        bounded_start=None if screened is None else screened.bounded_term)
     iterations = warm.iterations

@@ -129,14 +129,15 @@ def test_misled_crossover_restarts_from_all_points(monkeypatch):
     _assert_exact(model, case)
 
 
-def test_crossover_from_a_held_start_reaches_the_same_optimum_with_or_without_patience():
-    """HELD_START lets the primal–dual steps stall twice; the optimum it reaches is the one without it."""
+def test_crossover_from_a_held_start_reaches_the_same_optimum_with_or_without_primal_dual_steps():
+    """The primal–dual steps tried first leave the feasible method another start; the optimum is the
+    one the feasible method reaches alone."""
     case = warm_up_case()
     parameters = {**RBF, "gamma": case.gamma}
     columns = KernelColumns(case.X, **parameters)
     start = screening.screened_fit(case.X, case.y, case.C, case.epsilon, parameters, 1e-3, columns.products)
     results = [crossover(columns, case.y, case.C, case.epsilon, start.beta, products=columns.products,
-                         settings=settings) for settings in (CrossoverSettings(), warm_start.HELD_START)]
+                         settings=settings) for settings in (CrossoverSettings(), CrossoverSettings(fast_steps=0))]
     assert all(result.exact for result in results)
     np.testing.assert_allclose(results[1].beta, results[0].beta, rtol=0, atol=1e-9 * case.C)
 
@@ -171,8 +172,7 @@ def test_crossover_started_from_the_bounded_term_forms_fewer_columns_for_the_sam
             formed[key] += np.unique(idx).size
             return columns.products(idx, v)
 
-        return crossover(columns, case.y, case.C, case.epsilon, start.beta, products=counted,
-                         settings=warm_start.HELD_START, **kwargs)
+        return crossover(columns, case.y, case.C, case.epsilon, start.beta, products=counted, **kwargs)
 
     plain, seeded = run("plain"), run("seeded", bounded_start=start.bounded_term)
     assert plain.exact and seeded.exact

@@ -53,9 +53,6 @@ class CrossoverSettings:
     #: limit on the feasible active-set steps; ``exact`` is false when it is reached
     max_steps: int = 200
     fast_steps: int = 8  #: limit on the primal–dual active-set steps tried first
-    #: primal–dual steps that may change no fewer states than the best step before, before the
-    #: feasible method takes over (0: give up at the first)
-    stalled_steps: int = 0
 
 
 class DenseColumns:
@@ -140,8 +137,7 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     if bounded_start is not None:
         kernel.start_from(*bounded_start)
     start = certificate.states(beta, C, settings.threshold)
-    fast = _primal_dual_active_set(kernel, y, C, epsilon, start.copy(), slack, settings.fast_steps,
-                                   settings.stalled_steps)
+    fast = _primal_dual_active_set(kernel, y, C, epsilon, start.copy(), slack, settings.fast_steps)
     if fast.exact:
         return fast
     careful = _feasible_active_set(kernel, y, C, epsilon, beta, start, slack, settings.max_steps)
@@ -279,15 +275,17 @@ def _residuals(y, K_free, beta_free, bounded_term, states, epsilon, b, free):
     return rho - b, b
 
 
-def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps,
-                            stalled_steps) -> CrossoverResult:
+def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> CrossoverResult:
     """Hintermüller–Ito–Kunisch: solve on the free set, then update every state from the result.
 
-    Gives up once the number of state changes has failed ``stalled_steps`` + 1 times to fall below
-    its smallest so far: away from the optimum the method can swing large sets back and forth, and
-    each such step costs a large free-set solve.
+    Gives up at the first step that changes no fewer states than the fewest so far: away from the
+    optimum the method can swing large sets back and forth, and each such step costs a large
+    free-set solve and the kernel columns of every state it changes. (Letting it stall twice before
+    giving up saved steps from the screened start at C = 1, but a swing of the free set from 63 to
+    190 at C = 10 on the thermal panel generator cost 1.5–2.5× the crossover's time at n = 4000 and
+    8000: 84 and 99 ms against 56 and 40 ms, measured.)
     """
-    beta, b, fresh, fewest_changes, stalls = np.zeros(y.size), 0.0, False, y.size + 1, 0
+    beta, b, fresh, fewest_changes = np.zeros(y.size), 0.0, False, y.size + 1
     for step in range(1, max_steps + 1):
         free, fixed, bounded_term, target, b, unbounded = _free_set_solution(
             kernel, y, C, epsilon, states, fresh)
@@ -317,10 +315,9 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps,
             fresh = True
             continue
         changes = int(np.count_nonzero(new_states != states))
-        stalls += changes >= fewest_changes
-        if stalls > stalled_steps:
+        if changes >= fewest_changes:
             return CrossoverResult(beta, b, step, False, int(free.size))
-        states, fresh, fewest_changes = new_states, False, min(changes, fewest_changes)
+        states, fresh, fewest_changes = new_states, False, changes
     return CrossoverResult(beta, b, max_steps, False, int(np.sum(np.abs(states) == 1)))
 
 
