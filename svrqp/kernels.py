@@ -162,12 +162,18 @@ def left_factor(X: NDArray[np.float64], kernel: str, gamma: float,
         A_\text{linear} = X, \qquad A_\text{poly} = [\gamma X,\ c\mathbf 1], \qquad
         A_\text{rbf} = [2\gamma X,\ -\gamma \lVert x\rVert^2,\ \mathbf 1]
     """
-    ones = np.ones((X.shape[0], 1))
+    if kernel == "linear":
+        return X
+    d = X.shape[1]  # the columns written in place: hstack's pieces cost more than a small kernel
+    A = np.empty((X.shape[0], d + (2 if kernel == "rbf" else 1)))
     if kernel == "poly":
-        return np.hstack([gamma * X, coef0 * ones])
-    if kernel == "rbf":
-        return np.hstack([2.0 * gamma * X, -gamma * np.einsum("ij,ij->i", X, X)[:, None], ones])
-    return X
+        np.multiply(gamma, X, out=A[:, :d])
+        A[:, d] = coef0
+    else:
+        np.multiply(2.0 * gamma, X, out=A[:, :d])
+        np.multiply(-gamma, np.einsum("ij,ij->i", X, X), out=A[:, d])
+        A[:, d + 1] = 1.0
+    return A
 
 
 def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[np.float64]:
@@ -182,12 +188,15 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
         -\gamma\bigl(\lVert x_i\rVert^2 - 2x_i\cdot y_j + \lVert
         y_j\rVert^2\bigr) = -\gamma\lVert x_i - y_j\rVert^2 .
     """
-    ones = np.ones((Y.shape[0], 1))
-    if kernel == "poly":
-        return np.hstack([Y, ones])
+    if kernel == "linear":
+        return Y
+    d = Y.shape[1]
+    B = np.empty((Y.shape[0], d + (2 if kernel == "rbf" else 1)))
+    B[:, :d] = Y
+    B[:, d] = 1.0
     if kernel == "rbf":
-        return np.hstack([Y, ones, -gamma * np.einsum("ij,ij->i", Y, Y)[:, None]])
-    return Y
+        np.multiply(-gamma, np.einsum("ij,ij->i", Y, Y), out=B[:, d + 1])
+    return B
 
 
 def finish_in_place(inner: NDArray[np.float64], kernel: str, degree: int, *,
