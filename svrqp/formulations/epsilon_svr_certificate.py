@@ -212,11 +212,11 @@ _EPS = float(np.finfo(float).eps)
 def target_scale(y: NDArray[np.float64]) -> float:
     r""":math:`s_y`, the scale the model certificate's values are relative to: std(y), or
     :math:`\max|y|` for a constant ``y``, or 1 when y is all zero."""
-    spread = _std(y)
+    spread = std(y)
     return spread if spread > 0 else ((float(np.abs(y).max()) if y.size else 0.0) or 1.0)
 
 
-def _std(y: NDArray[np.float64]) -> float:
+def std(y: NDArray[np.float64]) -> float:
     """``np.std(y)`` of a 1-D float array, the same operations (pairwise sums) without its
     dispatch, which costs more than the sums on a small fit."""
     if not y.size:

@@ -108,10 +108,10 @@ def test_stated_dual_names_a_formulation_it_does_not_know():
 
 
 def test_the_certificates_spread_is_numpys_std_to_the_bit():
-    from svrqp.formulations.epsilon_svr_certificate import _std
+    from svrqp.formulations.epsilon_svr_certificate import std
 
     rng = np.random.default_rng(0)
     for n in (1, 2, 7, 50, 1000, 12345):
         for y in (rng.normal(size=n) * 1e3 + 5.0, np.full(n, 0.1), rng.integers(0, 3, n).astype(float)):
-            assert _std(y) == float(np.std(y))
-    assert np.isnan(_std(np.zeros(0)))
+            assert std(y) == float(np.std(y))
+    assert np.isnan(std(np.zeros(0)))
