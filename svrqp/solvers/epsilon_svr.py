@@ -272,8 +272,8 @@ def _solve_primal(X: NDArray[np.float64], y: NDArray[np.float64], task: SVRTask,
     # Multipliers are as accurate as the backend's tolerance: settle the active sets exactly
     # (K = X Xᵀ column by column), as polish and the crossover do for the duals.
     scale = float(np.max(np.einsum("ij,ij->i", X, X), initial=0.0))
-    exact = dual_ipm.crossover(lambda idx: X @ X[idx].T, y, C, float(epsilon), beta,
-                               products=lambda idx, v: X @ (X[idx].T @ v), kernel_scale=scale)
+    exact = dual_ipm.crossover(dual_ipm.LinearColumns(X), y, C, float(epsilon), beta,
+                               kernel_scale=scale)
     beta = epsilon_svr.returned_coefficients(exact.beta if exact.exact else beta, C,
                                              exact=exact.exact)
     K_beta = X @ (X.T @ beta)

@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from svrqp.formulations.epsilon_svr_residuals import kernel_scale
 from svrqp.kernels import kernel_arguments
 from svrqp.linalg.kernel_columns import KernelColumns
-from svrqp.solvers.dual_ipm.crossover import DenseColumns, crossover
+from svrqp.solvers.dual_ipm.crossover import DenseColumns, crossover, products_of
 from svrqp.solvers.screening import SCREEN_MIN_POINTS, decomposition_fit, screened_fit
 
 #: libsvm's stopping tolerance for the warm start: its own default, loose next to the 1e-8 an exact
@@ -101,32 +101,30 @@ def solve_warm_started(X: NDArray[np.float64], y: NDArray[np.float64], C: float,
     screened = None
     smo_X, smo_kernel = X, kernel_parameters
     if kernel_parameters["kernel"] == "precomputed":
-        columns, products = DenseColumns(X), None
+        columns = DenseColumns(X)
     elif y.size <= DENSE_MAX_POINTS:  # below screening's sizes: one Gram matrix for both stages
         # checked finite as it is formed (KernelColumns.uncached)
         K = KernelColumns(X, **kernel_arguments(kernel_parameters)).uncached(np.arange(y.size))
-        columns, products = DenseColumns(K), None
+        columns = DenseColumns(K)
         smo_X, smo_kernel = K, {**kernel_parameters, "kernel": "precomputed"}
     else:
         columns = KernelColumns(X, **kernel_arguments(kernel_parameters))
-        products = columns.products
-        screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, products)
+        screened = screened_fit(X, y, C, epsilon, kernel_parameters, smo_tol, columns.products)
     warm = screened or decomposition_fit(smo_X, y, C, epsilon, smo_kernel, smo_tol)
     middle = time.perf_counter()
     scale = kernel_scale(X, kernel_parameters)
-    result = crossover(columns, y, C, epsilon, warm.beta, products=products, kernel_scale=scale,
+    result = crossover(columns, y, C, epsilon, warm.beta, kernel_scale=scale,
                        # the bounds' product is formed already: the bounded term starts there
                        bounded_start=None if screened is None else screened.bounded_term)
     iterations = warm.iterations
     if screened is not None and not result.exact:  # the held start misled it: start from all points
         warm = decomposition_fit(X, y, C, epsilon, kernel_parameters, smo_tol)
         iterations += warm.iterations
-        result = crossover(columns, y, C, epsilon, warm.beta, products=products,
-                           kernel_scale=scale)
+        result = crossover(columns, y, C, epsilon, warm.beta, kernel_scale=scale)
     Kbeta = result.Kbeta
     if Kbeta is None:  # not exact: the caller rejects it, but its certificates are still reported
         support = np.flatnonzero(result.beta)
-        Kbeta = (products or (lambda idx, v: columns(idx) @ v))(support, result.beta[support])
+        Kbeta = products_of(columns)(support, result.beta[support])
     end = time.perf_counter()
     return WarmStartFit(result.beta, result.intercept, Kbeta, result.exact, result.steps,
                         iterations,

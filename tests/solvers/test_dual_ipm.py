@@ -16,7 +16,7 @@ from svrqp.kernels import gram
 from svrqp.linalg.kernel_columns import KernelColumns
 from svrqp.linalg.pivoted_cholesky import pivoted_cholesky
 from svrqp.solvers import dual_ipm, solve_qp
-from svrqp.solvers.dual_ipm.crossover import _bordered_solve, _KernelAccess
+from svrqp.solvers.dual_ipm.crossover import DenseColumns, _bordered_solve, _KernelAccess
 
 
 def rbf(gamma: float) -> dict:
@@ -226,11 +226,12 @@ def test_bounded_term_is_recomputed_only_when_its_updates_outnumber_its_product(
     K = gram(X, gamma=0.5)
     calls = []
 
-    def products(idx, v):
-        calls.append(idx.size)
-        return K[:, idx] @ v
+    class Columns(DenseColumns):
+        def products(self, idx, v):
+            calls.append(idx.size)
+            return K[:, idx] @ v
 
-    kernel = _KernelAccess(lambda idx: K[:, idx], products, 60)
+    kernel = _KernelAccess(Columns(K), 60)
     fixed = np.zeros(60)
     fixed[:10] = 1.0
     kernel.update_bounded(fixed)  # from scratch: 10 columns

@@ -136,8 +136,7 @@ def test_crossover_from_a_held_start_reaches_the_same_optimum_with_or_without_pr
     parameters = {**RBF, "gamma": case.gamma}
     columns = KernelColumns(case.X, **parameters)
     start = screening.screened_fit(case.X, case.y, case.C, case.epsilon, parameters, 1e-3, columns.products)
-    results = [crossover(columns, case.y, case.C, case.epsilon, start.beta, products=columns.products,
-                         settings=settings) for settings in (CrossoverSettings(), CrossoverSettings(fast_steps=0))]
+    results = [crossover(columns, case.y, case.C, case.epsilon, start.beta, settings=settings) for settings in (CrossoverSettings(), CrossoverSettings(fast_steps=0))]
     assert all(result.exact for result in results)
     np.testing.assert_allclose(results[1].beta, results[0].beta, rtol=0, atol=1e-9 * case.C)
 
@@ -161,24 +160,23 @@ def test_bounded_term_is_the_product_of_the_values_it_names(monkeypatch, violato
 def test_crossover_started_from_the_bounded_term_forms_fewer_columns_for_the_same_optimum():
     case = noise_case()  # most points held at ±C
     parameters = {**RBF, "gamma": case.gamma}
-    columns = KernelColumns(case.X, **parameters)
-    start = screening.screened_fit(case.X, case.y, case.C, case.epsilon, parameters, 1e-3, columns.products)
-    formed = {}
 
-    def run(key, **kwargs):
-        formed[key] = 0
+    class Counted(KernelColumns):
+        formed = 0  # columns formed for the bounded term
 
-        def counted(idx, v):
-            formed[key] += np.unique(idx).size
-            return columns.products(idx, v)
+        def products(self, idx, v):
+            self.formed += np.unique(idx).size
+            return super().products(idx, v)
 
-        return crossover(columns, case.y, case.C, case.epsilon, start.beta, products=counted, **kwargs)
-
-    plain, seeded = run("plain"), run("seeded", bounded_start=start.bounded_term)
+    start = screening.screened_fit(case.X, case.y, case.C, case.epsilon, parameters, 1e-3,
+                                   KernelColumns(case.X, **parameters).products)
+    columns = {"plain": Counted(case.X, **parameters), "seeded": Counted(case.X, **parameters)}
+    plain = crossover(columns["plain"], case.y, case.C, case.epsilon, start.beta)
+    seeded = crossover(columns["seeded"], case.y, case.C, case.epsilon, start.beta, bounded_start=start.bounded_term)
     assert plain.exact and seeded.exact
     np.testing.assert_allclose(seeded.beta, plain.beta, rtol=0, atol=1e-9 * case.C)
     np.testing.assert_allclose(seeded.Kbeta, plain.Kbeta, rtol=0, atol=1e-9 * np.abs(case.y).max())
-    assert formed["seeded"] + np.count_nonzero(start.bounded_term[0]) // 2 <= formed["plain"]
+    assert columns["seeded"].formed + np.count_nonzero(start.bounded_term[0]) // 2 <= columns["plain"].formed
 
 
 @pytest.mark.parametrize("kernel", ["rbf", "linear", "poly", "precomputed"])

@@ -11,6 +11,7 @@ from svrqp.solvers.dual_ipm.crossover import (
     CrossoverResult,
     CrossoverSettings,
     DenseColumns,
+    LinearColumns,
     crossover,
 )
 from svrqp.solvers.dual_ipm.exact import (
@@ -27,6 +28,7 @@ from svrqp.solvers.dual_ipm.kernel_operators import (
 )
 
 __all__ = ["CrossoverResult", "CrossoverSettings", "DenseColumns", "DenseKernel", "ExactFit",
+           "LinearColumns",
            "ExactSettings", "FactoredKernel",
            "IPMResult", "KernelOperator", "crossover", "interior_point", "solve_exact",
            "solve_exact_from_data"]

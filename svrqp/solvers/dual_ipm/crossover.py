@@ -70,6 +70,24 @@ class DenseColumns:
         return self.K[np.ix_(rows, idx)]
 
 
+class LinearColumns:
+    r"""The ``columns`` of :func:`crossover` for the linear kernel :math:`K = XX^\top`, from X
+    alone: ``products(idx, v)`` = :math:`X (X_{idx}^\top v)`, so the many bounded columns of a
+    primal solve's crossover are never formed."""
+
+    def __init__(self, X: NDArray[np.float64]) -> None:
+        self.X = X
+
+    def __call__(self, idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        return self.X @ self.X[idx].T
+
+    def block(self, rows: NDArray[np.intp], idx: NDArray[np.intp]) -> NDArray[np.float64]:
+        return self.X[rows] @ self.X[idx].T
+
+    def products(self, idx: NDArray[np.intp], v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self.X @ (self.X[idx].T @ v)
+
+
 @dataclass
 class CrossoverResult:
     """Outcome of :func:`crossover`: the coefficients, bias,
@@ -86,8 +104,6 @@ class CrossoverResult:
 
 def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDArray[np.float64],
               C: float, epsilon: float, beta: NDArray[np.float64], *,
-              products: Callable[[NDArray[np.intp], NDArray[np.float64]],
-                                 NDArray[np.float64]] | None = None,
               settings: CrossoverSettings = CrossoverSettings(),
               kernel_scale: float = 0.0,
               bounded_start: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
@@ -103,18 +119,17 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     columns
         ``columns(idx)`` returns the exact kernel columns :math:`K_{:, idx}` (shape
         ``(n, len(idx))``), so only the columns of support vectors are ever formed. Columns that
-        also offer ``block(rows, idx)`` (:class:`DenseColumns`,
-        :class:`svrqp.linalg.kernel_columns.KernelColumns`) serve :math:`K_{FF}` from it.
+        also offer ``block(rows, idx)`` (:class:`DenseColumns`, :class:`LinearColumns`,
+        :class:`svrqp.linalg.kernel_columns.KernelColumns`) serve :math:`K_{FF}` from it, and
+        those that offer ``products(idx, v)`` = :math:`K_{:, idx} v` (:class:`LinearColumns`,
+        ``KernelColumns``: formed in blocks, never cached) the bounded term from it; otherwise
+        it is ``columns(idx) @ v``.
     y, C, epsilon
         Targets and SVR parameters.
     beta
         Starting coefficients (an interior-point solution): states within ``settings.threshold``·C
         of a bound or of zero are taken as active
         (:func:`svrqp.formulations.epsilon_svr_certificate.states`).
-    products
-        ``products(idx, v)`` returns :math:`K_{:, idx} v`; defaults to ``columns(idx) @ v``. A
-        linear kernel passes :math:`X (X_{idx}^\\top v)`,
-        so the many bounded columns are never formed.
     settings
         The start threshold, the slack on the tube conditions and the two step limits.
     kernel_scale
@@ -133,7 +148,7 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     C = float(C)  # an integer C times the int8 states would overflow
     slack = (settings.kkt_tol * (1.0 + float(np.max(np.abs(y))))
              + rounding_slack(beta, C, kernel_scale))
-    kernel = _KernelAccess(columns, products or (lambda idx, v: columns(idx) @ v), y.size)
+    kernel = _KernelAccess(columns, y.size)
     if bounded_start is not None:
         kernel.start_from(*bounded_start)
     start = certificate.states(beta, C, settings.threshold)
@@ -143,6 +158,14 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     careful = _feasible_active_set(kernel, y, C, epsilon, beta, start, slack, settings.max_steps)
     careful.steps += fast.steps
     return careful
+
+
+def products_of(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]]
+                ) -> Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]]:
+    """``products(idx, v)`` = :math:`K_{:, idx} v` of ``columns``: their own where they offer one
+    (:func:`crossover`), else ``columns(idx) @ v``."""
+    own = getattr(columns, "products", None)
+    return own if own is not None else (lambda idx, v: columns(idx) @ v)
 
 
 def rounding_slack(beta: NDArray[np.float64], C: float, kernel_scale: float) -> float:
@@ -173,9 +196,8 @@ class _KernelAccess:
     """
 
     def __init__(self, columns: Callable[[NDArray[np.intp]], NDArray[np.float64]],
-                 products: Callable[[NDArray[np.intp], NDArray[np.float64]], NDArray[np.float64]],
                  n: int) -> None:
-        self.free_columns, self._products, self.n = columns, products, n
+        self.free_columns, self._products, self.n = columns, products_of(columns), n
         self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
         self.bounded_term = np.zeros(n)
         self._scratch_columns = 0  # columns of the last product from scratch
