@@ -28,7 +28,6 @@ from svrqp.solvers.dual_ipm.kernel_operators import (
 )
 
 __all__ = ["CrossoverResult", "CrossoverSettings", "DenseColumns", "DenseKernel", "ExactFit",
-           "LinearColumns",
            "ExactSettings", "FactoredKernel",
-           "IPMResult", "KernelOperator", "crossover", "interior_point", "solve_exact",
-           "solve_exact_from_data"]
+           "IPMResult", "KernelOperator", "LinearColumns", "crossover", "interior_point",
+           "solve_exact", "solve_exact_from_data"]

@@ -140,9 +140,9 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
         settle (issue #39, finding 15).
     bounded_start
         ``(v, K v)`` for coefficients ``v`` at ±C or zero, :math:`Kv` formed from scratch by the
-        caller (the screening's held values, :mod:`svrqp.solvers.screening`): the bounded term
-        is then updated from it by the change only, instead of formed again from every bounded
-        column.
+        caller (the screened start's coefficients at ±C, held or put there by its loose run:
+        :attr:`svrqp.solvers.screening.DecompositionFit.bounded_term`): the bounded term is then
+        updated from it by the change only, instead of formed again from every bounded column.
     """
     beta = np.asarray(beta, dtype=float)
     C = float(C)  # an integer C times the int8 states would overflow
