@@ -30,7 +30,6 @@ from svrqp.exceptions import ProblemError
 from svrqp.formulations import epsilon_svr
 from svrqp.formulations.epsilon_svr_certificate import (
     Multipliers,
-    box_multipliers,
     dual_qp_point,
     model_certificate,
     multipliers,
@@ -182,16 +181,15 @@ def stated_dual(formulation: str, y: NDArray[np.float64], C: float, epsilon: flo
     """
     point = multipliers(beta, b, Kbeta, y, epsilon)
     C, epsilon = float(C), float(epsilon)
-    # The box multipliers as the QP's point carries them: projected onto the bound each
-    # variable sits at (box_multipliers), so rounding at a free coefficient is not counted C
-    # times over in the gap.
-    point = point._replace(z_box=box_multipliers(
-        np.concatenate([point.alpha, point.alpha_star]), point.z_box, C))
     residuals_of = {"split": _split_residuals, "stacked": _stacked_residuals}.get(formulation)
     if residuals_of is None:
         raise ProblemError(f"formulation must be 'split' or 'stacked', got {formulation!r}")
     # What the certificate module gives, together: the QP's point and the model certificate.
     x, y_eq, z_box = dual_qp_point(formulation, point, C)
+    # The box multipliers as the QP's point carries them (its last 2n entries, those of α and α*):
+    # projected onto the bound each variable sits at (box_multipliers), so rounding at a free
+    # coefficient is not counted C times over in the gap.
+    point = point._replace(z_box=z_box[z_box.size - 2 * beta.size:])
     certificate = model_certificate(y, beta, Kbeta, b, C, epsilon, scale, residual=point.residual)
     residuals, objective = residuals_of(y, C, epsilon, point, Kbeta)
     residuals.update(certificate)

@@ -67,7 +67,7 @@ class DenseColumns:
         return self.K[:, idx]
 
     def block(self, rows: NDArray[np.intp], idx: NDArray[np.intp]) -> NDArray[np.float64]:
-        return self.K[np.ix_(rows, idx)]
+        return self.K[rows[:, None], idx]  # np.ix_'s checks cost more than a small gather
 
 
 class LinearColumns:
@@ -174,7 +174,10 @@ def rounding_slack(beta: NDArray[np.float64], C: float, kernel_scale: float) -> 
     allowance of :func:`svrqp.formulations.epsilon_svr_certificate.model_certificate` (Higham 2002,
     §3.1: a sum of m products rounds by at most about :math:`m u` times the sum of their sizes)."""
     l1 = float(np.minimum(np.abs(beta), C).sum())
-    return certificate.ROUNDING_ULPS * float(np.finfo(float).eps) * kernel_scale * l1
+    return certificate.ROUNDING_ULPS * _EPS * kernel_scale * l1
+
+
+_EPS = float(np.finfo(float).eps)
 
 
 class _KernelAccess:
@@ -462,7 +465,7 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
     # LAPACK's Cholesky and its solve called directly: scipy's cho_factor / cho_solve wrappers
     # cost 5 times the work on the few free points of a small fit (96 μs against 16 μs at m = 6)
     factor, info = scipy.linalg.lapack.dpotrf(K_FF, lower=1, clean=0)
-    pivots = np.abs(np.diag(factor)) ** 2
+    pivots = np.diagonal(factor) ** 2
     if info == 0 and pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
         right = np.empty((m, 2))
         right[:, 0], right[:, 1] = rhs, 1.0
