@@ -296,8 +296,7 @@ def _times(products, v: NDArray[np.float64]) -> NDArray[np.float64]:
     return products(idx, v[idx]) if idx.size else np.zeros(v.size)
 
 
-def _residuals(y, beta, intercept, products, points=None):
-    """:math:`y - K\\beta - b` over all points; ``beta`` is over ``points`` (all when ``None``)."""
+def _residuals(y, beta, intercept, products, points):
+    """:math:`y - K\\beta - b` over all points of a fit on ``points`` (``beta`` is over them)."""
     support = np.flatnonzero(beta)
-    idx = support if points is None else points[support]
-    return y - products(idx, beta[support]) - intercept
+    return y - products(points[support], beta[support]) - intercept
