@@ -197,7 +197,7 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     above = np.minimum(np.maximum(signed_r - epsilon, 0.0), np.maximum(C - magnitude, 0.0) * k)
     violation = np.where(beta == 0.0, inside, np.maximum(below, above))
     l1 = float(magnitude.sum())
-    rounding = ROUNDING_ULPS * _EPS * (y_max + abs(b) + k * l1)
+    rounding = ROUNDING_ULPS * EPS * (y_max + abs(b) + k * l1)
     largest = (float(magnitude.max()), float(violation.max())) if beta.size else (0.0, 0.0)
     return {
         "box_rel": max(largest[0] - C, 0.0) / C,
@@ -206,7 +206,8 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     }
 
 
-_EPS = float(np.finfo(float).eps)
+#: The float64 machine epsilon, the unit of :data:`ROUNDING_ULPS`.
+EPS = float(np.finfo(float).eps)
 
 
 def target_scale(y: NDArray[np.float64]) -> float:

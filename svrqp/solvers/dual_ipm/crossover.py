@@ -174,10 +174,7 @@ def rounding_slack(beta: NDArray[np.float64], C: float, kernel_scale: float) -> 
     allowance of :func:`svrqp.formulations.epsilon_svr_certificate.model_certificate` (Higham 2002,
     §3.1: a sum of m products rounds by at most about :math:`m u` times the sum of their sizes)."""
     l1 = float(np.minimum(np.abs(beta), C).sum())
-    return certificate.ROUNDING_ULPS * _EPS * kernel_scale * l1
-
-
-_EPS = float(np.finfo(float).eps)
+    return certificate.ROUNDING_ULPS * certificate.EPS * kernel_scale * l1
 
 
 class _KernelAccess:
@@ -201,6 +198,7 @@ class _KernelAccess:
     def __init__(self, columns: Callable[[NDArray[np.intp]], NDArray[np.float64]],
                  n: int) -> None:
         self.free_columns, self._products, self.n = columns, products_of(columns), n
+        self._block = getattr(columns, "block", None)  # K_FF where the columns serve it
         self._fixed = np.zeros(n)  # the bounded values summed in bounded_term
         self.bounded_term = np.zeros(n)
         self._scratch_columns = 0  # columns of the last product from scratch
@@ -217,8 +215,7 @@ class _KernelAccess:
         """:math:`K_{FF}`: from the columns' own ``block(rows, idx)`` where they offer one
         (:meth:`svrqp.linalg.kernel_columns.KernelColumns.block`, :class:`DenseColumns`), which
         gathers :math:`|F|^2` entries instead of the :math:`n|F|` of the whole free columns."""
-        block = getattr(self.free_columns, "block", None)
-        return block(free, free) if block is not None else self.free_columns(free)[free]
+        return self._block(free, free) if self._block is not None else self.free_columns(free)[free]
 
     @property
     def accurate(self) -> bool:
