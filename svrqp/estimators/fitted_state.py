@@ -151,7 +151,7 @@ class CompactFitMixin:
         others = np.ones(X.shape[0], dtype=bool)
         if self.kernel != "precomputed":  # no support-vector rows: the Gram matrix is the data
             others[self.support_] = False
-        self._fit_data.update({"X_rows": X[others], "others": np.flatnonzero(others), "y": y})
+        self._fit_data.update({"X_rows": X[others], "others": others.nonzero()[0], "y": y})
 
     def _fit_record(self, rows: bool = True) -> dict[str, Any]:
         """The fit's record; with ``rows``, one that holds the

@@ -245,7 +245,7 @@ class EpsilonSVR(CompactFitMixin, _KernelModel):
         if fit.coef is not None:
             self.coef_ = fit.coef
         support = fit.beta != 0.0  # the certified coefficients are exactly zero off the support
-        self.support_ = np.flatnonzero(support)
+        self.support_ = support.nonzero()[0]
         self.support_vectors_ = (
             X[support] if self.kernel != "precomputed" else np.empty((support.sum(), 0))
         )

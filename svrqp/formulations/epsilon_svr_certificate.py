@@ -132,7 +132,7 @@ def dual_qp_point(formulation: str, point: Multipliers, C: float
         beta = alpha_star - alpha
         return (
             np.concatenate([beta, alpha, alpha_star]), np.concatenate([r, [b]]),
-            np.concatenate([np.zeros_like(beta), z_box]),
+            np.concatenate([np.zeros(beta.size), z_box]),
         )
     if formulation == "stacked":
         return np.concatenate([alpha, alpha_star]), np.array([b]), z_box

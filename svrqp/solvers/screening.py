@@ -126,14 +126,14 @@ def decomposition_fit(X: NDArray[np.float64], y: NDArray[np.float64], C: float, 
         max_iter = max(SMO_MIN_ITERATIONS, SMO_ITERATIONS_PER_POINT * n_rows)
     parameters = kernel_arguments(kernel_parameters)
     if rows is None:  # all points: X and y as given, no copies
-        rows, X_rows, y_rows = np.arange(y.size), X, y
+        X_rows, y_rows = X, y
     else:
         X_rows = X[np.ix_(rows, rows)] if parameters["kernel"] == "precomputed" else X[rows]
         y_rows = y[rows]
     support, coefficients, intercept, iterations = libsvm_smo(X_rows, y_rows, C, epsilon,
                                                               parameters, tol, max_iter)
     beta = np.zeros(y.size)
-    beta[rows[support]] = coefficients
+    beta[support if rows is None else rows[support]] = coefficients
     return DecompositionFit(beta, intercept, iterations)
 
 
@@ -167,10 +167,11 @@ def libsvm_smo(X: NDArray[np.float64], y: NDArray[np.float64], C: float, epsilon
     except (ImportError, TypeError, AttributeError):
         return _public_smo(X, y, C, epsilon, parameters, tol, max_iter)
     support, _, _, dual_coef, intercept, _, _, _, iterations = fitted
-    if not (np.all(np.isfinite(dual_coef)) and np.all(np.isfinite(intercept))):
+    # array methods, not np.all / np.sum: their dispatch costs more than a small fit's arrays
+    if not (np.isfinite(dual_coef).all() and np.isfinite(intercept).all()):
         raise ValueError("The dual coefficients or intercepts are not finite. The input data may "
                          "contain large values and need to be preprocessed.")
-    return support, dual_coef[0], float(intercept[0]), int(np.sum(iterations))
+    return support, dual_coef[0], float(intercept[0]), int(iterations.sum())
 
 
 #: libsvm's code for the ε-SVR (``svm_type``; scikit-learn's ``LIBSVM_IMPL`` order).

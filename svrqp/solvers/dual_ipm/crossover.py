@@ -146,7 +146,7 @@ def crossover(columns: Callable[[NDArray[np.intp]], NDArray[np.float64]], y: NDA
     """
     beta = np.asarray(beta, dtype=float)
     C = float(C)  # an integer C times the int8 states would overflow
-    slack = (settings.kkt_tol * (1.0 + float(np.max(np.abs(y))))
+    slack = (settings.kkt_tol * (1.0 + float(np.abs(y).max()))
              + rounding_slack(beta, C, kernel_scale))
     kernel = _KernelAccess(columns, y.size)
     if bounded_start is not None:
@@ -233,7 +233,7 @@ class _KernelAccess:
         from_scratch = (fresh and not self.accurate) or not self._fixed.any()
         if from_scratch:  # also drops what updates that cancelled out left behind
             self._fixed, self.bounded_term = np.zeros(self.n), np.zeros(self.n)
-        changed = np.flatnonzero(fixed != self._fixed)
+        changed = (fixed != self._fixed).nonzero()[0]
         if changed.size:
             self.bounded_term = self.bounded_term + self._products(
                 changed, fixed[changed] - self._fixed[changed])
@@ -252,7 +252,7 @@ def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False
     every point need, are the caller's to fetch (a blocked step of the feasible method needs none).
     """
     magnitude = np.abs(states)
-    free = np.flatnonzero(magnitude == 1)
+    free = (magnitude == 1).nonzero()[0]
     fixed = np.where(magnitude == 2, np.sign(states) * C, 0.0)
     bounded_term = kernel.update_bounded(fixed, fresh=fresh)
     rhs = y[free] - epsilon * states[free] - bounded_term[free]
@@ -265,6 +265,14 @@ def _free_set_solution(kernel: _KernelAccess, y, C, epsilon, states, fresh=False
 #: thousands costs O(n·|F|) kernel entries and an O(|F|³) solve for a step that is soon undone.
 ENTERING_PER_STEP = 64
 
+#: Per state (row ``state + 2``: at −C, free negative, zero, free positive, at +C), the sign that
+#: turns :math:`\rho - \varepsilon` into the violation of a coefficient that would enter as free
+#: positive (a zero: :math:`\rho - \varepsilon`; at +C: :math:`\varepsilon - \rho`), and
+#: :math:`\rho + \varepsilon` into that of one entering as free negative; NaN where a state cannot
+#: enter that way. Two gathers and two products replace six ``np.where`` on every step.
+_ENTER_POSITIVE = np.array([np.nan, np.nan, 1.0, np.nan, -1.0])
+_ENTER_NEGATIVE = np.array([1.0, np.nan, -1.0, np.nan, np.nan])
+
 
 def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: float, slack: float,
                   free_count: int):
@@ -275,15 +283,13 @@ def _kkt_entering(rho: NDArray[np.float64], states: NDArray[np.int8], epsilon: f
     :math:`\\pm\\varepsilon` violates by that distance; at most ``ENTERING_PER_STEP`` plus the
     number of free coefficients (``free_count``) enter at once.
     """
-    zero = states == 0
-    violation_positive = np.where(zero, rho - epsilon,
-                                  np.where(states == 2, epsilon - rho, -np.inf))
-    violation_negative = np.where(zero, -rho - epsilon,
-                                  np.where(states == -2, rho + epsilon, -np.inf))
-    positive, negative = violation_positive > slack, violation_negative > slack
+    index = states + 2  # the state's row of the sign tables (-2 … 2)
+    violation_positive = _ENTER_POSITIVE[index] * (rho - epsilon)
+    violation_negative = _ENTER_NEGATIVE[index] * (rho + epsilon)
+    positive, negative = violation_positive > slack, violation_negative > slack  # NaN: never
     limit = ENTERING_PER_STEP + free_count
     if np.count_nonzero(positive) + np.count_nonzero(negative) > limit:
-        worst = np.maximum(violation_positive, violation_negative)
+        worst = np.fmax(violation_positive, violation_negative)  # NaN where neither can enter
         kept = np.zeros(rho.size, dtype=bool)
         kept[np.argpartition(-worst, limit)[:limit]] = True
         positive, negative = positive & kept, negative & kept
@@ -319,15 +325,15 @@ def _primal_dual_active_set(kernel, y, C, epsilon, states, slack, max_steps) -> 
         K_free = kernel.free_columns(free)
         rho, b = _residuals(y, K_free, target, bounded_term, states, epsilon, b, free)
         new_states = states.copy()
-        positive, negative = states == 1, states == -1
-        new_states[(positive & (beta <= 0)) | (negative & (beta >= 0))] = 0
-        new_states[positive & (beta > C)] = 2
-        new_states[negative & (beta < -C)] = -2
+        moved = states[free] * target  # s·β of each free coefficient of sign s
+        new_states[free[moved <= 0.0]] = 0  # it left its sign
+        new_states[free[moved > C]] *= 2  # it left the box: at ±C
         entering_positive, entering_negative = _kkt_entering(rho, states, epsilon, slack,
                                                              free.size)
         new_states[entering_positive] = 1
         new_states[entering_negative] = -1
-        if np.array_equal(new_states, states):
+        # array methods, not np.array_equal / np.flatnonzero: a small fit pays their dispatch
+        if not (new_states != states).any():
             balanced = _balanced(beta, C)
             if fresh or kernel.accurate or not balanced:
                 exact = balanced and _free_equalities_hold(rho, states, free, epsilon, slack)
@@ -405,7 +411,7 @@ def _free_equalities_hold(residual: NDArray[np.float64], states: NDArray[np.int8
     the free coefficients.
     """
     # certificate.kkt_violation of a free coefficient of sign s: |r - ε s|
-    return bool(np.all(np.abs(residual[free] - epsilon * states[free]) <= slack))
+    return bool((np.abs(residual[free] - epsilon * states[free]) <= slack).all())
 
 
 def _step_to_sign_or_box(x: NDArray[np.float64], direction: NDArray[np.float64],
@@ -462,7 +468,7 @@ def _bordered_solve(K_FF: NDArray[np.float64], rhs: NDArray[np.float64], total: 
     # LAPACK's Cholesky and its solve called directly: scipy's cho_factor / cho_solve wrappers
     # cost 5 times the work on the few free points of a small fit (96 μs against 16 μs at m = 6)
     factor, info = scipy.linalg.lapack.dpotrf(K_FF, lower=1, clean=0)
-    pivots = np.diagonal(factor) ** 2
+    pivots = factor.diagonal() ** 2
     if info == 0 and pivots.min() > SINGULAR_PIVOT_RATIO * pivots.max():
         right = np.empty((m, 2))
         right[:, 0], right[:, 1] = rhs, 1.0
