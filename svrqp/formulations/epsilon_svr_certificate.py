@@ -51,6 +51,8 @@ MODEL_CERTIFICATES: tuple[str, ...] = ("box_rel", "balance_rel", "kkt_rel")
 ROUNDING_ULPS = 64.0
 #: How many roundings below C a variable of :func:`box_multipliers` still sits at C.
 BOUND_ULPS = 4.0
+#: The float64 machine epsilon, the unit of :data:`ROUNDING_ULPS` and :data:`BOUND_ULPS`.
+EPS = float(np.finfo(float).eps)
 
 
 def states(beta: NDArray[np.float64], C: float, bound_tol: float,
@@ -153,7 +155,7 @@ def box_multipliers(x: NDArray[np.float64], z: NDArray[np.float64],
     same amount is measured once, as a stationarity residual in the units of y. A variable within
     :data:`BOUND_ULPS` roundings of C sits at C (:math:`u \cdot (C/u)` of a rescaled solve).
     """
-    at_lower, at_upper = x <= 0.0, x >= C * (1.0 - BOUND_ULPS * np.finfo(float).eps)
+    at_lower, at_upper = x <= 0.0, x >= C * (1.0 - BOUND_ULPS * EPS)
     return np.where(at_lower, np.minimum(z, 0.0), np.where(at_upper, np.maximum(z, 0.0), 0.0))
 
 
@@ -190,12 +192,13 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     s_y = target_scale(y)
     k = kernel_scale if kernel_scale > 0 else 1.0
     magnitude = np.abs(beta)
-    sign = np.sign(beta)
-    signed_r = sign * r  # > epsilon: outside the tube on the coefficient's side
-    inside = np.maximum(np.abs(r) - epsilon, 0.0)
-    below = np.minimum(np.maximum(epsilon - signed_r, 0.0), magnitude * k)
-    above = np.minimum(np.maximum(signed_r - epsilon, 0.0), np.maximum(C - magnitude, 0.0) * k)
-    violation = np.where(beta == 0.0, inside, np.maximum(below, above))
+    # > 0: outside the tube on the coefficient's side, where it would grow; < 0: inside, where
+    # it would shrink. A non-zero coefficient violates by |distance|, capped by what moving it to
+    # its bound (growing) or to zero (shrinking) would change in the predictions.
+    distance = np.sign(beta) * r - epsilon
+    cap = np.where(distance < 0.0, magnitude, np.maximum(C - magnitude, 0.0)) * k
+    violation = np.where(beta == 0.0, np.maximum(np.abs(r) - epsilon, 0.0),
+                         np.minimum(np.abs(distance), cap))
     l1 = float(magnitude.sum())
     rounding = ROUNDING_ULPS * EPS * (y_max + abs(b) + k * l1)
     largest = (float(magnitude.max()), float(violation.max())) if beta.size else (0.0, 0.0)
@@ -205,9 +208,6 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
         "kkt_rel": max(largest[1] - rounding, 0.0) / s_y,
     }
 
-
-#: The float64 machine epsilon, the unit of :data:`ROUNDING_ULPS`.
-EPS = float(np.finfo(float).eps)
 
 
 def target_scale(y: NDArray[np.float64]) -> float:

@@ -189,7 +189,7 @@ def stated_dual(formulation: str, y: NDArray[np.float64], C: float, epsilon: flo
     # The box multipliers as the QP's point carries them (its last 2n entries, those of α and α*):
     # projected onto the bound each variable sits at (box_multipliers), so rounding at a free
     # coefficient is not counted C times over in the gap.
-    point = point._replace(z_box=z_box[z_box.size - 2 * beta.size:])
+    point = Multipliers(*point[:3], z_box[z_box.size - 2 * beta.size:], point.residual)
     certificate = model_certificate(y, beta, Kbeta, b, C, epsilon, scale, residual=point.residual)
     residuals, objective = residuals_of(y, C, epsilon, point, Kbeta)
     residuals.update(certificate)
