@@ -176,6 +176,22 @@ def left_factor(X: NDArray[np.float64], kernel: str, gamma: float,
     return A
 
 
+def factors(X: NDArray[np.float64], kernel: str, gamma: float,
+            coef0: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    r""":func:`left_factor` and :func:`right_factor` of one set of points: the RBF's
+    :math:`-\gamma\lVert x\rVert^2` is formed once, in the left factor, and copied into the right
+    (the same numbers; a small Gram matrix pays per numpy call)."""
+    A = left_factor(X, kernel, gamma, coef0)
+    if kernel != "rbf":
+        return A, right_factor(X, kernel, gamma)
+    d = X.shape[1]
+    B = np.empty_like(A)
+    B[:, :d] = X
+    B[:, d] = 1.0
+    B[:, d + 1] = A[:, d]
+    return A, B
+
+
 def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[np.float64]:
     r"""Right factor :math:`B(Y)`: one matrix product :math:`A(X) B(Y)^\top` gives the inner matrix
 
@@ -293,7 +309,8 @@ def gram(
     rows = max(8, BLOCK_ENTRIES // max(m, 1))
     # overflow is checked per block, in finish_in_place
     with np.errstate(over="ignore", invalid="ignore"):
-        A, B = left_factor(X, kernel, gamma, coef0), right_factor(Y, kernel, gamma)
+        A, B = (factors(X, kernel, gamma, coef0) if symmetric
+                else (left_factor(X, kernel, gamma, coef0), right_factor(Y, kernel, gamma)))
         try:
             # Bottom-up, so that the rows below a block are done when its upper part is mirrored.
             for start in reversed(range(0, n, rows)):

@@ -19,11 +19,10 @@ from svrqp.exceptions import ProblemError
 from svrqp.kernels import (
     centred,
     check_kernel_parameters,
+    factors,
     finish_in_place,
     gram_diagonal,
-    left_factor,
     require_finite_kernel,
-    right_factor,
 )
 
 #: Kernel entries formed at once by :meth:`KernelColumns.products` (a row block, or a square tile):
@@ -57,8 +56,7 @@ class KernelColumns:
         self._points = centred(kernel, self.X)[0]  # as in gram(): RBF values from centred inputs
         with np.errstate(over="ignore", invalid="ignore"):  # finish_in_place checks for overflow
             # shared by every column block; a block takes the right factor's rows of its columns
-            self._left = left_factor(self._points, kernel, gamma, coef0)
-            self._right = right_factor(self._points, kernel, gamma)
+            self._left, self._right = factors(self._points, kernel, gamma, coef0)
         # The cache: column j of K is _store[:, _slot[j]] (-1: not computed). One Fortran array
         # (capacity doubled as it fills) so that serving many cached columns is one gather, not a
         # stack of small arrays; the slots are an array so that looking them up is one gather too.
