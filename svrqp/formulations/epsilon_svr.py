@@ -401,7 +401,7 @@ class DualScaling(NamedTuple):
         """The scaling for targets ``y`` and box bound ``C``."""
         spread = std(y)  # np.std and np.mean without their dispatch (a small fit pays per call)
         a = spread if spread > 0 else 1.0
-        return cls(float(np.add.reduce(y) / y.size), a, min(float(C), a))
+        return cls(float(np.add.reduce(y)) / y.size, a, min(float(C), a))
 
     @classmethod
     def of_targets(cls, y: NDArray[np.float64]) -> DualScaling:
