@@ -210,7 +210,6 @@ def model_certificate(y: NDArray[np.float64], beta: NDArray[np.float64],
     }
 
 
-
 def target_scale(y: NDArray[np.float64]) -> float:
     r""":math:`s_y`, the scale the model certificate's values are relative to: std(y), or
     :math:`\max|y|` for a constant ``y``, or 1 when y is all zero."""
