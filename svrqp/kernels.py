@@ -182,17 +182,12 @@ def factors(X: NDArray[np.float64], kernel: str, gamma: float,
     :math:`-\gamma\lVert x\rVert^2` is formed once, in the left factor, and copied into the right
     (the same numbers; a small Gram matrix pays per numpy call)."""
     A = left_factor(X, kernel, gamma, coef0)
-    if kernel != "rbf":
-        return A, right_factor(X, kernel, gamma)
-    d = X.shape[1]
-    B = np.empty_like(A)
-    B[:, :d] = X
-    B[:, d] = 1.0
-    B[:, d + 1] = A[:, d]
-    return A, B
+    return A, right_factor(X, kernel, gamma,
+                           scaled_norms=A[:, X.shape[1]] if kernel == "rbf" else None)
 
 
-def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[np.float64]:
+def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float, *,
+                 scaled_norms: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     r"""Right factor :math:`B(Y)`: one matrix product :math:`A(X) B(Y)^\top` gives the inner matrix
 
     .. math::
@@ -203,6 +198,9 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
         (AB^\top)_{ij} = x_i\cdot y_j,\ \ \gamma\, x_i\cdot y_j + c,\ \
         -\gamma\bigl(\lVert x_i\rVert^2 - 2x_i\cdot y_j + \lVert
         y_j\rVert^2\bigr) = -\gamma\lVert x_i - y_j\rVert^2 .
+
+    ``scaled_norms`` is the RBF's :math:`-\gamma\lVert y\rVert^2` when the caller has formed it
+    (:func:`factors`, from the left factor of the same points).
     """
     if kernel == "linear":
         return Y
@@ -210,7 +208,9 @@ def right_factor(Y: NDArray[np.float64], kernel: str, gamma: float) -> NDArray[n
     B = np.empty((Y.shape[0], d + (2 if kernel == "rbf" else 1)))
     B[:, :d] = Y
     B[:, d] = 1.0
-    if kernel == "rbf":
+    if kernel == "rbf" and scaled_norms is not None:
+        B[:, d + 1] = scaled_norms
+    elif kernel == "rbf":
         np.multiply(-gamma, np.einsum("ij,ij->i", Y, Y), out=B[:, d + 1])
     return B
 

@@ -85,7 +85,8 @@ class KernelColumns:
         (computed and cached first where missing): a caller that needs only these rows, such as
         the crossover's :math:`K_{FF}`, gathers them without the whole columns."""
         slots = self._slots(idx)  # first: computing a missing column may grow the store
-        return self._store[np.ix_(np.asarray(rows, dtype=np.intp).ravel(), slots)]
+        # one gather, as DenseColumns.block: np.ix_'s checks cost more than a small block
+        return self._store[np.asarray(rows, dtype=np.intp).ravel()[:, None], slots]
 
     def _slots(self, idx: NDArray[np.intp]) -> NDArray[np.intp]:
         """The cache slots of the columns ``idx``; columns
